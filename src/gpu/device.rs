@@ -1,0 +1,331 @@
+//! Every wgpu call of volmap, behind one small API: the wgpu API changes between major versions,
+//! and this is the one file that follows it. Setup (adapter, device) stays apart from the work
+//! (pipelines, buffers, dispatches, readback).
+
+use std::sync::{Arc, Mutex};
+
+use wgpu::util::DeviceExt;
+
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error("cannot open the GPU device {adapter}: {message}")]
+    Device { adapter: String, message: String },
+    #[error("shader `{label}` failed to compile on {adapter}: {message}")]
+    Shader {
+        label: String,
+        adapter: String,
+        message: String,
+    },
+    #[error("GPU error on {adapter}: {message}")]
+    Runtime { adapter: String, message: String },
+    #[error("reading a result back from {adapter} failed: {message}")]
+    Readback { adapter: String, message: String },
+}
+
+/// An open device and queue, with what the work needs to know of the adapter.
+pub struct Gpu {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    adapter_name: String,
+    limits: wgpu::Limits,
+    /// Errors the device reports outside an error scope, checked after each submission.
+    uncaptured: Arc<Mutex<Option<String>>>,
+}
+
+/// A compiled compute kernel.
+pub struct Kernel {
+    pipeline: wgpu::ComputePipeline,
+}
+
+/// A buffer on the device.
+pub struct Buffer {
+    inner: wgpu::Buffer,
+}
+
+impl Buffer {
+    pub fn size(&self) -> u64 {
+        self.inner.size()
+    }
+}
+
+/// The buffers a kernel reads and writes, bound in binding order.
+pub struct Bindings {
+    group: wgpu::BindGroup,
+}
+
+/// A submitted dispatch whose output can be read back.
+pub struct Submission {
+    index: wgpu::SubmissionIndex,
+}
+
+/// Where a kernel's output goes after a dispatch: copied into a mappable buffer.
+pub struct Readback<'a> {
+    pub from: &'a Buffer,
+    pub to: &'a Buffer,
+    pub bytes: u64,
+}
+
+impl Gpu {
+    /// Opens the best adapter there is. `Ok(None)` when the system has no adapter at all.
+    pub fn open() -> Result<Option<Gpu>, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        let adapter =
+            match pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                ..Default::default()
+            })) {
+                Ok(adapter) => adapter,
+                Err(_) => return Ok(None),
+            };
+        let info = adapter.get_info();
+        let adapter_name = format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type);
+        // Ask for what the adapter has: chunk sizes follow these limits.
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("volmap"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device {
+            adapter: adapter_name.clone(),
+            message: e.to_string(),
+        })?;
+        let uncaptured = Arc::new(Mutex::new(None));
+        let sink = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
+            let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
+            slot.get_or_insert_with(|| error.to_string());
+        }));
+        Ok(Some(Gpu {
+            device,
+            queue,
+            adapter_name,
+            limits,
+            uncaptured,
+        }))
+    }
+
+    pub fn adapter_name(&self) -> &str {
+        &self.adapter_name
+    }
+
+    /// The largest storage buffer one binding may cover, bytes.
+    pub fn max_storage_binding_bytes(&self) -> u64 {
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
+    }
+
+    pub fn max_workgroups_per_dimension(&self) -> u32 {
+        self.limits.max_compute_workgroups_per_dimension
+    }
+
+    fn check_uncaptured(&self) -> Result<(), GpuError> {
+        let mut slot = self.uncaptured.lock().unwrap_or_else(|p| p.into_inner());
+        match slot.take() {
+            Some(message) => Err(GpuError::Runtime {
+                adapter: self.adapter_name.clone(),
+                message,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Compiles `wgsl` and builds the compute pipeline of `entry` with the layout the shader
+    /// declares.
+    pub fn kernel(&self, label: &str, wgsl: &str, entry: &str) -> Result<Kernel, GpuError> {
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(wgsl.into()),
+            });
+        let pipeline = self
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: None,
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+        if let Some(error) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Shader {
+                label: label.to_string(),
+                adapter: self.adapter_name.clone(),
+                message: error.to_string(),
+            });
+        }
+        Ok(Kernel { pipeline })
+    }
+
+    /// A read-only storage buffer holding `bytes` (never empty: wgpu rejects empty bindings).
+    pub fn storage(&self, label: &str, bytes: &[u8]) -> Buffer {
+        let padded;
+        let contents = if bytes.is_empty() {
+            padded = [0u8; 16];
+            &padded[..]
+        } else {
+            bytes
+        };
+        Buffer {
+            inner: self
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents,
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                }),
+        }
+    }
+
+    /// A uniform buffer of `bytes.len()` bytes, rewritten with [`Gpu::write`].
+    pub fn uniform(&self, label: &str, bytes: &[u8]) -> Buffer {
+        Buffer {
+            inner: self
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents: bytes,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                }),
+        }
+    }
+
+    /// A storage buffer the kernel writes.
+    pub fn output(&self, label: &str, bytes: u64) -> Buffer {
+        Buffer {
+            inner: self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+        }
+    }
+
+    /// A buffer the host maps to read results.
+    pub fn staging(&self, label: &str, bytes: u64) -> Buffer {
+        Buffer {
+            inner: self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        }
+    }
+
+    pub fn write(&self, buffer: &Buffer, bytes: &[u8]) {
+        self.queue.write_buffer(&buffer.inner, 0, bytes);
+    }
+
+    /// Binds `buffers` to bindings 0, 1, … of group 0 of `kernel`.
+    pub fn bind(&self, kernel: &Kernel, buffers: &[&Buffer]) -> Bindings {
+        let layout = kernel.pipeline.get_bind_group_layout(0);
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(n, b)| wgpu::BindGroupEntry {
+                binding: n as u32,
+                resource: b.inner.as_entire_binding(),
+            })
+            .collect();
+        Bindings {
+            group: self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &layout,
+                entries: &entries,
+            }),
+        }
+    }
+
+    /// Dispatches `workgroups` groups (laid out over x and y within the per-dimension limit) and
+    /// copies the output into the readback buffer, in one submission.
+    pub fn dispatch(
+        &self,
+        kernel: &Kernel,
+        bindings: &Bindings,
+        workgroups: u64,
+        readback: Readback,
+    ) -> Submission {
+        let max = self.max_workgroups_per_dimension() as u64;
+        let x = workgroups.min(max).max(1);
+        let y = workgroups.div_ceil(x).max(1);
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: None,
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&kernel.pipeline);
+            pass.set_bind_group(0, &bindings.group, &[]);
+            pass.dispatch_workgroups(x as u32, y as u32, 1);
+        }
+        encoder.copy_buffer_to_buffer(
+            &readback.from.inner,
+            0,
+            &readback.to.inner,
+            0,
+            readback.bytes,
+        );
+        Submission {
+            index: self.queue.submit([encoder.finish()]),
+        }
+    }
+
+    /// Waits for `submission`, maps the first `bytes` of `buffer` and hands them to `use_data`;
+    /// unmaps afterwards. The one readback path of volmap.
+    pub fn read<R>(
+        &self,
+        submission: Submission,
+        buffer: &Buffer,
+        bytes: u64,
+        use_data: impl FnOnce(&[u8]) -> R,
+    ) -> Result<R, GpuError> {
+        let readback_error = |message: String| GpuError::Readback {
+            adapter: self.adapter_name.clone(),
+            message,
+        };
+        let slice = buffer.inner.slice(..bytes);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |result| {
+            let _ = sender.send(result);
+        });
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(submission.index),
+                timeout: None,
+            })
+            .map_err(|e| readback_error(e.to_string()))?;
+        self.check_uncaptured()?;
+        let mapped = loop {
+            match receiver.try_recv() {
+                Ok(result) => break result,
+                Err(std::sync::mpsc::TryRecvError::Empty) => {
+                    // The map resolves on a later poll than the submission on some backends.
+                    self.device
+                        .poll(wgpu::PollType::wait_indefinitely())
+                        .map_err(|e| readback_error(e.to_string()))?;
+                }
+                Err(std::sync::mpsc::TryRecvError::Disconnected) => {
+                    return Err(readback_error("the map callback was dropped".into()))
+                }
+            }
+        };
+        mapped.map_err(|e| readback_error(e.to_string()))?;
+        let result = {
+            let view = slice
+                .get_mapped_range()
+                .map_err(|e| readback_error(e.to_string()))?;
+            use_data(&view)
+        };
+        buffer.inner.unmap();
+        Ok(result)
+    }
+}

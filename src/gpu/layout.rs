@@ -1,0 +1,93 @@
+//! Host mirrors of the WGSL structs in `shaders/chain.wgsl`. Keep in sync with that file: one
+//! `#[repr(C)]` Pod struct per WGSL struct, vec4/mat4 fields only (no vec3 in buffers), explicit
+//! padding, and a compile-time size check for each.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Function index meaning "this error is zero": the shader skips it.
+pub const NO_FUNCTION: u32 = u32::MAX;
+/// The domain bound of functions without one (constants and polynomials).
+pub const UNBOUNDED: f32 = f32::MAX;
+/// `AxisData::info[0]` values.
+pub const KIND_LINEAR: u32 = 0;
+pub const KIND_ROTARY: u32 = 1;
+/// `AxisData::info[1]` for an axis held at a fixed position (the pose); 0..3 name a grid dimension.
+pub const SOURCE_FIXED: u32 = 3;
+
+/// A 3×3 matrix in the upper-left of a WGSL `mat4x4<f32>`, column-major.
+pub type Mat4 = [[f32; 4]; 4];
+
+/// Keep in sync with `struct Params` in `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct Params {
+    /// Commanded X, Y, Z of grid point (0, 0, 0), mm; w unused.
+    pub origin: [f32; 4],
+    /// Grid step along X, Y, Z, mm; w unused.
+    pub spacing: [f32; 4],
+    /// nx, ny, nz, number of axes.
+    pub grid: [u32; 4],
+    /// First line of this chunk, points in this chunk, unused, unused.
+    pub chunk: [u32; 4],
+    /// Nominal translation of `S · Trans(tool)`: the tool offset, mm.
+    pub tail_offset: [f32; 4],
+    /// Translation deviation of `S · Trans(tool)`, mm.
+    pub tail_delta: [f32; 4],
+    /// Rotation deviation `R_S − I` of the spindle error.
+    pub tail_m: Mat4,
+}
+const _: () = assert!(std::mem::size_of::<Params>() == 160);
+
+/// One axis of the chain, in product order. Keep in sync with `struct AxisData` in
+/// `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct AxisData {
+    /// `o_k`, mm.
+    pub offset: [f32; 4],
+    /// Location position errors `(EX0k, EY0k, EZ0k)`, mm.
+    pub location_delta: [f32; 4],
+    /// `Rot(EA0k, EB0k, EC0k) − I`, computed in f64 on the host.
+    pub location_m: Mat4,
+    /// `u_k`: unit direction times sense.
+    pub unit: [f32; 4],
+    /// Kind (`KIND_*`), source (grid dimension 0..3 or `SOURCE_FIXED`), rotation axis index
+    /// (0 = x, 1 = y, 2 = z), unused.
+    pub info: [u32; 4],
+    /// x: the commanded position when the source is fixed (mm or degrees).
+    pub fixed_q: [f32; 4],
+    /// Function indices of `EXk EYk EZk EAk`.
+    pub functions_a: [u32; 4],
+    /// Function indices of `EBk ECk`, unused, unused.
+    pub functions_b: [u32; 4],
+}
+const _: () = assert!(std::mem::size_of::<AxisData>() == 176);
+
+/// One error function. Keep in sync with `struct Function` in `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct Function {
+    /// First piece, number of pieces, periodic (0/1), unused.
+    pub pieces: [u32; 4],
+    /// Domain `lo`, `hi` (positions clamp into it), unused, unused.
+    pub domain: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<Function>() == 32);
+
+/// One polynomial piece. Keep in sync with `struct Piece` in `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct Piece {
+    /// Where the piece starts; its polynomial is in `s = q − start`.
+    pub start: f32,
+    /// Polynomial degree.
+    pub degree: u32,
+    /// Index of coefficient `c0` in the flat coefficient array (scalar index; four per vec4).
+    pub coefficient: u32,
+    pub _pad: u32,
+}
+const _: () = assert!(std::mem::size_of::<Piece>() == 16);
+
+/// The output per point and channel, in EXR channel order (alphabetical): for each line of a
+/// chunk, `nx` values of each channel in turn.
+pub const CHANNELS: [&str; 6] = ["OE.X", "OE.Y", "OE.Z", "VE.X", "VE.Y", "VE.Z"];

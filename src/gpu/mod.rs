@@ -1,0 +1,297 @@
+//! The GPU engine: the machine packed into the buffers of `shaders/chain.wgsl`, and the map
+//! computed chunk by chunk with the readback of one chunk overlapping the compute of the next.
+
+pub mod device;
+pub mod layout;
+
+use nalgebra::{Matrix3, Vector3};
+
+use crate::grid::Grid;
+use crate::machine::Machine;
+use crate::reference;
+pub use device::GpuError;
+use device::{Buffer, Gpu, Readback};
+use layout::{AxisData, Function, Mat4, Params, Piece, CHANNELS};
+
+/// The chain kernel's WGSL source.
+pub const CHAIN_WGSL: &str = include_str!("../../shaders/chain.wgsl");
+/// Invocations per workgroup; keep in sync with `@workgroup_size` in `shaders/chain.wgsl`.
+pub const WORKGROUP_SIZE: u64 = 64;
+/// Bytes of output per grid point: six f32 channels.
+pub const BYTES_PER_POINT: u64 = (CHANNELS.len() * 4) as u64;
+/// The default upper bound of points per chunk: two chunks in flight stay near 200 MB.
+pub const DEFAULT_CHUNK_POINTS: u64 = 1 << 22;
+
+/// The machine and grid as the shader's buffers. Built on the host in f64, stored in f32.
+#[derive(Debug, Clone)]
+pub struct Packed {
+    pub params: Params,
+    pub axes: Vec<AxisData>,
+    pub functions: Vec<Function>,
+    pub pieces: Vec<Piece>,
+    /// Flat coefficients, padded to whole vec4s.
+    pub coefficients: Vec<[f32; 4]>,
+}
+
+fn mat4_of(m: &Matrix3<f64>) -> Mat4 {
+    let mut out = [[0.0f32; 4]; 4];
+    for (c, column) in out.iter_mut().enumerate().take(3) {
+        for (r, value) in column.iter_mut().enumerate().take(3) {
+            *value = m[(r, c)] as f32;
+        }
+    }
+    out
+}
+
+fn vec4_of(v: [f64; 3]) -> [f32; 4] {
+    [v[0] as f32, v[1] as f32, v[2] as f32, 0.0]
+}
+
+fn finite_or_unbounded(x: f64) -> f32 {
+    if x.is_finite() {
+        x as f32
+    } else {
+        x.signum() as f32 * layout::UNBOUNDED
+    }
+}
+
+/// `Rot(a, b, c) − I` in f64, exact, then small enough to keep its precision in f32.
+fn rot_deviation(a: f64, b: f64, c: f64) -> Matrix3<f64> {
+    reference::rot(a, b, c)
+        .fixed_view::<3, 3>(0, 0)
+        .into_owned()
+        - Matrix3::identity()
+}
+
+/// Packs the machine and the grid for the chain kernel.
+pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
+    let mut functions = Vec::new();
+    let mut pieces = Vec::new();
+    let mut flat: Vec<f32> = Vec::new();
+    let mut axes = Vec::new();
+    for axis in machine.axes_in_product_order() {
+        let mut indices = [layout::NO_FUNCTION; 6];
+        for (n, component) in axis.components.iter().enumerate() {
+            let Some(f) = component.as_ref().filter(|f| !f.is_zero()) else {
+                continue;
+            };
+            let form = f.pieces();
+            indices[n] = functions.len() as u32;
+            functions.push(Function {
+                pieces: [
+                    pieces.len() as u32,
+                    form.pieces.len() as u32,
+                    form.periodic as u32,
+                    0,
+                ],
+                domain: [
+                    finite_or_unbounded(form.lo),
+                    finite_or_unbounded(form.hi),
+                    0.0,
+                    0.0,
+                ],
+            });
+            for piece in &form.pieces {
+                pieces.push(Piece {
+                    start: piece.start as f32,
+                    degree: piece.coefficients.len() as u32 - 1,
+                    coefficient: flat.len() as u32,
+                    _pad: 0,
+                });
+                flat.extend(piece.coefficients.iter().map(|&c| c as f32));
+            }
+        }
+        let [ex, ey, ez, ea, eb, ec] = axis.location;
+        let letter = axis.letter;
+        let (kind, source, fixed) = if letter.is_linear() {
+            (layout::KIND_LINEAR, letter.direction_index() as u32, 0.0)
+        } else {
+            (
+                layout::KIND_ROTARY,
+                layout::SOURCE_FIXED,
+                grid.pose[letter.index()] as f32,
+            )
+        };
+        axes.push(AxisData {
+            offset: vec4_of(axis.offset_mm),
+            location_delta: vec4_of([ex, ey, ez]),
+            location_m: mat4_of(&rot_deviation(ea, eb, ec)),
+            unit: vec4_of(axis.unit_vector()),
+            info: [kind, source, letter.direction_index() as u32, 0],
+            fixed_q: [fixed, 0.0, 0.0, 0.0],
+            functions_a: [indices[0], indices[1], indices[2], indices[3]],
+            functions_b: [
+                indices[4],
+                indices[5],
+                layout::NO_FUNCTION,
+                layout::NO_FUNCTION,
+            ],
+        });
+    }
+    while flat.len() % 4 != 0 {
+        flat.push(0.0);
+    }
+    let coefficients = flat.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+
+    // S · Trans(tool) = [(I + M_S), tool + e_S + M_S·tool].
+    let [exs, eys, ezs, eas, ebs] = machine.spindle;
+    let spindle_m = rot_deviation(eas, ebs, 0.0);
+    let tool = Vector3::from(machine.tool_offset_mm);
+    let tail_delta = Vector3::new(exs, eys, ezs) + spindle_m * tool;
+    let params = Params {
+        origin: vec4_of(grid.origin_mm),
+        spacing: vec4_of(grid.spacing_mm),
+        grid: [
+            grid.dims[0] as u32,
+            grid.dims[1] as u32,
+            grid.dims[2] as u32,
+            axes.len() as u32,
+        ],
+        chunk: [0; 4],
+        tail_offset: vec4_of(machine.tool_offset_mm),
+        tail_delta: vec4_of(tail_delta.into()),
+        tail_m: mat4_of(&spindle_m),
+    };
+    Packed {
+        params,
+        axes,
+        functions,
+        pieces,
+        coefficients,
+    }
+}
+
+/// The chain kernel on an open device.
+pub struct GpuMapper {
+    gpu: Gpu,
+    kernel: device::Kernel,
+}
+
+struct Slot {
+    params: Buffer,
+    output: Buffer,
+    staging: Buffer,
+    bindings: device::Bindings,
+}
+
+impl GpuMapper {
+    /// `Ok(None)` when there is no adapter.
+    pub fn open() -> Result<Option<GpuMapper>, GpuError> {
+        let Some(gpu) = Gpu::open()? else {
+            return Ok(None);
+        };
+        let kernel = gpu.kernel("chain.wgsl", CHAIN_WGSL, "main")?;
+        Ok(Some(GpuMapper { gpu, kernel }))
+    }
+
+    pub fn adapter_name(&self) -> &str {
+        self.gpu.adapter_name()
+    }
+
+    /// The most points one chunk may hold on this device.
+    pub fn max_chunk_points(&self) -> u64 {
+        let by_binding = self.gpu.max_storage_binding_bytes() / BYTES_PER_POINT;
+        let by_dispatch = self.gpu.max_workgroups_per_dimension() as u64
+            * self.gpu.max_workgroups_per_dimension() as u64
+            * WORKGROUP_SIZE;
+        by_binding.min(by_dispatch).min(DEFAULT_CHUNK_POINTS)
+    }
+
+    /// Computes the map chunk by chunk. `on_chunk(first_line, lines, data)` receives each chunk's
+    /// output in line order: for each line, `nx` values of each channel of [`CHANNELS`].
+    /// `chunk_points` caps the points per chunk below the device's own limit.
+    pub fn run<E: From<GpuError>>(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        chunk_points: Option<u64>,
+        mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let packed = pack(machine, grid);
+        let nx = grid.dims[0] as u64;
+        let limit =
+            chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
+        if nx > limit {
+            return Err(GpuError::Runtime {
+                adapter: self.adapter_name().to_string(),
+                message: format!(
+                    "a line of {nx} points does not fit in one chunk of at most {limit} points"
+                ),
+            }
+            .into());
+        }
+        let chunks = grid.chunks(limit);
+        let chunk_bytes = chunks
+            .iter()
+            .map(|&(_, lines)| lines * nx)
+            .max()
+            .unwrap_or(nx)
+            * BYTES_PER_POINT;
+        let gpu = &self.gpu;
+        let axes = gpu.storage("axes", bytemuck::cast_slice(&packed.axes));
+        let functions = gpu.storage("functions", bytemuck::cast_slice(&packed.functions));
+        let pieces = gpu.storage("pieces", bytemuck::cast_slice(&packed.pieces));
+        let coefficients = gpu.storage("coefficients", bytemuck::cast_slice(&packed.coefficients));
+        let slots: Vec<Slot> = (0..2.min(chunks.len()))
+            .map(|_| {
+                let params = gpu.uniform("params", bytemuck::bytes_of(&packed.params));
+                let output = gpu.output("output", chunk_bytes);
+                let staging = gpu.staging("staging", chunk_bytes);
+                let bindings = gpu.bind(
+                    &self.kernel,
+                    &[&params, &axes, &functions, &pieces, &coefficients, &output],
+                );
+                Slot {
+                    params,
+                    output,
+                    staging,
+                    bindings,
+                }
+            })
+            .collect();
+
+        let mut pending: Option<(device::Submission, usize, u64, u64)> = None;
+        for (n, &(first_line, lines)) in chunks.iter().enumerate() {
+            let slot = &slots[n % slots.len()];
+            let points = lines * nx;
+            let mut params = packed.params;
+            params.chunk = [first_line as u32, points as u32, 0, 0];
+            gpu.write(&slot.params, bytemuck::bytes_of(&params));
+            let submission = gpu.dispatch(
+                &self.kernel,
+                &slot.bindings,
+                points.div_ceil(WORKGROUP_SIZE),
+                Readback {
+                    from: &slot.output,
+                    to: &slot.staging,
+                    bytes: points * BYTES_PER_POINT,
+                },
+            );
+            // Read the previous chunk while this one computes.
+            if let Some((previous, s, first, count)) =
+                pending.replace((submission, n % slots.len(), first_line, lines))
+            {
+                self.deliver(previous, &slots[s], first, count, nx, &mut on_chunk)?;
+            }
+        }
+        if let Some((previous, s, first, count)) = pending {
+            self.deliver(previous, &slots[s], first, count, nx, &mut on_chunk)?;
+        }
+        Ok(())
+    }
+
+    fn deliver<E: From<GpuError>>(
+        &self,
+        submission: device::Submission,
+        slot: &Slot,
+        first_line: u64,
+        lines: u64,
+        nx: u64,
+        on_chunk: &mut impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let bytes = lines * nx * BYTES_PER_POINT;
+        self.gpu.read(submission, &slot.staging, bytes, |data| {
+            on_chunk(first_line, lines, bytemuck::cast_slice(data))
+        })?
+    }
+}

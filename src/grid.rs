@@ -1,0 +1,184 @@
+//! The grid of commanded positions a map covers: the linear axes X, Y, Z over a regular grid,
+//! every rotary axis at a fixed pose.
+//!
+//! Point `(i, j, k)` commands `X = origin_x + i·spacing_x`, `Y = origin_y + j·spacing_y`,
+//! `Z = origin_z + k·spacing_z`. Points are numbered `p = i + nx·(j + ny·k)`; a *line* is the
+//! `nx` points of one `(j, k)`, numbered `line = j + ny·k` (the EXR scanline of that line).
+
+use crate::machine::{AxisLetter, Command, Machine};
+
+#[derive(Debug, thiserror::Error)]
+pub enum GridError {
+    #[error("--grid `{0}`: expected NXxNYxNZ with positive integers, e.g. 64x64x64")]
+    Syntax(String),
+    #[error("--grid: {axis} has {n} points but the machine has no {axis} axis: use 1")]
+    AbsentAxis { axis: AxisLetter, n: usize },
+    #[error("--grid: {0} points is more than a map can hold (at most 2^32 lines of at most 2^22 points)")]
+    TooLarge(String),
+    #[error("--pose `{0}`: expected LETTER=DEGREES pairs separated by commas, e.g. B=30,C=-45")]
+    PoseSyntax(String),
+    #[error("--pose: {axis} is {what}")]
+    PoseAxis { axis: String, what: String },
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    /// Points along X, Y, Z.
+    pub dims: [usize; 3],
+    /// Commanded X, Y, Z of point (0, 0, 0), mm.
+    pub origin_mm: [f64; 3],
+    /// Step between neighbouring points, mm (0 along a dimension of one point).
+    pub spacing_mm: [f64; 3],
+    /// Commanded position of every axis that is not a grid dimension: degrees for A B C (index by
+    /// [`AxisLetter::index`]; the X Y Z entries are unused).
+    pub pose: Command,
+}
+
+/// The largest line (points along X) a map accepts: one line must fit in one GPU chunk.
+pub const MAX_LINE_POINTS: usize = 1 << 22;
+
+impl Grid {
+    /// A grid spanning the full travel of each linear axis of `machine`. A linear axis the
+    /// machine lacks must have one point, at 0.
+    pub fn full_travel(
+        machine: &Machine,
+        dims: [usize; 3],
+        pose: Command,
+    ) -> Result<Grid, GridError> {
+        let mut origin_mm = [0.0; 3];
+        let mut spacing_mm = [0.0; 3];
+        for (d, letter) in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z]
+            .into_iter()
+            .enumerate()
+        {
+            match machine.axis(letter) {
+                Some(axis) => {
+                    origin_mm[d] = axis.range[0];
+                    if dims[d] > 1 {
+                        spacing_mm[d] = (axis.range[1] - axis.range[0]) / (dims[d] - 1) as f64;
+                    }
+                }
+                None if dims[d] != 1 => {
+                    return Err(GridError::AbsentAxis {
+                        axis: letter,
+                        n: dims[d],
+                    })
+                }
+                None => {}
+            }
+        }
+        if dims[0] > MAX_LINE_POINTS || (dims[1] as u64) * (dims[2] as u64) > u32::MAX as u64 {
+            return Err(GridError::TooLarge(format!(
+                "{}x{}x{}",
+                dims[0], dims[1], dims[2]
+            )));
+        }
+        Ok(Grid {
+            dims,
+            origin_mm,
+            spacing_mm,
+            pose,
+        })
+    }
+
+    pub fn points(&self) -> u64 {
+        self.dims.iter().map(|&n| n as u64).product()
+    }
+
+    pub fn lines(&self) -> u64 {
+        self.dims[1] as u64 * self.dims[2] as u64
+    }
+
+    /// Chunks of whole lines, `(first line, lines)`, each of at most `max_points` points (at
+    /// least one line).
+    pub fn chunks(&self, max_points: u64) -> Vec<(u64, u64)> {
+        let lines_per_chunk = (max_points / self.dims[0] as u64).max(1);
+        let total = self.lines();
+        (0..total.div_ceil(lines_per_chunk))
+            .map(|c| {
+                let first = c * lines_per_chunk;
+                (first, lines_per_chunk.min(total - first))
+            })
+            .collect()
+    }
+
+    /// `(i, j, k)` of point number `p`.
+    pub fn indices(&self, p: u64) -> [usize; 3] {
+        let nx = self.dims[0] as u64;
+        let ny = self.dims[1] as u64;
+        [
+            (p % nx) as usize,
+            ((p / nx) % ny) as usize,
+            (p / (nx * ny)) as usize,
+        ]
+    }
+
+    /// The commanded positions of all axes at grid point `(i, j, k)`.
+    pub fn command(&self, ijk: [usize; 3]) -> Command {
+        let mut c = self.pose;
+        for d in 0..3 {
+            c[d] = self.origin_mm[d] + ijk[d] as f64 * self.spacing_mm[d];
+        }
+        c
+    }
+}
+
+/// Parses `NXxNYxNZ`.
+pub fn parse_dims(text: &str) -> Result<[usize; 3], GridError> {
+    let parts: Vec<&str> = text.split(['x', 'X']).collect();
+    let dims: Vec<usize> = parts
+        .iter()
+        .map(|p| p.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| GridError::Syntax(text.to_string()))?;
+    match dims[..] {
+        [nx, ny, nz] if nx > 0 && ny > 0 && nz > 0 => Ok([nx, ny, nz]),
+        _ => Err(GridError::Syntax(text.to_string())),
+    }
+}
+
+/// Parses `A=..,B=..,C=..` (degrees) against the machine's rotary axes and their ranges.
+/// Rotary axes not named stay at 0.
+pub fn parse_pose(text: &str, machine: &Machine) -> Result<Command, GridError> {
+    let mut pose = [0.0; 6];
+    for pair in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (name, value) = pair
+            .split_once('=')
+            .ok_or_else(|| GridError::PoseSyntax(text.to_string()))?;
+        let name = name.trim();
+        let axis_err = |what: String| GridError::PoseAxis {
+            axis: name.to_string(),
+            what,
+        };
+        let letter = match name.chars().collect::<Vec<_>>()[..] {
+            [c] => AxisLetter::from_char(c),
+            _ => None,
+        }
+        .ok_or_else(|| axis_err("not an axis letter (A, B or C)".into()))?;
+        if letter.is_linear() {
+            return Err(axis_err(
+                "a linear axis: the map covers X, Y and Z over their travels".into(),
+            ));
+        }
+        let axis = machine.axis(letter).ok_or_else(|| {
+            axis_err(format!(
+                "not an axis of this machine (chain {})",
+                machine.chain.hwang_notation()
+            ))
+        })?;
+        let degrees: f64 = value
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| axis_err(format!("`{}`, not a number of degrees", value.trim())))?;
+        if degrees < axis.range[0] || degrees > axis.range[1] {
+            return Err(axis_err(format!(
+                "{degrees}°, outside its range [{}, {}]",
+                axis.range[0], axis.range[1]
+            )));
+        }
+        pose[letter.index()] = degrees;
+    }
+    Ok(pose)
+}

@@ -1,0 +1,26 @@
+//! volmap: the volumetric error of multi-axis machine tools, mapped over their workspace.
+//!
+//! The mathematics is MODEL.md's: every axis contributes a relative transform with its ISO 230-1
+//! errors, the chain `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn · S · Trans(tool)` is multiplied at every
+//! commanded position, and the tool tip's deviation from the ideal machine is the volumetric error.
+//!
+//! The crate is laid out as the architecture:
+//! - [`machine`]: the machine model, its TOML file and the embedded machines;
+//! - [`reference`]: the f64 CPU reference (nalgebra), ground truth of every test;
+//! - [`gpu`]: the WGSL chain kernel (`shaders/chain.wgsl`) on wgpu, all wgpu calls in
+//!   [`gpu::device`];
+//! - [`cpu`]: the reference over a grid on all cores, the fallback where no adapter exists;
+//! - [`grid`]: the grid of commanded positions a map covers;
+//! - [`field`]: field files (OpenEXR) written as a stream and read back;
+//! - [`map`]: a whole map run, its statistics and its spot check.
+//!
+//! Feature queries, standard tests and NC compensation build on [`reference`], [`map`] and
+//! [`field`] and get modules of their own beside these.
+
+pub mod cpu;
+pub mod field;
+pub mod gpu;
+pub mod grid;
+pub mod machine;
+pub mod map;
+pub mod reference;

@@ -1,0 +1,48 @@
+//! Machines built into the binary, chosen by name (`--machine vmc-li2015`). Each is an ordinary
+//! machine file in `machines/`, so what the binary embeds is what a user can copy and edit.
+
+use std::path::Path;
+
+use super::{Machine, MachineError};
+
+/// `(name, file text)` of every embedded machine; the first is the default.
+pub const EMBEDDED: [(&str, &str); 4] = [
+    ("vmc-li2015", include_str!("../../machines/vmc-li2015.toml")),
+    (
+        "vmc-dobariya2015",
+        include_str!("../../machines/vmc-dobariya2015.toml"),
+    ),
+    (
+        "4axis-hwang2014",
+        include_str!("../../machines/4axis-hwang2014.toml"),
+    ),
+    (
+        "5axis-hwang2014",
+        include_str!("../../machines/5axis-hwang2014.toml"),
+    ),
+];
+
+/// The machine `volmap map` uses when none is named.
+pub const DEFAULT_MACHINE: &str = EMBEDDED[0].0;
+
+/// The embedded machine called `name`, parsed.
+pub fn embedded(name: &str) -> Option<Result<Machine, MachineError>> {
+    EMBEDDED
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(n, text)| Machine::from_toml(text, &format!("<embedded {n}>"), None))
+}
+
+/// Resolves `--machine`: an embedded name first, then a path to a machine file.
+pub fn load(name_or_path: &str) -> Result<Machine, MachineError> {
+    if let Some(machine) = embedded(name_or_path) {
+        return machine;
+    }
+    let path = Path::new(name_or_path);
+    if path.exists() {
+        return Machine::from_path(path);
+    }
+    Err(MachineError::UnknownMachine {
+        name: name_or_path.to_string(),
+    })
+}

@@ -1,0 +1,154 @@
+//! The machine model: kinematic chain, axes with their nominal geometry and ISO 230-1 errors,
+//! spindle errors and the tool offset (MODEL.md). Machines come from TOML files ([`file`]) or are
+//! embedded in the binary ([`embedded`]).
+
+pub mod chain;
+pub mod embedded;
+pub mod errorfn;
+pub mod file;
+
+pub use chain::{AxisLetter, Chain, ChainError};
+pub use errorfn::{ErrorFunction, Interp, Pieces, Table};
+pub use file::MachineError;
+
+/// Index of an error component within an axis: translations along x, y, z, then rotations about
+/// x, y, z. The ISO 230-1 names for axis X are `EXX EYX EZX EAX EBX ECX`; the location errors of
+/// X are `EX0X EY0X EZ0X EA0X EB0X EC0X`.
+pub const COMPONENT_NAMES: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
+
+/// One axis of the chain.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    pub letter: AxisLetter,
+    /// Travel: mm for linear axes, degrees for rotary axes.
+    pub range: [f64; 2],
+    /// `o_k`, the nominal offset of the axis frame in its parent frame, mm.
+    pub offset_mm: [f64; 3],
+    /// +1 or −1: the sense of motion along (or rotation about) the axis direction.
+    pub direction: f64,
+    /// Location errors `EX0k EY0k EZ0k` (mm) and `EA0k EB0k EC0k` (rad).
+    pub location: [f64; 6],
+    /// Component errors `EXk EYk EZk` (mm) and `EAk EBk ECk` (rad) as functions of the axis
+    /// position; `None` is zero.
+    pub components: [Option<ErrorFunction>; 6],
+}
+
+impl Axis {
+    /// An error-free axis with the given travel.
+    pub fn nominal(letter: AxisLetter, range: [f64; 2]) -> Axis {
+        Axis {
+            letter,
+            range,
+            offset_mm: [0.0; 3],
+            direction: 1.0,
+            location: [0.0; 6],
+            components: Default::default(),
+        }
+    }
+
+    /// The unit vector `u_k`: the axis direction times its sense.
+    pub fn unit_vector(&self) -> [f64; 3] {
+        let mut u = [0.0; 3];
+        u[self.letter.direction_index()] = self.direction;
+        u
+    }
+
+    /// The six component errors at position `q` (mm or degrees).
+    pub fn component_values(&self, q: f64) -> [f64; 6] {
+        std::array::from_fn(|n| self.components[n].as_ref().map_or(0.0, |f| f.eval(q)))
+    }
+
+    pub fn component_key(&self, n: usize) -> String {
+        format!("E{}{}", COMPONENT_NAMES[n], self.letter)
+    }
+
+    pub fn location_key(&self, n: usize) -> String {
+        format!("E{}0{}", COMPONENT_NAMES[n], self.letter)
+    }
+}
+
+/// Where a machine came from: kept so a field file can carry everything needed to rebuild it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MachineSource {
+    /// The machine file's text, verbatim.
+    pub toml: String,
+    /// Each CSV file the machine reads, as `(path as written in the file, text)`.
+    pub csv_files: Vec<(String, String)>,
+}
+
+/// A complete machine: what MODEL.md's chain needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Machine {
+    pub name: String,
+    pub description: String,
+    pub chain: Chain,
+    /// One per axis of the chain, in no particular order; look up with [`Machine::axis`].
+    pub axes: Vec<Axis>,
+    /// The tool tip in the spindle frame, mm.
+    pub tool_offset_mm: [f64; 3],
+    /// Spindle errors `EXS EYS EZS` (mm), `EAS EBS` (rad).
+    pub spindle: [f64; 5],
+    pub source: MachineSource,
+}
+
+impl Machine {
+    pub fn axis(&self, letter: AxisLetter) -> Option<&Axis> {
+        self.axes.iter().find(|a| a.letter == letter)
+    }
+
+    pub fn axis_mut(&mut self, letter: AxisLetter) -> Option<&mut Axis> {
+        self.axes.iter_mut().find(|a| a.letter == letter)
+    }
+
+    /// The axes in the order their transforms multiply (see [`Chain::product_order`]).
+    pub fn axes_in_product_order(&self) -> Vec<&Axis> {
+        self.chain
+            .product_order()
+            .into_iter()
+            .filter_map(|l| self.axis(l))
+            .collect()
+    }
+
+    /// The rotary axes of the machine, in the order A B C.
+    pub fn rotary_axes(&self) -> Vec<AxisLetter> {
+        AxisLetter::ALL[3..]
+            .iter()
+            .copied()
+            .filter(|&l| self.chain.contains(l))
+            .collect()
+    }
+
+    /// An error-free machine with the given chain and travels (tests and examples).
+    pub fn nominal(
+        name: &str,
+        chain: &str,
+        ranges: &[(AxisLetter, [f64; 2])],
+    ) -> Result<Machine, ChainError> {
+        let chain = Chain::parse(chain)?;
+        Ok(Machine {
+            name: name.to_string(),
+            description: String::new(),
+            axes: ranges.iter().map(|&(l, r)| Axis::nominal(l, r)).collect(),
+            chain,
+            tool_offset_mm: [0.0; 3],
+            spindle: [0.0; 5],
+            source: MachineSource::default(),
+        })
+    }
+
+    /// The same machine with every error value zero (nominal offsets, directions, tool kept):
+    /// the ideal machine of MODEL.md.
+    pub fn without_errors(&self) -> Machine {
+        let mut ideal = self.clone();
+        for axis in &mut ideal.axes {
+            axis.location = [0.0; 6];
+            axis.components = Default::default();
+        }
+        ideal.spindle = [0.0; 5];
+        ideal
+    }
+}
+
+/// Commanded positions of all six possible axes, indexed by [`AxisLetter::index`]: mm for X Y Z,
+/// degrees for A B C. Letters the machine lacks are ignored.
+pub type Command = [f64; 6];

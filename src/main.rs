@@ -1,0 +1,266 @@
+//! The `volmap` command line.
+//!
+//! Exit codes: 0 success; 1 a failure while working (GPU, file system); 2 bad input (machine
+//! file, grid, pose, field file, command-line values); 4 `--check` found the field further from
+//! the f64 reference than the tolerance.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use volmap::field::{FieldInfo, FieldReader};
+use volmap::grid::{self, Grid};
+use volmap::machine::embedded;
+use volmap::map::{self, DeviceChoice, Engine, FieldStats, MapOptions};
+
+/// Maps the volumetric error of multi-axis machine tools: the full chain of homogeneous
+/// transforms with every measured axis error, at every point of a grid over the workspace.
+#[derive(Parser)]
+#[command(name = "volmap", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Map a machine's volumetric and orientation error over its linear travels into an
+    /// OpenEXR field.
+    Map(MapArgs),
+    /// List the embedded machines.
+    Machines,
+    /// Print the summary of a field file written by `volmap map`.
+    Info {
+        /// The field file (.exr).
+        file: PathBuf,
+    },
+}
+
+#[derive(clap::Args)]
+struct MapArgs {
+    /// An embedded machine's name (see `volmap machines`) or a machine file (TOML).
+    #[arg(long, default_value = embedded::DEFAULT_MACHINE)]
+    machine: String,
+    /// Grid points along X, Y and Z, spanning each axis's full travel.
+    #[arg(long, default_value = "64x64x64")]
+    grid: String,
+    /// Positions of the rotary axes in degrees, e.g. `B=30,C=-45`; axes not named are at 0.
+    #[arg(long, default_value = "")]
+    pose: String,
+    /// The field file to write.
+    #[arg(long, default_value = "volmap-field.exr")]
+    out: PathBuf,
+    /// Where to compute: `auto` uses the GPU when an adapter exists and the CPU otherwise.
+    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    device: Device,
+    /// Recompute N random grid points with the f64 reference and report the largest difference
+    /// (exit code 4 when it exceeds 1e-6 mm or 1e-9 rad).
+    #[arg(long, default_value_t = 0)]
+    check: usize,
+    /// At most this many points per chunk (the device's limits apply anyway).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    chunk_points: Option<u64>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Device {
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+/// A failure with the exit code it maps to.
+struct Failure {
+    code: u8,
+    error: anyhow::Error,
+}
+
+fn bad_input(error: impl Into<anyhow::Error>) -> Failure {
+    Failure {
+        code: 2,
+        error: error.into(),
+    }
+}
+
+impl<E: Into<anyhow::Error>> From<E> for Failure {
+    fn from(error: E) -> Failure {
+        Failure {
+            code: 1,
+            error: error.into(),
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Map(args) => run_map(args),
+        Command::Machines => list_machines(),
+        Command::Info { file } => run_info(&file),
+    };
+    match result {
+        Ok(code) => code,
+        Err(failure) => {
+            eprintln!("error: {:#}", failure.error);
+            ExitCode::from(failure.code)
+        }
+    }
+}
+
+fn list_machines() -> Result<ExitCode, Failure> {
+    println!("{:<18} {:<9} {:<6} description", "name", "chain", "axes");
+    for (name, _) in embedded::EMBEDDED {
+        let machine = embedded::embedded(name)
+            .expect("listed")
+            .with_context(|| format!("embedded machine {name}"))?;
+        let axes = machine.chain.axes().count();
+        println!(
+            "{name:<18} {:<9} {axes:<6} {}",
+            machine.chain.hwang_notation(),
+            machine.description
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn run_map(args: MapArgs) -> Result<ExitCode, Failure> {
+    let machine = embedded::load(&args.machine).map_err(bad_input)?;
+    let dims = grid::parse_dims(&args.grid).map_err(bad_input)?;
+    let pose = grid::parse_pose(&args.pose, &machine).map_err(bad_input)?;
+    let grid = Grid::full_travel(&machine, dims, pose).map_err(bad_input)?;
+    if args
+        .out
+        .extension()
+        .is_none_or(|e| !e.eq_ignore_ascii_case("exr"))
+    {
+        return Err(bad_input(anyhow::anyhow!(
+            "--out {}: a field file ends in .exr",
+            args.out.display()
+        )));
+    }
+    let choice = match args.device {
+        Device::Auto => DeviceChoice::Auto,
+        Device::Gpu => DeviceChoice::Gpu,
+        Device::Cpu => DeviceChoice::Cpu,
+    };
+    let (engine, note) = Engine::select(choice)?;
+    if let Some(note) = note {
+        eprintln!("volmap: {note}");
+    }
+
+    let bar = ProgressBar::with_draw_target(Some(grid.points()), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} mapping [{bar:40}] {percent:>3}% {human_pos}/{human_len} points, {eta} left",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let options = MapOptions {
+        chunk_points: args.chunk_points,
+        check_points: args.check,
+    };
+    let summary = map::map_to_file(&machine, &grid, &engine, &args.out, &options, |done| {
+        bar.set_position(done)
+    })
+    .with_context(|| format!("mapping {} into {}", machine.name, args.out.display()))?;
+    bar.finish_and_clear();
+
+    let info = map::field_info(&machine, &grid, &summary.device);
+    print_summary(&info, &summary.stats);
+    println!(
+        "  time        {:.3} s, {:.2} Mpts/s",
+        summary.seconds,
+        summary.stats.points as f64 / summary.seconds.max(1e-9) / 1e6
+    );
+    println!("  field       {}", args.out.display());
+    if let Some(check) = &summary.check {
+        println!(
+            "  check       {} points against the f64 reference: max ΔVE {:.3e} mm, max ΔOE {:.3e} rad (tolerance {:e} mm, {:e} rad): {}",
+            check.points,
+            check.max_ve_diff_mm,
+            check.max_oe_diff_rad,
+            map::VE_TOLERANCE_MM,
+            map::OE_TOLERANCE_RAD,
+            if check.passed() { "ok" } else { "FAILED" }
+        );
+        if !check.passed() {
+            return Ok(ExitCode::from(4));
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_summary(info: &FieldInfo, stats: &FieldStats) {
+    let [nx, ny, _] = info.dims;
+    let p = stats.max_ve_point;
+    let ijk = [
+        (p % nx as u64) as usize,
+        ((p / nx as u64) % ny as u64) as usize,
+        (p / (nx * ny) as u64) as usize,
+    ];
+    let at: Vec<String> = (0..3)
+        .map(|d| {
+            format!(
+                "{}={}",
+                ["X", "Y", "Z"][d],
+                info.origin_mm[d] + ijk[d] as f64 * info.spacing_mm[d]
+            )
+        })
+        .collect();
+    let pose: Vec<String> = info
+        .pose_axes
+        .chars()
+        .map(|a| {
+            let index = "ABC".find(a).unwrap_or(0);
+            format!("{a}={}°", info.pose_deg[index])
+        })
+        .collect();
+    println!(
+        "volmap: {} ({}), grid {}x{}x{} = {} points{}",
+        info.machine_name,
+        info.chain,
+        info.dims[0],
+        info.dims[1],
+        info.dims[2],
+        stats.points,
+        if pose.is_empty() {
+            String::new()
+        } else {
+            format!(", pose {}", pose.join(" "))
+        }
+    );
+    println!("  device      {}", info.device);
+    println!(
+        "  max |VE|    {:.6} mm at point ({}, {}, {}): {} mm",
+        stats.max_ve_mm,
+        ijk[0],
+        ijk[1],
+        ijk[2],
+        at.join(" ")
+    );
+    println!("  RMS |VE|    {:.6} mm", stats.rms_ve_mm());
+    println!("  max |OE|    {:.3e} rad", stats.max_oe_rad);
+}
+
+fn run_info(path: &Path) -> Result<ExitCode, Failure> {
+    let mut reader = FieldReader::open(path).map_err(|e| match e {
+        volmap::field::FieldError::Io { .. } => Failure::from(e),
+        other => bad_input(other),
+    })?;
+    let info = reader.info().clone();
+    let mut stats = FieldStats::default();
+    let nx = info.dims[0];
+    let lines_per_chunk = (1u64 << 20) / nx as u64;
+    reader
+        .for_each_chunk(lines_per_chunk, |first, lines, data| {
+            stats.add_chunk(first, lines, nx, data)
+        })
+        .map_err(bad_input)?;
+    print_summary(&info, &stats);
+    println!("  field       {}", path.display());
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,278 @@
+//! `volmap map`: the machine over a grid, on the GPU or the CPU, streamed into a field file, with
+//! the closing statistics and the optional spot check against the reference.
+
+use std::path::Path;
+use std::time::Instant;
+
+use crate::cpu;
+use crate::field::{FieldError, FieldInfo, FieldWriter};
+use crate::gpu::layout::CHANNELS;
+use crate::gpu::{GpuError, GpuMapper};
+use crate::grid::Grid;
+use crate::machine::Machine;
+
+#[derive(Debug, thiserror::Error)]
+pub enum MapError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Field(#[from] FieldError),
+    #[error("no GPU adapter found (--device gpu); use --device auto or cpu to compute on the CPU")]
+    NoAdapter,
+}
+
+/// `--device`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// The GPU when an adapter exists, else the CPU.
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+/// Where the map is computed.
+pub enum Engine {
+    Gpu(GpuMapper),
+    Cpu,
+}
+
+impl Engine {
+    /// Opens the engine `choice` asks for. With `Auto` and no adapter, falls back to the CPU and
+    /// returns a note saying so.
+    pub fn select(choice: DeviceChoice) -> Result<(Engine, Option<String>), MapError> {
+        if choice == DeviceChoice::Cpu {
+            return Ok((Engine::Cpu, None));
+        }
+        match GpuMapper::open()? {
+            Some(gpu) => Ok((Engine::Gpu(gpu), None)),
+            None if choice == DeviceChoice::Auto => Ok((
+                Engine::Cpu,
+                Some(
+                    "no GPU adapter found: computing on the CPU (f64 reference, all cores)".into(),
+                ),
+            )),
+            None => Err(MapError::NoAdapter),
+        }
+    }
+
+    pub fn name(&self) -> String {
+        match self {
+            Engine::Gpu(g) => g.adapter_name().to_string(),
+            Engine::Cpu => format!(
+                "CPU, f64 reference ({} threads)",
+                rayon::current_num_threads()
+            ),
+        }
+    }
+
+    /// Computes the map, handing chunks of whole lines to `on_chunk(first_line, lines, data)`.
+    pub fn run<E: From<GpuError>>(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        chunk_points: Option<u64>,
+        on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        match self {
+            Engine::Gpu(g) => g.run(machine, grid, chunk_points, on_chunk),
+            Engine::Cpu => cpu::run(machine, grid, chunk_points, on_chunk),
+        }
+    }
+}
+
+/// Statistics of a field, accumulated chunk by chunk.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FieldStats {
+    pub points: u64,
+    sum_sq_ve: f64,
+    /// The largest |VE|, mm, and the point number where it is.
+    pub max_ve_mm: f64,
+    pub max_ve_point: u64,
+    /// The largest |OE|, rad.
+    pub max_oe_rad: f64,
+}
+
+impl FieldStats {
+    /// Adds a chunk in the field layout (per line, `nx` values of each channel in turn).
+    pub fn add_chunk(&mut self, first_line: u64, lines: u64, nx: usize, data: &[f32]) {
+        let per_line = CHANNELS.len() * nx;
+        for (n, line) in data.chunks_exact(per_line).take(lines as usize).enumerate() {
+            let (oe, ve) = line.split_at(3 * nx);
+            for i in 0..nx {
+                let ve2: f64 = (0..3).map(|c| (ve[c * nx + i] as f64).powi(2)).sum();
+                let oe2: f64 = (0..3).map(|c| (oe[c * nx + i] as f64).powi(2)).sum();
+                self.sum_sq_ve += ve2;
+                let ve_norm = ve2.sqrt();
+                if ve_norm > self.max_ve_mm || self.points == 0 {
+                    self.max_ve_mm = ve_norm;
+                    self.max_ve_point = (first_line + n as u64) * nx as u64 + i as u64;
+                }
+                self.max_oe_rad = self.max_oe_rad.max(oe2.sqrt());
+                self.points += 1;
+            }
+        }
+    }
+
+    /// Root mean square of |VE|, mm.
+    pub fn rms_ve_mm(&self) -> f64 {
+        if self.points == 0 {
+            0.0
+        } else {
+            (self.sum_sq_ve / self.points as f64).sqrt()
+        }
+    }
+}
+
+/// The largest differences between the field and the reference at the checked points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckResult {
+    pub points: usize,
+    pub max_ve_diff_mm: f64,
+    pub max_oe_diff_rad: f64,
+}
+
+/// The accuracy MODEL.md and the core issue ask of the f32 field against the f64 reference.
+pub const VE_TOLERANCE_MM: f64 = 1e-6;
+pub const OE_TOLERANCE_RAD: f64 = 1e-9;
+
+impl CheckResult {
+    pub fn passed(&self) -> bool {
+        self.max_ve_diff_mm <= VE_TOLERANCE_MM && self.max_oe_diff_rad <= OE_TOLERANCE_RAD
+    }
+}
+
+/// What `map` reports at the end.
+#[derive(Debug, Clone)]
+pub struct MapSummary {
+    pub stats: FieldStats,
+    pub seconds: f64,
+    pub device: String,
+    pub check: Option<CheckResult>,
+}
+
+/// Options of one map run.
+#[derive(Debug, Clone, Default)]
+pub struct MapOptions {
+    /// Upper bound of points per chunk (below the device's own limit); `None`: the default.
+    pub chunk_points: Option<u64>,
+    /// Points to recompute with the reference afterwards (`--check N`).
+    pub check_points: usize,
+}
+
+/// `n` distinct pseudo-random point numbers below `total`, sorted (splitmix64, fixed seed).
+pub fn sample_points(total: u64, n: usize) -> Vec<u64> {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64 ^ total;
+    let mut next = || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
+    let mut points: Vec<u64> = if n as u64 >= total {
+        (0..total).collect()
+    } else {
+        let mut set = std::collections::BTreeSet::new();
+        while set.len() < n {
+            set.insert(next() % total);
+        }
+        set.into_iter().collect()
+    };
+    points.sort_unstable();
+    points
+}
+
+/// The header of the field a map writes.
+pub fn field_info(machine: &Machine, grid: &Grid, device: &str) -> FieldInfo {
+    FieldInfo {
+        dims: grid.dims,
+        origin_mm: grid.origin_mm,
+        spacing_mm: grid.spacing_mm,
+        pose_deg: [grid.pose[3], grid.pose[4], grid.pose[5]],
+        pose_axes: machine.rotary_axes().iter().map(|a| a.as_char()).collect(),
+        machine_name: machine.name.clone(),
+        chain: machine.chain.hwang_notation(),
+        machine_toml: machine.source.toml.clone(),
+        csv_files: machine.source.csv_files.clone(),
+        device: device.to_string(),
+    }
+}
+
+/// Maps `machine` over `grid` into the field file `out`. `on_progress(points_done)` is called
+/// after each chunk.
+pub fn map_to_file(
+    machine: &Machine,
+    grid: &Grid,
+    engine: &Engine,
+    out: &Path,
+    options: &MapOptions,
+    mut on_progress: impl FnMut(u64),
+) -> Result<MapSummary, MapError> {
+    let device = engine.name();
+    let mut writer = FieldWriter::create(out, &field_info(machine, grid, &device))?;
+    let nx = grid.dims[0];
+    let mut stats = FieldStats::default();
+    let checked = sample_points(grid.points(), options.check_points);
+    let mut captured: Vec<[f32; 6]> = Vec::with_capacity(checked.len());
+    let start = Instant::now();
+    engine.run(
+        machine,
+        grid,
+        options.chunk_points,
+        |first_line, lines, data| -> Result<(), MapError> {
+            writer.write_lines(first_line, lines, data)?;
+            stats.add_chunk(first_line, lines, nx, data);
+            let first_point = first_line * nx as u64;
+            let end_point = first_point + lines * nx as u64;
+            for &p in checked
+                .iter()
+                .skip(captured.len())
+                .take_while(|&&p| p < end_point)
+            {
+                let local = (p - first_point) as usize;
+                let (line, i) = (local / nx, local % nx);
+                let base = line * CHANNELS.len() * nx + i;
+                captured.push(std::array::from_fn(|c| data[base + c * nx]));
+            }
+            on_progress(end_point);
+            Ok(())
+        },
+    )?;
+    writer.finish()?;
+    let seconds = start.elapsed().as_secs_f64();
+    let check =
+        (!checked.is_empty()).then(|| check_against_reference(machine, grid, &checked, &captured));
+    Ok(MapSummary {
+        stats,
+        seconds,
+        device,
+        check,
+    })
+}
+
+/// Recomputes `points` with the f64 reference and compares with `values` (channel order).
+pub fn check_against_reference(
+    machine: &Machine,
+    grid: &Grid,
+    points: &[u64],
+    values: &[[f32; 6]],
+) -> CheckResult {
+    let ideal = machine.without_errors();
+    let mut result = CheckResult {
+        points: points.len(),
+        max_ve_diff_mm: 0.0,
+        max_oe_diff_rad: 0.0,
+    };
+    for (&p, got) in points.iter().zip(values) {
+        let want = cpu::point_values(machine, &ideal, grid, grid.indices(p));
+        let diff = |range: std::ops::Range<usize>| {
+            range
+                .map(|c| (got[c] as f64 - want[c]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        result.max_oe_diff_rad = result.max_oe_diff_rad.max(diff(0..3));
+        result.max_ve_diff_mm = result.max_ve_diff_mm.max(diff(3..6));
+    }
+    result
+}

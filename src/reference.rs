@@ -1,0 +1,119 @@
+//! The CPU reference: MODEL.md in f64 with nalgebra, exact transforms, written for clarity rather
+//! than speed. It is the ground truth every other path is tested against.
+//!
+//! Frames: every transform maps coordinates of a child frame into its parent; products compose
+//! from the workpiece outward, `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn · S · Trans(tool)`, and the
+//! result is the tool tip frame expressed in the workpiece frame.
+
+use nalgebra::{Matrix3, Matrix4, Rotation3, Unit, Vector3};
+
+use crate::machine::{Axis, Command, Machine};
+
+pub type Transform = Matrix4<f64>;
+
+/// `Trans(v)`: pure translation.
+pub fn trans(v: Vector3<f64>) -> Transform {
+    Matrix4::new_translation(&v)
+}
+
+/// `Rot(a, b, c) = Rx(a) · Ry(b) · Rz(c)`, exact.
+pub fn rot(a: f64, b: f64, c: f64) -> Transform {
+    let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), a);
+    let ry = Rotation3::from_axis_angle(&Vector3::y_axis(), b);
+    let rz = Rotation3::from_axis_angle(&Vector3::z_axis(), c);
+    (rx * ry * rz).to_homogeneous()
+}
+
+/// `E(dx, dy, dz, ea, eb, ec) = Trans(dx, dy, dz) · Rot(ea, eb, ec)`: an error transform.
+pub fn error_transform(e: [f64; 6]) -> Transform {
+    trans(Vector3::new(e[0], e[1], e[2])) * rot(e[3], e[4], e[5])
+}
+
+/// `Rot_u(theta)`: rotation by `theta` (rad) about the unit axis direction `u`.
+pub fn rot_about(u: Vector3<f64>, theta: f64) -> Transform {
+    Rotation3::from_axis_angle(&Unit::new_normalize(u), theta).to_homogeneous()
+}
+
+/// `L_k = Trans(o_k + (EX0k, EY0k, EZ0k)) · Rot(EA0k, EB0k, EC0k)`: the axis location.
+pub fn location(axis: &Axis) -> Transform {
+    let [ex, ey, ez, ea, eb, ec] = axis.location;
+    let o = Vector3::from(axis.offset_mm);
+    trans(o + Vector3::new(ex, ey, ez)) * rot(ea, eb, ec)
+}
+
+/// The relative transform `A_k(q)` of one axis:
+/// linear `L_k · Trans(q·u_k) · E_k(q)`, rotary `L_k · E_k(q) · Rot_u(q)` (q in degrees).
+pub fn axis_transform(axis: &Axis, q: f64) -> Transform {
+    let u = Vector3::from(axis.unit_vector());
+    let errors = error_transform(axis.component_values(q));
+    if axis.letter.is_linear() {
+        location(axis) * trans(q * u) * errors
+    } else {
+        location(axis) * errors * rot_about(u, q.to_radians())
+    }
+}
+
+/// `E_rel(q)` of MODEL.md for the machine at the commanded positions.
+pub fn relative_transform(machine: &Machine, command: &Command) -> Transform {
+    let chain = machine
+        .axes_in_product_order()
+        .into_iter()
+        .fold(Transform::identity(), |acc, axis| {
+            acc * axis_transform(axis, command[axis.letter.index()])
+        });
+    let [exs, eys, ezs, eas, ebs] = machine.spindle;
+    let spindle = error_transform([exs, eys, ezs, eas, ebs, 0.0]);
+    chain * spindle * trans(Vector3::from(machine.tool_offset_mm))
+}
+
+/// The tool pose at a commanded position: tip position and orientation in the workpiece frame.
+pub fn tool_pose(machine: &Machine, command: &Command) -> (Vector3<f64>, Matrix3<f64>) {
+    let t = relative_transform(machine, command);
+    (
+        t.fixed_view::<3, 1>(0, 3).into_owned(),
+        t.fixed_view::<3, 3>(0, 0).into_owned(),
+    )
+}
+
+/// The machine's error at one commanded position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Deviation {
+    /// `VE = p_real − p_ideal`, workpiece frame, mm.
+    pub volumetric_mm: Vector3<f64>,
+    /// Rotation vector of `R_real · R_idealᵀ`, workpiece frame, rad.
+    pub orientation_rad: Vector3<f64>,
+}
+
+/// The rotation vector (axis × angle, rad) of a rotation matrix. The angle comes from
+/// `atan2(|s|, (tr R − 1)/2)` with `s` the axial vector of the skew part of `R`, which stays
+/// accurate for the tiny rotations of machine errors (`acos` of the trace would not).
+pub fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
+    let s = Vector3::new(
+        r[(2, 1)] - r[(1, 2)],
+        r[(0, 2)] - r[(2, 0)],
+        r[(1, 0)] - r[(0, 1)],
+    ) / 2.0;
+    let sin = s.norm();
+    let cos = (r.trace() - 1.0) / 2.0;
+    let angle = sin.atan2(cos);
+    if sin < 1e-300 {
+        return Vector3::zeros();
+    }
+    s * (angle / sin)
+}
+
+/// VE and OE at one commanded position: the machine against the same machine with every error
+/// value zero.
+pub fn deviation(machine: &Machine, command: &Command) -> Deviation {
+    deviation_against(machine, &machine.without_errors(), command)
+}
+
+/// [`deviation`] with the ideal machine built once by the caller (for loops over many points).
+pub fn deviation_against(machine: &Machine, ideal: &Machine, command: &Command) -> Deviation {
+    let (p_real, r_real) = tool_pose(machine, command);
+    let (p_ideal, r_ideal) = tool_pose(ideal, command);
+    Deviation {
+        volumetric_mm: p_real - p_ideal,
+        orientation_rad: rotation_vector(&(r_real * r_ideal.transpose())),
+    }
+}

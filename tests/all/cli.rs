@@ -1,0 +1,151 @@
+//! The `volmap` binary as a user runs it.
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+
+fn volmap() -> Command {
+    Command::cargo_bin("volmap").unwrap()
+}
+
+#[test]
+fn machines_lists_the_embedded_machines() {
+    volmap().arg("machines").assert().success().stdout(
+        predicate::str::contains("vmc-li2015")
+            .and(predicate::str::contains("FYXCFZB"))
+            .and(predicate::str::contains("4axis-hwang2014"))
+            .and(predicate::str::contains("vmc-dobariya2015")),
+    );
+}
+
+#[test]
+fn map_check_and_info_on_the_cpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("f.exr");
+    volmap()
+        .args([
+            "map",
+            "--machine",
+            "5axis-hwang2014",
+            "--grid",
+            "9x7x5",
+            "--pose",
+            "B=30,C=45",
+            "--device",
+            "cpu",
+            "--check",
+            "20",
+            "--out",
+        ])
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(
+            predicate::str::contains("315 points")
+                .and(predicate::str::contains("max |VE|"))
+                .and(predicate::str::contains("RMS |VE|"))
+                .and(predicate::str::contains("Mpts/s"))
+                .and(predicate::str::contains("check       20 points"))
+                .and(predicate::str::contains(": ok")),
+        );
+    volmap().arg("info").arg(&out).assert().success().stdout(
+        predicate::str::contains("FYXCFZB")
+            .and(predicate::str::contains("pose B=30° C=45°"))
+            .and(predicate::str::contains("315 points")),
+    );
+}
+
+#[test]
+fn map_defaults_write_volmap_field_exr() {
+    let dir = tempfile::tempdir().unwrap();
+    volmap()
+        .current_dir(dir.path())
+        .args(["map", "--grid", "4x4x4", "--device", "cpu"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("3-axis VMC (Li et al. 2015"));
+    assert!(dir.path().join("volmap-field.exr").exists());
+}
+
+#[test]
+fn the_auto_device_maps_on_whatever_there_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("auto.exr");
+    volmap()
+        .args([
+            "map",
+            "--machine",
+            "4axis-hwang2014",
+            "--grid",
+            "6x6x3",
+            "--pose",
+            "C=90",
+            "--check",
+            "30",
+            "--out",
+        ])
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(": ok"));
+}
+
+#[test]
+fn bad_machine_files_exit_2_naming_file_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = dir.path().join("broken.toml");
+    std::fs::write(&machine, "name = \"m\"\nchain = \"FXFZ\"\n[axes.X]\nrange = [0, 100]\nEXX = nan\n[axes.Z]\nrange = [0, 10]\n").unwrap();
+    volmap()
+        .args(["map", "--device", "cpu", "--machine"])
+        .arg(&machine)
+        .arg("--out")
+        .arg(dir.path().join("x.exr"))
+        .assert()
+        .code(2)
+        .stderr(
+            predicate::str::contains("broken.toml")
+                .and(predicate::str::contains("axes.X.EXX"))
+                .and(predicate::str::contains("not a finite number")),
+        );
+    assert!(!dir.path().join("x.exr").exists());
+}
+
+#[test]
+fn bad_command_line_values_exit_2() {
+    let cases: [(&[&str], &str); 6] = [
+        (&["--grid", "10x10"], "--grid"),
+        (&["--grid", "0x4x4"], "--grid"),
+        (
+            &["--machine", "5axis-hwang2014", "--pose", "B=200"],
+            "outside its range",
+        ),
+        (&["--pose", "C=10"], "not an axis of this machine"),
+        (&["--machine", "nonexistent"], "no embedded machine"),
+        (&["--out", "field.png"], ".exr"),
+    ];
+    for (args, message) in cases {
+        volmap()
+            .arg("map")
+            .args(["--device", "cpu"])
+            .args(args)
+            .assert()
+            .code(2)
+            .stderr(predicate::str::contains(message));
+    }
+    volmap()
+        .args(["map", "--device", "quantum"])
+        .assert()
+        .code(2);
+}
+
+#[test]
+fn info_on_a_file_that_is_not_a_field_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.exr");
+    std::fs::write(&path, "text").unwrap();
+    volmap()
+        .arg("info")
+        .arg(&path)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("x.exr"));
+}

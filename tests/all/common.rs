@@ -1,0 +1,152 @@
+//! Shared helpers: machines for tests, the GPU (or the reason it is skipped).
+
+use std::sync::OnceLock;
+
+use volmap::gpu::GpuMapper;
+use volmap::machine::{AxisLetter, ErrorFunction, Interp, Machine, Table};
+
+/// The GPU engine, opened once. `None` (test skipped, with a line on stderr) only where no
+/// adapter exists; a panic instead when `VOLMAP_REQUIRE_GPU` is set.
+pub fn gpu() -> Option<&'static GpuMapper> {
+    static GPU: OnceLock<Option<GpuMapper>> = OnceLock::new();
+    let gpu = GPU
+        .get_or_init(|| GpuMapper::open().expect("an adapter exists but the device failed to open"))
+        .as_ref();
+    if gpu.is_none() {
+        if std::env::var_os("VOLMAP_REQUIRE_GPU").is_some() {
+            panic!("VOLMAP_REQUIRE_GPU is set but no GPU adapter exists (install mesa-vulkan-drivers for lavapipe)");
+        }
+        eprintln!("SKIPPED: no GPU adapter on this machine");
+    }
+    gpu
+}
+
+/// A small deterministic generator (splitmix64) for test data.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [lo, hi).
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Gives every axis of `machine` random errors of realistic size, of every kind the file
+/// format has: constants, polynomials, linear / quadratic / cubic tables, periodic rotary tables;
+/// location errors, nominal offsets, a spindle error and a tool offset.
+pub fn with_random_errors(mut machine: Machine, rng: &mut Rng) -> Machine {
+    for axis in &mut machine.axes {
+        let [lo, hi] = axis.range;
+        axis.offset_mm = [
+            rng.uniform(-200.0, 200.0),
+            rng.uniform(-200.0, 200.0),
+            rng.uniform(-200.0, 200.0),
+        ];
+        axis.location = [
+            rng.uniform(-0.01, 0.01),
+            rng.uniform(-0.01, 0.01),
+            rng.uniform(-0.01, 0.01),
+            rng.uniform(-5e-5, 5e-5),
+            rng.uniform(-5e-5, 5e-5),
+            rng.uniform(-5e-5, 5e-5),
+        ];
+        for n in 0..6 {
+            let scale = if n < 3 { 0.01 } else { 3e-5 };
+            let kind = rng.next_u64() % 5;
+            let periodic = !axis.letter.is_linear() && rng.next_u64() % 2 == 0;
+            let function = match kind {
+                0 => ErrorFunction::Constant(rng.uniform(-scale, scale)),
+                1 => {
+                    let span = hi - lo;
+                    ErrorFunction::Poly(vec![
+                        rng.uniform(-scale, scale),
+                        rng.uniform(-scale, scale) / span,
+                        rng.uniform(-scale, scale) / (span * span),
+                    ])
+                }
+                _ => {
+                    let interp =
+                        [Interp::Linear, Interp::Quadratic, Interp::Cubic][(kind - 2) as usize];
+                    let (start, end) = if periodic { (lo, lo + 300.0) } else { (lo, hi) };
+                    let nodes = if periodic { 6 } else { 7 };
+                    let table: Vec<(f64, f64)> = (0..nodes)
+                        .map(|k| {
+                            let q = start + (end - start) * k as f64 / (nodes - 1) as f64;
+                            (q, rng.uniform(-scale, scale))
+                        })
+                        .collect();
+                    ErrorFunction::Table(Table::new(table, interp, periodic).expect("valid table"))
+                }
+            };
+            axis.components[n] = Some(function);
+        }
+    }
+    machine.spindle = [
+        rng.uniform(-0.005, 0.005),
+        rng.uniform(-0.005, 0.005),
+        rng.uniform(-0.005, 0.005),
+        rng.uniform(-2e-5, 2e-5),
+        rng.uniform(-2e-5, 2e-5),
+    ];
+    machine.tool_offset_mm = [
+        rng.uniform(-20.0, 20.0),
+        rng.uniform(-20.0, 20.0),
+        rng.uniform(-300.0, -50.0),
+    ];
+    machine
+}
+
+/// Travels for the axes of a test machine: linear axes over 2 m, rotary axes over ±180°.
+pub fn ranges(letters: &[AxisLetter]) -> Vec<(AxisLetter, [f64; 2])> {
+    letters
+        .iter()
+        .map(|&l| {
+            (
+                l,
+                if l.is_linear() {
+                    [-1000.0, 1000.0]
+                } else {
+                    [-180.0, 180.0]
+                },
+            )
+        })
+        .collect()
+}
+
+/// All orderings of `items`.
+pub fn permutations<T: Copy>(items: &[T]) -> Vec<Vec<T>> {
+    if items.len() <= 1 {
+        return vec![items.to_vec()];
+    }
+    let mut out = Vec::new();
+    for i in 0..items.len() {
+        let mut rest = items.to_vec();
+        let first = rest.remove(i);
+        for mut tail in permutations(&rest) {
+            tail.insert(0, first);
+            out.push(tail);
+        }
+    }
+    out
+}
+
+/// Every chain of the five axes: 120 orders × 6 places of the second `F` = 720 chains.
+pub fn all_five_axis_chains(letters: [AxisLetter; 5]) -> Vec<String> {
+    let mut chains = Vec::new();
+    for order in permutations(&letters) {
+        for split in 0..=5 {
+            let work: String = order[..split].iter().map(|a| a.as_char()).collect();
+            let tool: String = order[split..].iter().map(|a| a.as_char()).collect();
+            chains.push(format!("F{work}F{tool}"));
+        }
+    }
+    chains
+}

@@ -1,0 +1,161 @@
+//! Field files: written as a stream, read back by volmap and by an independent OpenEXR reader.
+
+use exr::prelude::{read_first_flat_layer_from_file, FlatSamples, Vec2};
+use volmap::cpu;
+use volmap::field::{FieldReader, FieldWriter};
+use volmap::gpu::layout::CHANNELS;
+use volmap::grid::{parse_pose, Grid};
+use volmap::machine::embedded;
+use volmap::map::{self, Engine, MapOptions};
+
+fn mapped(
+    dir: &std::path::Path,
+    dims: [usize; 3],
+) -> (volmap::machine::Machine, Grid, std::path::PathBuf) {
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let pose = parse_pose("B=12.5,C=200", &machine).unwrap();
+    let grid = Grid::full_travel(&machine, dims, pose).unwrap();
+    let path = dir.join("field.exr");
+    let options = MapOptions {
+        chunk_points: Some(dims[0] as u64 * 3),
+        check_points: 0,
+    };
+    map::map_to_file(&machine, &grid, &Engine::Cpu, &path, &options, |_| {}).unwrap();
+    (machine, grid, path)
+}
+
+#[test]
+fn write_and_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = [7, 5, 4];
+    let (machine, grid, path) = mapped(dir.path(), dims);
+    let ideal = machine.without_errors();
+
+    let mut reader = FieldReader::open(&path).unwrap();
+    let info = reader.info().clone();
+    assert_eq!(info.dims, dims);
+    assert_eq!(info.origin_mm, grid.origin_mm);
+    assert_eq!(info.spacing_mm, grid.spacing_mm);
+    assert_eq!(info.pose_deg, [0.0, 12.5, 200.0]);
+    assert_eq!(info.pose_axes, "BC");
+    assert_eq!(info.chain, "FYXCFZB");
+    assert_eq!(info.machine_toml, machine.source.toml);
+    let mut line = vec![0.0f32; CHANNELS.len() * dims[0]];
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            reader
+                .read_line((j + k * dims[1]) as u64, &mut line)
+                .unwrap();
+            for i in 0..dims[0] {
+                let want = cpu::point_values(&machine, &ideal, &grid, [i, j, k]);
+                for c in 0..6 {
+                    assert_eq!(
+                        line[c * dims[0] + i],
+                        want[c] as f32,
+                        "({i}, {j}, {k}) {}",
+                        CHANNELS[c]
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn an_independent_openexr_reader_sees_the_same_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = [6, 4, 3];
+    let (machine, grid, path) = mapped(dir.path(), dims);
+    let ideal = machine.without_errors();
+    let image = read_first_flat_layer_from_file(&path).expect("the exr crate reads the field");
+    let layer = &image.layer_data;
+    assert_eq!(layer.size, Vec2(dims[0], dims[1] * dims[2]));
+    let names: Vec<String> = layer
+        .channel_data
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    assert_eq!(names, CHANNELS);
+    for (c, channel) in layer.channel_data.list.iter().enumerate() {
+        let FlatSamples::F32(samples) = &channel.sample_data else {
+            panic!("{} is not FLOAT", names[c])
+        };
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    // Pixel (i, j + k·ny) holds grid point (i, j, k).
+                    let pixel = samples[(j + k * dims[1]) * dims[0] + i];
+                    let want = cpu::point_values(&machine, &ideal, &grid, [i, j, k])[c] as f32;
+                    assert_eq!(pixel, want, "{} at ({i}, {j}, {k})", names[c]);
+                }
+            }
+        }
+    }
+    let attributes: Vec<String> = image
+        .attributes
+        .other
+        .keys()
+        .chain(layer.attributes.other.keys())
+        .map(|k| k.to_string())
+        .collect();
+    for key in [
+        "volmap.dims",
+        "volmap.origin",
+        "volmap.spacing",
+        "volmap.pose",
+        "volmap.units",
+        "volmap.machine",
+        "volmap.machineToml",
+    ] {
+        assert!(
+            attributes.iter().any(|a| a == key),
+            "{key} missing from {attributes:?}"
+        );
+    }
+}
+
+#[test]
+fn an_unfinished_field_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = embedded::load("vmc-li2015").unwrap();
+    let grid = Grid::full_travel(&machine, [4, 4, 4], [0.0; 6]).unwrap();
+    let path = dir.path().join("partial.exr");
+    let info = map::field_info(&machine, &grid, "test");
+    let mut writer = FieldWriter::create(&path, &info).unwrap();
+    writer.write_lines(0, 2, &vec![0.0; 2 * 6 * 4]).unwrap();
+    let error = writer.write_lines(5, 1, &[0.0; 24]).unwrap_err();
+    assert!(error.to_string().contains("expected line 2"), "{error}");
+    let incomplete = writer.finish().unwrap_err();
+    assert!(
+        incomplete.to_string().contains("only 2 of 16 lines"),
+        "{incomplete}"
+    );
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert!(left.is_empty(), "nothing may be left behind: {left:?}");
+}
+
+#[test]
+fn files_that_are_not_fields_are_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("not.exr");
+    std::fs::write(&path, b"hello").unwrap();
+    let message = FieldReader::open(&path)
+        .err()
+        .expect("rejected")
+        .to_string();
+    assert!(
+        message.contains("not.exr") && message.contains("not an OpenEXR file"),
+        "{message}"
+    );
+    let (_, _, field) = mapped(dir.path(), [3, 3, 3]);
+    let bytes = std::fs::read(&field).unwrap();
+    std::fs::write(&path, &bytes[..bytes.len() - 10]).unwrap();
+    let mut reader = FieldReader::open(&path).unwrap();
+    let mut line = vec![0.0; 18];
+    let error = (0..reader.lines())
+        .map(|l| reader.read_line(l, &mut line))
+        .find_map(|r| r.err())
+        .expect("truncated");
+    assert!(error.to_string().contains("truncated"), "{error}");
+}

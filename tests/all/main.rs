@@ -1,0 +1,11 @@
+//! volmap's integration tests, one binary. GPU tests skip only where no adapter exists; with
+//! `VOLMAP_REQUIRE_GPU=1` (set by CI) a missing adapter is a failure.
+
+mod cli;
+mod common;
+mod field;
+mod golden;
+mod gpu;
+mod machine_file;
+mod reference;
+mod shaders;
