@@ -139,6 +139,8 @@ fn encode_header(info: &FieldInfo) -> Vec<u8> {
     h.v3d("volmap.origin", info.origin_mm);
     h.v3d("volmap.spacing", info.spacing_mm);
     h.v3d("volmap.pose", info.pose_deg);
+    // The same in words, for tools that do not print v3d values (exrheader among them).
+    h.string("volmap.grid", &grid_text(info));
     h.string("volmap.poseAxes", &info.pose_axes);
     h.string("volmap.units", UNITS);
     h.string("volmap.machine", &info.machine_name);
@@ -156,6 +158,28 @@ fn encode_header(info: &FieldInfo) -> Vec<u8> {
     out.extend_from_slice(&(VERSION | flags).to_le_bytes());
     out.extend_from_slice(&h.bytes);
     out
+}
+
+/// The grid and pose in words, exact (shortest round-trip decimals).
+pub fn grid_text(info: &FieldInfo) -> String {
+    let mut parts: Vec<String> = (0..3)
+        .map(|d| {
+            let end = info.origin_mm[d] + (info.dims[d].max(1) - 1) as f64 * info.spacing_mm[d];
+            format!(
+                "{}: {} points from {:?} to {:?} mm, step {:?} mm",
+                ["X", "Y", "Z"][d],
+                info.dims[d],
+                info.origin_mm[d],
+                end,
+                info.spacing_mm[d]
+            )
+        })
+        .collect();
+    for axis in info.pose_axes.chars() {
+        let index = "ABC".find(axis).unwrap_or(0);
+        parts.push(format!("{axis} at {:?} deg", info.pose_deg[index]));
+    }
+    parts.join("; ")
 }
 
 /// Streams a field into a temporary file, renamed into place by [`FieldWriter::finish`].

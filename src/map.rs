@@ -32,7 +32,7 @@ pub enum DeviceChoice {
 
 /// Where the map is computed.
 pub enum Engine {
-    Gpu(GpuMapper),
+    Gpu(Box<GpuMapper>),
     Cpu,
 }
 
@@ -44,7 +44,7 @@ impl Engine {
             return Ok((Engine::Cpu, None));
         }
         match GpuMapper::open()? {
-            Some(gpu) => Ok((Engine::Gpu(gpu), None)),
+            Some(gpu) => Ok((Engine::Gpu(Box::new(gpu)), None)),
             None if choice == DeviceChoice::Auto => Ok((
                 Engine::Cpu,
                 Some(

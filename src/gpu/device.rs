@@ -68,7 +68,9 @@ pub struct Readback<'a> {
 impl Gpu {
     /// Opens the best adapter there is. `Ok(None)` when the system has no adapter at all.
     pub fn open() -> Result<Option<Gpu>, GpuError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle());
+        // WGPU_BACKEND (e.g. `vulkan`, `metal`, `dx12`) narrows the backends, as in every wgpu program.
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle().with_env());
         let adapter =
             match pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
                 power_preference: wgpu::PowerPreference::HighPerformance,

@@ -149,3 +149,31 @@ fn info_on_a_file_that_is_not_a_field_exits_2() {
         .code(2)
         .stderr(predicate::str::contains("x.exr"));
 }
+
+#[test]
+fn without_an_adapter_auto_says_so_once_and_maps_on_the_cpu() {
+    // WGPU_BACKEND=gl names a backend this build does not have: no adapter.
+    let dir = tempfile::tempdir().unwrap();
+    let assert = volmap()
+        .env("WGPU_BACKEND", "gl")
+        .args(["map", "--grid", "5x4x3", "--check", "10", "--out"])
+        .arg(dir.path().join("cpu.exr"))
+        .assert()
+        .success()
+        .stdout(
+            predicate::str::contains("CPU, f64 reference").and(predicate::str::contains(": ok")),
+        );
+    let stderr = String::from_utf8_lossy(&assert.get_output().stderr).into_owned();
+    assert_eq!(
+        stderr.matches("no GPU adapter found").count(),
+        1,
+        "{stderr}"
+    );
+    volmap()
+        .env("WGPU_BACKEND", "gl")
+        .args(["map", "--grid", "5x4x3", "--device", "gpu", "--out"])
+        .arg(dir.path().join("gpu.exr"))
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("no GPU adapter found"));
+}
