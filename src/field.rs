@@ -505,6 +505,14 @@ impl FieldReader {
             )));
         }
         let lines = ny * nz;
+        let file_bytes = c.reader.get_ref().metadata().map(|m| m.len()).unwrap_or(0);
+        let header_bytes = c.reader.stream_position().unwrap_or(0);
+        let data_bytes = header_bytes + lines as u64 * (8 + 8 + (CHANNELS.len() * 4 * nx) as u64);
+        if data_bytes > file_bytes {
+            return Err(c.format(format!(
+                "volmap.dims {nx}x{ny}x{nz} needs {data_bytes} bytes but the file has {file_bytes}: truncated"
+            )));
+        }
         let table = c.bytes(8 * lines)?;
         let offsets = table
             .chunks(8)

@@ -13,7 +13,7 @@ pub enum GridError {
     Syntax(String),
     #[error("--grid: {axis} has {n} points but the machine has no {axis} axis: use 1")]
     AbsentAxis { axis: AxisLetter, n: usize },
-    #[error("--grid: {0} points is more than a map can hold (at most 2^32 lines of at most 2^22 points)")]
+    #[error("--grid: {0} is more than a map can hold (at most 2^22 points along X and 2^31 - 1 along Y times Z)")]
     TooLarge(String),
     #[error("--pose `{0}`: expected LETTER=DEGREES pairs separated by commas, e.g. B=30,C=-45")]
     PoseSyntax(String),
@@ -67,7 +67,8 @@ impl Grid {
                 None => {}
             }
         }
-        if dims[0] > MAX_LINE_POINTS || (dims[1] as u64) * (dims[2] as u64) > u32::MAX as u64 {
+        // An EXR data window is addressed with i32: ny·nz lines at most 2^31 − 1.
+        if dims[0] > MAX_LINE_POINTS || (dims[1] as u64) * (dims[2] as u64) > i32::MAX as u64 {
             return Err(GridError::TooLarge(format!(
                 "{}x{}x{}",
                 dims[0], dims[1], dims[2]
