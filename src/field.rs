@@ -12,6 +12,7 @@ use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use crate::gpu::layout::CHANNELS;
+use crate::grid::Grid;
 
 #[derive(Debug, thiserror::Error)]
 pub enum FieldError {
@@ -60,6 +61,20 @@ pub struct FieldInfo {
     pub csv_files: Vec<(String, String)>,
     /// The device that computed the field (`volmap.device`).
     pub device: String,
+}
+
+impl FieldInfo {
+    /// The grid of commanded positions the field covers.
+    pub fn grid(&self) -> Grid {
+        let mut pose = [0.0; 6];
+        pose[3..].copy_from_slice(&self.pose_deg);
+        Grid {
+            dims: self.dims,
+            origin_mm: self.origin_mm,
+            spacing_mm: self.spacing_mm,
+            pose,
+        }
+    }
 }
 
 /// `volmap.units`, written into every field.

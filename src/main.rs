@@ -195,21 +195,11 @@ fn run_map(args: MapArgs) -> Result<ExitCode, Failure> {
 }
 
 fn print_summary(info: &FieldInfo, stats: &FieldStats) {
-    let [nx, ny, _] = info.dims;
-    let p = stats.max_ve_point;
-    let ijk = [
-        (p % nx as u64) as usize,
-        ((p / nx as u64) % ny as u64) as usize,
-        (p / (nx * ny) as u64) as usize,
-    ];
+    let grid = info.grid();
+    let ijk = grid.indices(stats.max_ve_point);
+    let command = grid.command(ijk);
     let at: Vec<String> = (0..3)
-        .map(|d| {
-            format!(
-                "{}={}",
-                ["X", "Y", "Z"][d],
-                info.origin_mm[d] + ijk[d] as f64 * info.spacing_mm[d]
-            )
-        })
+        .map(|d| format!("{}={:.3}", ["X", "Y", "Z"][d], command[d]))
         .collect();
     let pose: Vec<String> = info
         .pose_axes

@@ -65,6 +65,10 @@ fn assert_matches_reference(machine: &Machine, grid: &Grid) {
         return;
     };
     let (ve, oe) = max_differences(machine, grid, &field);
+    eprintln!(
+        "{}: max |ΔVE| {ve:.2e} mm, max |ΔOE| {oe:.2e} rad",
+        machine.name
+    );
     assert!(
         ve <= VE_TOLERANCE_MM,
         "{}: max |ΔVE| {ve:e} mm",
