@@ -237,10 +237,7 @@ fn print_summary(info: &FieldInfo, stats: &FieldStats) {
 }
 
 fn run_info(path: &Path) -> Result<ExitCode, Failure> {
-    let mut reader = FieldReader::open(path).map_err(|e| match e {
-        volmap::field::FieldError::Io { .. } => Failure::from(e),
-        other => bad_input(other),
-    })?;
+    let mut reader = FieldReader::open(path).map_err(bad_input)?;
     let info = reader.info().clone();
     let mut stats = FieldStats::default();
     let nx = info.dims[0];
