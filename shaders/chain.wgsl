@@ -13,13 +13,21 @@
 // volumetric error VE = d and the orientation error is the rotation vector of I + M, both in the
 // workpiece frame, never formed as a difference of large numbers.
 //
+// Three passes share the work so that each point costs two small products:
+//   axis_values  every axis transform A_k(q) once per grid value of its coordinate (X at each i, Y
+//                at each j, Z at each k, a rotary axis at its pose), error tables evaluated here;
+//   line_values  per grid line (j, k) of the chunk, the products before X (Pre) and after X
+//                (Post, with S·Trans(tool)), which are constant along the line;
+//   points       per point, Pre · A_X(i) · Post, with Pre and Post workgroup-uniform (one
+//                workgroup row per line) and A_X(i) a contiguous per-lane load.
+//
 // Host mirrors: src/gpu/layout.rs. Keep in sync with that file.
 
 struct Params {
     origin: vec4<f32>,       // commanded X, Y, Z of grid point (0, 0, 0), mm
     spacing: vec4<f32>,      // grid step along X, Y, Z, mm
     grid: vec4<u32>,         // nx, ny, nz, number of axes
-    chunk: vec4<u32>,        // first line of the chunk, points in the chunk, -, -
+    chunk: vec4<u32>,        // first line of the chunk, lines in the chunk, position of X in the product order (axes count: none), axis-value entries
     tail_offset: vec4<f32>,  // nominal translation of S·Trans(tool)
     tail_delta: vec4<f32>,   // translation deviation of S·Trans(tool)
     tail_m: mat4x4<f32>,     // R_S − I (upper 3×3)
@@ -30,7 +38,7 @@ struct AxisData {
     location_delta: vec4<f32>,  // (EX0k, EY0k, EZ0k), mm
     location_m: mat4x4<f32>,    // Rot(EA0k, EB0k, EC0k) − I
     unit: vec4<f32>,            // u_k
-    info: vec4<u32>,            // kind (0 linear, 1 rotary), source (0..2 grid dim, 3 fixed), rotation axis, -
+    info: vec4<u32>,            // kind (0 linear, 1 rotary), source (0..2 grid dim, 3 fixed), rotation axis, first axis-value entry
     fixed_q: vec4<f32>,         // x: position when the source is fixed
     functions_a: vec4<u32>,     // EXk EYk EZk EAk (NO_FUNCTION: zero)
     functions_b: vec4<u32>,     // EBk ECk, -, -
@@ -48,12 +56,30 @@ struct Piece {
     pad: u32,
 }
 
+// A transform in deviation form: columns of R0 with t0 in w, columns of M with d in w.
+struct DevData {
+    r0_t0: array<vec4<f32>, 3>,
+    m_d: array<vec4<f32>, 3>,
+}
+
+// What a grid line contributes to each of its points (see `points`): the nominal rotation Ra of
+// Pre, Ma~ = Raᵀ·M_Pre·Ra, M_Post, c0 = d_Pre + Ra·d_Post, vb = t0_Post + d_Post.
+struct LineData {
+    ra: array<vec4<f32>, 3>,
+    ma: array<vec4<f32>, 3>,
+    mb: array<vec4<f32>, 3>,
+    c0: vec4<f32>,
+    vb: vec4<f32>,
+}
+
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> axes: array<AxisData>;
 @group(0) @binding(2) var<storage, read> functions: array<Function>;
 @group(0) @binding(3) var<storage, read> pieces: array<Piece>;
 @group(0) @binding(4) var<storage, read> coefficients: array<vec4<f32>>;
-@group(0) @binding(5) var<storage, read_write> out: array<f32>;
+@group(0) @binding(5) var<storage, read_write> axis_values: array<DevData>;
+@group(0) @binding(6) var<storage, read_write> line_values: array<LineData>;
+@group(0) @binding(7) var<storage, read_write> out: array<f32>;
 
 const NO_FUNCTION: u32 = 0xffffffffu;
 const KIND_LINEAR: u32 = 0u;
@@ -210,41 +236,139 @@ fn rotation_vector(m: mat3x3<f32>) -> vec3<f32> {
     return s * factor;
 }
 
+fn store_dev(index: u32, t: Dev) {
+    axis_values[index].r0_t0 = array<vec4<f32>, 3>(
+        vec4<f32>(t.r0[0], t.t0.x), vec4<f32>(t.r0[1], t.t0.y), vec4<f32>(t.r0[2], t.t0.z));
+    axis_values[index].m_d = array<vec4<f32>, 3>(
+        vec4<f32>(t.m[0], t.d.x), vec4<f32>(t.m[1], t.d.y), vec4<f32>(t.m[2], t.d.z));
+}
+
+fn load_dev(index: u32) -> Dev {
+    let v = axis_values[index];
+    return Dev(
+        mat3x3<f32>(v.r0_t0[0].xyz, v.r0_t0[1].xyz, v.r0_t0[2].xyz),
+        vec3<f32>(v.r0_t0[0].w, v.r0_t0[1].w, v.r0_t0[2].w),
+        mat3x3<f32>(v.m_d[0].xyz, v.m_d[1].xyz, v.m_d[2].xyz),
+        vec3<f32>(v.m_d[0].w, v.m_d[1].w, v.m_d[2].w));
+}
+
+fn columns(c: array<vec4<f32>, 3>) -> mat3x3<f32> {
+    return mat3x3<f32>(c[0].xyz, c[1].xyz, c[2].xyz);
+}
+
+fn as_columns(m: mat3x3<f32>) -> array<vec4<f32>, 3> {
+    return array<vec4<f32>, 3>(vec4<f32>(m[0], 0.0), vec4<f32>(m[1], 0.0), vec4<f32>(m[2], 0.0));
+}
+
+// Axis-value entries are laid out axis after axis in product order: an axis driven by grid
+// dimension d has one entry per grid value along d, a fixed axis one entry.
+fn entry_count(a: AxisData) -> u32 {
+    if a.info.y == SOURCE_FIXED {
+        return 1u;
+    }
+    return params.grid[a.info.y];
+}
+
 @compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let local = gid.x + gid.y * groups.x * WORKGROUP;
-    if local >= params.chunk.y {
+fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let entry = gid.x;
+    if entry >= params.chunk.w {
         return;
     }
-    let nx = params.grid.x;
-    let line_in_chunk = local / nx;
-    let i = local % nx;
-    let line = params.chunk.x + line_in_chunk;
-    let j = line % params.grid.y;
-    let k = line / params.grid.y;
-    let position = params.origin.xyz + vec3<f32>(f32(i), f32(j), f32(k)) * params.spacing.xyz;
-
-    var acc = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
     for (var n = 0u; n < params.grid.w; n = n + 1u) {
         let a = axes[n];
-        var q = a.fixed_q.x;
-        if a.info.y != SOURCE_FIXED {
-            q = position[a.info.y];
+        let first = a.info.w;
+        if entry >= first && entry < first + entry_count(a) {
+            var q = a.fixed_q.x;
+            if a.info.y != SOURCE_FIXED {
+                q = params.origin[a.info.y] + f32(entry - first) * params.spacing[a.info.y];
+            }
+            store_dev(entry, axis_transform(a, q));
+            return;
         }
-        acc = compose(acc, axis_transform(a, q));
+    }
+}
+
+// The entry of axis n at grid line (j, k).
+fn line_entry(n: u32, j: u32, k: u32) -> Dev {
+    let a = axes[n];
+    var index = a.info.w;
+    if a.info.y == 1u {
+        index = index + j;
+    } else if a.info.y == 2u {
+        index = index + k;
+    }
+    return load_dev(index);
+}
+
+@compute @workgroup_size(64)
+fn line_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let local_line = gid.x;
+    if local_line >= params.chunk.y || local_line >= arrayLength(&line_values) {
+        return;
+    }
+    let line = params.chunk.x + local_line;
+    let j = line % params.grid.y;
+    let k = line / params.grid.y;
+    let x_position = params.chunk.z;
+    var pre = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
+    var post = pre;
+    for (var n = 0u; n < params.grid.w; n = n + 1u) {
+        if n < x_position {
+            pre = compose(pre, line_entry(n, j, k));
+        } else if n > x_position {
+            post = compose(post, line_entry(n, j, k));
+        }
     }
     let tail_m = mat3x3<f32>(params.tail_m[0].xyz, params.tail_m[1].xyz, params.tail_m[2].xyz);
-    acc = compose(acc, Dev(IDENTITY3, params.tail_offset.xyz, tail_m, params.tail_delta.xyz));
+    post = compose(post, Dev(IDENTITY3, params.tail_offset.xyz, tail_m, params.tail_delta.xyz));
+    let ra = pre.r0;
+    line_values[local_line] = LineData(
+        as_columns(ra),
+        as_columns(transpose(ra) * pre.m * ra),
+        as_columns(post.m),
+        vec4<f32>(pre.d + ra * post.d, 0.0),
+        vec4<f32>(post.t0 + post.d, 0.0));
+}
 
-    let oe = rotation_vector(acc.m);
-    let base = line_in_chunk * 6u * nx + i;
+// Pre · A_X(i) · Post with A_X = [(I + Mx), tx + dx] (a linear axis has no nominal rotation):
+//   M = Ra·M~·Raᵀ,  M~ = M1~ + Mb + M1~·Mb,  M1~ = Ma~ + Mx + Ma~·Mx
+//   d = c0 + Ra·(dx + Ma~·(tx + dx) + M1~·vb)
+// so OE = Ra · rotation_vector(M~) and VE = d.
+@compute @workgroup_size(64)
+fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let nx = params.grid.x;
+    let i = wid.x * WORKGROUP + lid.x;
+    let local_line = wid.y;
+    if i >= nx || local_line >= params.chunk.y {
+        return;
+    }
+    let line = line_values[local_line];
+    var mx = ZERO3;
+    var tx = vec3<f32>(0.0);
+    var dx = vec3<f32>(0.0);
+    if params.chunk.z < params.grid.w {
+        let x = load_dev(axes[params.chunk.z].info.w + i);
+        mx = x.m;
+        tx = x.t0;
+        dx = x.d;
+    }
+    let ra = columns(line.ra);
+    let ma = columns(line.ma);
+    let mb = columns(line.mb);
+    let m1 = ma + mx + ma * mx;
+    let m = m1 + mb + m1 * mb;
+    let ve = line.c0.xyz + ra * (dx + ma * (tx + dx) + m1 * line.vb.xyz);
+    let oe = ra * rotation_vector(m);
+
+    let base = local_line * 6u * nx + i;
     if base + 5u * nx >= arrayLength(&out) {
         return;
     }
     out[base] = oe.x;
     out[base + nx] = oe.y;
     out[base + 2u * nx] = oe.z;
-    out[base + 3u * nx] = acc.d.x;
-    out[base + 4u * nx] = acc.d.y;
-    out[base + 5u * nx] = acc.d.z;
+    out[base + 3u * nx] = ve.x;
+    out[base + 4u * nx] = ve.y;
+    out[base + 5u * nx] = ve.z;
 }

@@ -13,7 +13,7 @@ pub enum GridError {
     Syntax(String),
     #[error("--grid: {axis} has {n} points but the machine has no {axis} axis: use 1")]
     AbsentAxis { axis: AxisLetter, n: usize },
-    #[error("--grid: {0} is more than a map can hold (at most 2^22 points along X and 2^31 - 1 along Y times Z)")]
+    #[error("--grid: {0} is more than a map can hold (at most 2^21 points along X and 2^31 - 1 along Y times Z)")]
     TooLarge(String),
     #[error("--pose `{0}`: expected LETTER=DEGREES pairs separated by commas, e.g. B=30,C=-45")]
     PoseSyntax(String),
@@ -35,7 +35,7 @@ pub struct Grid {
 }
 
 /// The largest line (points along X) a map accepts: one line must fit in one GPU chunk.
-pub const MAX_LINE_POINTS: usize = 1 << 22;
+pub const MAX_LINE_POINTS: usize = 1 << 21;
 
 impl Grid {
     /// A grid spanning the full travel of each linear axis of `machine`. A linear axis the

@@ -42,12 +42,6 @@ pub struct Buffer {
     inner: wgpu::Buffer,
 }
 
-impl Buffer {
-    pub fn size(&self) -> u64 {
-        self.inner.size()
-    }
-}
-
 /// The buffers a kernel reads and writes, bound in binding order.
 pub struct Bindings {
     group: wgpu::BindGroup,
@@ -56,6 +50,13 @@ pub struct Bindings {
 /// A submitted dispatch whose output can be read back.
 pub struct Submission {
     index: wgpu::SubmissionIndex,
+}
+
+/// One dispatch of a kernel over `workgroups` (within the adapter's per-dimension limit).
+pub struct Pass<'a> {
+    pub kernel: &'a Kernel,
+    pub bindings: &'a Bindings,
+    pub workgroups: [u32; 3],
 }
 
 /// Where a kernel's output goes after a dispatch: copied into a mappable buffer.
@@ -225,14 +226,13 @@ impl Gpu {
         self.queue.write_buffer(&buffer.inner, 0, bytes);
     }
 
-    /// Binds `buffers` to bindings 0, 1, … of group 0 of `kernel`.
-    pub fn bind(&self, kernel: &Kernel, buffers: &[&Buffer]) -> Bindings {
+    /// Binds `(binding, buffer)` pairs to group 0 of `kernel` (the bindings its entry point uses).
+    pub fn bind(&self, kernel: &Kernel, buffers: &[(u32, &Buffer)]) -> Bindings {
         let layout = kernel.pipeline.get_bind_group_layout(0);
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
-            .enumerate()
-            .map(|(n, b)| wgpu::BindGroupEntry {
-                binding: n as u32,
+            .map(|&(binding, b)| wgpu::BindGroupEntry {
+                binding,
                 resource: b.inner.as_entire_binding(),
             })
             .collect();
@@ -245,40 +245,42 @@ impl Gpu {
         }
     }
 
-    /// Dispatches `workgroups` groups (laid out over x and y within the per-dimension limit) and
-    /// copies the output into the readback buffer, in one submission.
-    pub fn dispatch(
-        &self,
-        kernel: &Kernel,
-        bindings: &Bindings,
-        workgroups: u64,
-        readback: Readback,
-    ) -> Submission {
-        let max = self.max_workgroups_per_dimension() as u64;
-        let x = workgroups.min(max).max(1);
-        let y = workgroups.div_ceil(x).max(1);
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    /// Runs `passes` in order (each sees what the previous wrote), then copies the output into
+    /// the readback buffer if one is given, in one submission.
+    pub fn submit(&self, passes: &[Pass], readback: Option<Readback>) -> Submission {
+        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: None,
                 timestamp_writes: None,
             });
-            pass.set_pipeline(&kernel.pipeline);
-            pass.set_bind_group(0, &bindings.group, &[]);
-            pass.dispatch_workgroups(x as u32, y as u32, 1);
+            for p in passes {
+                pass.set_pipeline(&p.kernel.pipeline);
+                pass.set_bind_group(0, &p.bindings.group, &[]);
+                let [x, y, z] = p.workgroups;
+                pass.dispatch_workgroups(x, y, z);
+            }
         }
-        encoder.copy_buffer_to_buffer(
-            &readback.from.inner,
-            0,
-            &readback.to.inner,
-            0,
-            readback.bytes,
-        );
+        if let Some(r) = readback {
+            encoder.copy_buffer_to_buffer(&r.from.inner, 0, &r.to.inner, 0, r.bytes);
+        }
         Submission {
             index: self.queue.submit([encoder.finish()]),
         }
+    }
+
+    /// Waits until everything submitted so far has run.
+    pub fn wait(&self, submission: Submission) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(submission.index),
+                timeout: None,
+            })
+            .map_err(|e| GpuError::Runtime {
+                adapter: self.adapter_name.clone(),
+                message: e.to_string(),
+            })?;
+        self.check_uncaptured()
     }
 
     /// Waits for `submission`, maps the first `bytes` of `buffer` and hands them to `use_data`;

@@ -27,7 +27,8 @@ pub struct Params {
     pub spacing: [f32; 4],
     /// nx, ny, nz, number of axes.
     pub grid: [u32; 4],
-    /// First line of this chunk, points in this chunk, unused, unused.
+    /// First line of this chunk, lines in this chunk, position of X in the product order (the
+    /// number of axes when there is no X), number of axis-value entries.
     pub chunk: [u32; 4],
     /// Nominal translation of `S · Trans(tool)`: the tool offset, mm.
     pub tail_offset: [f32; 4],
@@ -52,7 +53,7 @@ pub struct AxisData {
     /// `u_k`: unit direction times sense.
     pub unit: [f32; 4],
     /// Kind (`KIND_*`), source (grid dimension 0..3 or `SOURCE_FIXED`), rotation axis index
-    /// (0 = x, 1 = y, 2 = z), unused.
+    /// (0 = x, 1 = y, 2 = z), index of the axis's first entry in the axis-value table.
     pub info: [u32; 4],
     /// x: the commanded position when the source is fixed (mm or degrees).
     pub fixed_q: [f32; 4],
@@ -87,6 +88,30 @@ pub struct Piece {
     pub _pad: u32,
 }
 const _: () = assert!(std::mem::size_of::<Piece>() == 16);
+
+/// A transform in deviation form `[(I + M)·R0, t0 + d]`: columns of `R0` with `t0` in w,
+/// columns of `M` with `d` in w. Written by the `axis_values` pass. Keep in sync with
+/// `struct DevData` in `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct DevData {
+    pub r0_t0: [[f32; 4]; 3],
+    pub m_d: [[f32; 4]; 3],
+}
+const _: () = assert!(std::mem::size_of::<DevData>() == 96);
+
+/// What a grid line contributes to its points. Written by the `line_values` pass. Keep in sync
+/// with `struct LineData` in `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct LineData {
+    pub ra: [[f32; 4]; 3],
+    pub ma: [[f32; 4]; 3],
+    pub mb: [[f32; 4]; 3],
+    pub c0: [f32; 4],
+    pub vb: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<LineData>() == 176);
 
 /// The output per point and channel, in EXR channel order (alphabetical): for each line of a
 /// chunk, `nx` values of each channel in turn.

@@ -7,11 +7,11 @@ pub mod layout;
 use nalgebra::{Matrix3, Vector3};
 
 use crate::grid::Grid;
-use crate::machine::Machine;
+use crate::machine::{AxisLetter, Machine};
 use crate::reference;
 pub use device::GpuError;
-use device::{Buffer, Gpu, Readback};
-use layout::{AxisData, Function, Mat4, Params, Piece, CHANNELS};
+use device::{Buffer, Gpu, Pass, Readback};
+use layout::{AxisData, DevData, Function, LineData, Mat4, Params, Piece, CHANNELS};
 
 /// The chain kernel's WGSL source.
 pub const CHAIN_WGSL: &str = include_str!("../../shaders/chain.wgsl");
@@ -69,6 +69,8 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
     let mut pieces = Vec::new();
     let mut flat: Vec<f32> = Vec::new();
     let mut axes = Vec::new();
+    let mut entries = 0u32;
+    let mut x_position = None;
     for axis in machine.axes_in_product_order() {
         let mut indices = [layout::NO_FUNCTION; 6];
         for (n, component) in axis.components.iter().enumerate() {
@@ -112,12 +114,21 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
                 grid.pose[letter.index()] as f32,
             )
         };
+        if letter == AxisLetter::X {
+            x_position = Some(axes.len() as u32);
+        }
+        let first_entry = entries;
+        entries += if source == layout::SOURCE_FIXED {
+            1
+        } else {
+            grid.dims[source as usize] as u32
+        };
         axes.push(AxisData {
             offset: vec4_of(axis.offset_mm),
             location_delta: vec4_of([ex, ey, ez]),
             location_m: mat4_of(&rot_deviation(ea, eb, ec)),
             unit: vec4_of(axis.unit_vector()),
-            info: [kind, source, letter.direction_index() as u32, 0],
+            info: [kind, source, letter.direction_index() as u32, first_entry],
             fixed_q: [fixed, 0.0, 0.0, 0.0],
             functions_a: [indices[0], indices[1], indices[2], indices[3]],
             functions_b: [
@@ -147,7 +158,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
             grid.dims[2] as u32,
             axes.len() as u32,
         ],
-        chunk: [0; 4],
+        chunk: [0, 0, x_position.unwrap_or(axes.len() as u32), entries],
         tail_offset: vec4_of(machine.tool_offset_mm),
         tail_delta: vec4_of(tail_delta.into()),
         tail_m: mat4_of(&spindle_m),
@@ -161,17 +172,21 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
     }
 }
 
-/// The chain kernel on an open device.
+/// The chain kernels on an open device.
 pub struct GpuMapper {
     gpu: Gpu,
-    kernel: device::Kernel,
+    axis_values: device::Kernel,
+    line_values: device::Kernel,
+    points: device::Kernel,
 }
 
+/// The buffers of one chunk in flight.
 struct Slot {
     params: Buffer,
     output: Buffer,
     staging: Buffer,
-    bindings: device::Bindings,
+    line_bindings: device::Bindings,
+    point_bindings: device::Bindings,
 }
 
 impl GpuMapper {
@@ -180,8 +195,15 @@ impl GpuMapper {
         let Some(gpu) = Gpu::open()? else {
             return Ok(None);
         };
-        let kernel = gpu.kernel("chain.wgsl", CHAIN_WGSL, "main")?;
-        Ok(Some(GpuMapper { gpu, kernel }))
+        let axis_values = gpu.kernel("chain.wgsl axis_values", CHAIN_WGSL, "axis_values_main")?;
+        let line_values = gpu.kernel("chain.wgsl line_values", CHAIN_WGSL, "line_values_main")?;
+        let points = gpu.kernel("chain.wgsl points", CHAIN_WGSL, "points_main")?;
+        Ok(Some(GpuMapper {
+            gpu,
+            axis_values,
+            line_values,
+            points,
+        }))
     }
 
     pub fn adapter_name(&self) -> &str {
@@ -190,11 +212,13 @@ impl GpuMapper {
 
     /// The most points one chunk may hold on this device.
     pub fn max_chunk_points(&self) -> u64 {
-        let by_binding = self.gpu.max_storage_binding_bytes() / BYTES_PER_POINT;
-        let by_dispatch = self.gpu.max_workgroups_per_dimension() as u64
-            * self.gpu.max_workgroups_per_dimension() as u64
-            * WORKGROUP_SIZE;
-        by_binding.min(by_dispatch).min(DEFAULT_CHUNK_POINTS)
+        (self.gpu.max_storage_binding_bytes() / BYTES_PER_POINT).min(DEFAULT_CHUNK_POINTS)
+    }
+
+    /// The most lines one chunk may hold: one workgroup row per line.
+    pub fn max_chunk_lines(&self) -> u64 {
+        let by_binding = self.gpu.max_storage_binding_bytes() / std::mem::size_of::<LineData>() as u64;
+        (self.gpu.max_workgroups_per_dimension() as u64).min(by_binding)
     }
 
     /// Computes the map chunk by chunk. `on_chunk(first_line, lines, data)` receives each chunk's
@@ -209,73 +233,100 @@ impl GpuMapper {
     ) -> Result<(), E> {
         let packed = pack(machine, grid);
         let nx = grid.dims[0] as u64;
-        let limit =
-            chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
-        if nx > limit {
-            return Err(GpuError::Runtime {
-                adapter: self.adapter_name().to_string(),
-                message: format!(
-                    "a line of {nx} points does not fit in one chunk of at most {limit} points"
-                ),
-            }
-            .into());
-        }
-        let chunks = grid.chunks(limit);
-        let chunk_bytes = chunks
-            .iter()
-            .map(|&(_, lines)| lines * nx)
-            .max()
-            .unwrap_or(nx)
-            * BYTES_PER_POINT;
         let gpu = &self.gpu;
+        let error = |message: String| GpuError::Runtime {
+            adapter: self.adapter_name().to_string(),
+            message,
+        };
+        let limit = chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
+        let x_groups = nx.div_ceil(WORKGROUP_SIZE);
+        if nx > limit || x_groups > gpu.max_workgroups_per_dimension() as u64 {
+            return Err(error(format!("a line of {nx} points does not fit in one chunk of at most {limit} points")).into());
+        }
+        let lines_per_chunk = (limit / nx).min(self.max_chunk_lines()).max(1);
+        let chunks = grid.chunks(lines_per_chunk * nx);
+        let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
+        let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
+        let entries = packed.params.chunk[3] as u64;
+
+        let params = gpu.uniform("params", bytemuck::bytes_of(&packed.params));
         let axes = gpu.storage("axes", bytemuck::cast_slice(&packed.axes));
         let functions = gpu.storage("functions", bytemuck::cast_slice(&packed.functions));
         let pieces = gpu.storage("pieces", bytemuck::cast_slice(&packed.pieces));
         let coefficients = gpu.storage("coefficients", bytemuck::cast_slice(&packed.coefficients));
+        let axis_values = gpu.output("axis values", entries.max(1) * std::mem::size_of::<DevData>() as u64);
+
+        // Every axis at every grid value it takes, once per map.
+        let axis_bindings = gpu.bind(
+            &self.axis_values,
+            &[(0, &params), (1, &axes), (2, &functions), (3, &pieces), (4, &coefficients), (5, &axis_values)],
+        );
+        let groups = entries.div_ceil(WORKGROUP_SIZE);
+        if groups > gpu.max_workgroups_per_dimension() as u64 {
+            return Err(error(format!("{entries} axis values exceed one dispatch")).into());
+        }
+        gpu.submit(
+            &[Pass {
+                kernel: &self.axis_values,
+                bindings: &axis_bindings,
+                workgroups: [groups as u32, 1, 1],
+            }],
+            None,
+        );
+
         let slots: Vec<Slot> = (0..2.min(chunks.len()))
             .map(|_| {
-                let params = gpu.uniform("params", bytemuck::bytes_of(&packed.params));
+                let params = gpu.uniform("chunk params", bytemuck::bytes_of(&packed.params));
+                let lines = gpu.output("line values", chunk_lines * std::mem::size_of::<LineData>() as u64);
                 let output = gpu.output("output", chunk_bytes);
                 let staging = gpu.staging("staging", chunk_bytes);
-                let bindings = gpu.bind(
-                    &self.kernel,
-                    &[&params, &axes, &functions, &pieces, &coefficients, &output],
-                );
+                let line_bindings = gpu.bind(&self.line_values, &[(0, &params), (1, &axes), (5, &axis_values), (6, &lines)]);
+                let point_bindings =
+                    gpu.bind(&self.points, &[(0, &params), (1, &axes), (5, &axis_values), (6, &lines), (7, &output)]);
                 Slot {
                     params,
                     output,
                     staging,
-                    bindings,
+                    line_bindings,
+                    point_bindings,
                 }
             })
             .collect();
 
         let mut pending: Option<(device::Submission, usize, u64, u64)> = None;
         for (n, &(first_line, lines)) in chunks.iter().enumerate() {
-            let slot = &slots[n % slots.len()];
-            let points = lines * nx;
-            let mut params = packed.params;
-            params.chunk = [first_line as u32, points as u32, 0, 0];
-            gpu.write(&slot.params, bytemuck::bytes_of(&params));
-            let submission = gpu.dispatch(
-                &self.kernel,
-                &slot.bindings,
-                points.div_ceil(WORKGROUP_SIZE),
-                Readback {
+            let s = n % slots.len();
+            let slot = &slots[s];
+            let mut chunk_params = packed.params;
+            chunk_params.chunk[0] = first_line as u32;
+            chunk_params.chunk[1] = lines as u32;
+            gpu.write(&slot.params, bytemuck::bytes_of(&chunk_params));
+            let submission = gpu.submit(
+                &[
+                    Pass {
+                        kernel: &self.line_values,
+                        bindings: &slot.line_bindings,
+                        workgroups: [lines.div_ceil(WORKGROUP_SIZE) as u32, 1, 1],
+                    },
+                    Pass {
+                        kernel: &self.points,
+                        bindings: &slot.point_bindings,
+                        workgroups: [x_groups as u32, lines as u32, 1],
+                    },
+                ],
+                Some(Readback {
                     from: &slot.output,
                     to: &slot.staging,
-                    bytes: points * BYTES_PER_POINT,
-                },
+                    bytes: lines * nx * BYTES_PER_POINT,
+                }),
             );
             // Read the previous chunk while this one computes.
-            if let Some((previous, s, first, count)) =
-                pending.replace((submission, n % slots.len(), first_line, lines))
-            {
-                self.deliver(previous, &slots[s], first, count, nx, &mut on_chunk)?;
+            if let Some((previous, ps, first, count)) = pending.replace((submission, s, first_line, lines)) {
+                self.deliver(previous, &slots[ps], first, count, nx, &mut on_chunk)?;
             }
         }
-        if let Some((previous, s, first, count)) = pending {
-            self.deliver(previous, &slots[s], first, count, nx, &mut on_chunk)?;
+        if let Some((previous, ps, first, count)) = pending {
+            self.deliver(previous, &slots[ps], first, count, nx, &mut on_chunk)?;
         }
         Ok(())
     }
@@ -290,8 +341,7 @@ impl GpuMapper {
         on_chunk: &mut impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
     ) -> Result<(), E> {
         let bytes = lines * nx * BYTES_PER_POINT;
-        self.gpu.read(submission, &slot.staging, bytes, |data| {
-            on_chunk(first_line, lines, bytemuck::cast_slice(data))
-        })?
+        self.gpu
+            .read(submission, &slot.staging, bytes, |data| on_chunk(first_line, lines, bytemuck::cast_slice(data)))?
     }
 }

@@ -184,39 +184,29 @@ fn lines_longer_than_a_chunk_are_an_error_not_a_wrong_map() {
 }
 
 #[test]
-fn a_chunk_of_more_than_65535_workgroups_spreads_over_two_dimensions() {
-    // 2048 × 2048 points = 4 Mi points = 65,536 workgroups of 64: one more than a dispatch
-    // dimension holds, so the kernel must index over x and y.
+fn more_lines_than_a_dispatch_dimension_holds_run_in_several_chunks() {
+    // One workgroup row per line: 70,000 lines exceed the 65,535 workgroups of a dispatch
+    // dimension, so the 210,000 points (far below the point budget) need two chunks.
     let machine = embedded::embedded("vmc-li2015").unwrap().unwrap();
-    let grid = Grid::full_travel(&machine, [2048, 2048, 1], [0.0; 6]).unwrap();
+    let grid = Grid::full_travel(&machine, [3, 70_000, 1], [0.0; 6]).unwrap();
     let Some(gpu) = gpu() else { return };
-    // Random points, and the last 64, which only the second row of workgroups computes.
-    let mut checked = volmap::map::sample_points(grid.points() - 64, 3000);
-    checked.extend(grid.points() - 64..grid.points());
+    // Random points, and the last lines, which only the second chunk computes.
+    let mut checked = volmap::map::sample_points(grid.points() - 300, 3000);
+    checked.extend(grid.points() - 300..grid.points());
     let mut captured = Vec::new();
     let mut chunks = 0;
-    gpu.run(
-        &machine,
-        &grid,
-        None,
-        |first, lines, data| -> Result<(), volmap::gpu::GpuError> {
-            chunks += 1;
-            let nx = grid.dims[0] as u64;
-            for &p in checked
-                .iter()
-                .filter(|&&p| p / nx >= first && p / nx < first + lines)
-            {
-                let (line, i) = ((p / nx - first) as usize, (p % nx) as usize);
-                let base = line * CHANNELS.len() * nx as usize + i;
-                captured.push(std::array::from_fn::<f32, 6, _>(|c| {
-                    data[base + c * nx as usize]
-                }));
-            }
-            Ok(())
-        },
-    )
+    let nx = grid.dims[0];
+    gpu.run(&machine, &grid, None, |first, lines, data| -> Result<(), volmap::gpu::GpuError> {
+        chunks += 1;
+        for &p in checked.iter().filter(|&&p| (first..first + lines).contains(&(p / nx as u64))) {
+            let (line, i) = ((p / nx as u64 - first) as usize, (p % nx as u64) as usize);
+            let base = line * CHANNELS.len() * nx + i;
+            captured.push(std::array::from_fn::<f32, 6, _>(|c| data[base + c * nx]));
+        }
+        Ok(())
+    })
     .unwrap();
-    assert_eq!(chunks, 1, "the whole grid is one chunk");
+    assert_eq!(chunks, 2);
     assert_eq!(captured.len(), checked.len());
     let result = volmap::map::check_against_reference(&machine, &grid, &checked, &captured);
     assert!(result.passed(), "{result:?}");
