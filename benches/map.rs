@@ -40,7 +40,7 @@ fn bench_maps(c: &mut Criterion) {
         let mut out = vec![0.0f32; grid.points() as usize * 6];
         group.bench_function("reference, all cores", |b| {
             b.iter(|| {
-                cpu::compute_lines(
+                cpu::reference_lines(
                     &machine,
                     &ideal,
                     &grid,

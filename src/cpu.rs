@@ -1,7 +1,11 @@
-//! The CPU engine: the f64 reference at every grid point, in parallel (rayon), producing chunks
-//! in the same layout as the GPU engine. Used where no adapter exists, with `--device cpu`, and
-//! by `--check`.
+//! The CPU engines, producing chunks in the same layout as the GPU engine:
+//! - [`CpuPlan`], the CPU twin of the GPU's passes in f64: every axis transform once per grid
+//!   value, the products before and after X once per line, two 4×4 products per point, and the
+//!   ideal machine alongside. Used where no adapter exists and with `--device cpu`.
+//! - [`reference_lines`], the f64 reference at every point: ground truth for tests, `--check`
+//!   and the benchmarks' baseline.
 
+use nalgebra::Matrix4;
 use rayon::prelude::*;
 
 use crate::gpu::layout::CHANNELS;
@@ -19,8 +23,9 @@ pub fn point_values(machine: &Machine, ideal: &Machine, grid: &Grid, ijk: [usize
     [oe.x, oe.y, oe.z, ve.x, ve.y, ve.z]
 }
 
-/// Computes lines `first_line .. first_line + lines` into `out` (`lines · 6 · nx` values).
-pub fn compute_lines(
+/// Computes lines `first_line .. first_line + lines` into `out` (`lines · 6 · nx` values) with
+/// the reference at every point.
+pub fn reference_lines(
     machine: &Machine,
     ideal: &Machine,
     grid: &Grid,
@@ -45,20 +50,142 @@ pub fn compute_lines(
         });
 }
 
-/// The whole map, chunk by chunk, with the same callback as the GPU engine.
+type Transform = Matrix4<f64>;
+
+/// One axis's transforms, real and ideal, at every value of the grid coordinate that drives it.
+struct AxisTable {
+    /// The grid dimension (0 X, 1 Y, 2 Z), or `None` for an axis held at the pose.
+    dimension: Option<usize>,
+    real: Vec<Transform>,
+    ideal: Vec<Transform>,
+}
+
+impl AxisTable {
+    fn at(&self, ijk: [usize; 3]) -> (&Transform, &Transform) {
+        let n = self.dimension.map_or(0, |d| ijk[d]);
+        (&self.real[n], &self.ideal[n])
+    }
+}
+
+/// The CPU twin of the GPU passes, in f64: `E_rel = Pre(j, k) · A_X(i) · Post(j, k)`.
+pub struct CpuPlan {
+    grid: Grid,
+    /// The axes in product order.
+    axes: Vec<AxisTable>,
+    /// Where X stands in the product order (`axes.len()` when there is no X).
+    x_position: usize,
+    tail_real: Transform,
+    tail_ideal: Transform,
+}
+
+impl CpuPlan {
+    pub fn new(machine: &Machine, grid: &Grid) -> CpuPlan {
+        let ideal_machine = machine.without_errors();
+        let mut x_position = None;
+        let axes: Vec<AxisTable> = machine
+            .axes_in_product_order()
+            .into_iter()
+            .enumerate()
+            .map(|(n, axis)| {
+                let ideal_axis = ideal_machine.axis(axis.letter).expect("same axes");
+                let dimension = axis
+                    .letter
+                    .is_linear()
+                    .then(|| axis.letter.direction_index());
+                if dimension == Some(0) {
+                    x_position = Some(n);
+                }
+                let positions: Vec<f64> = match dimension {
+                    Some(d) => (0..grid.dims[d])
+                        .map(|v| grid.origin_mm[d] + v as f64 * grid.spacing_mm[d])
+                        .collect(),
+                    None => vec![grid.pose[axis.letter.index()]],
+                };
+                AxisTable {
+                    dimension,
+                    real: positions
+                        .iter()
+                        .map(|&q| reference::axis_transform(axis, q))
+                        .collect(),
+                    ideal: positions
+                        .iter()
+                        .map(|&q| reference::axis_transform(ideal_axis, q))
+                        .collect(),
+                }
+            })
+            .collect();
+        let tail = |m: &Machine| {
+            let [exs, eys, ezs, eas, ebs] = m.spindle;
+            reference::error_transform([exs, eys, ezs, eas, ebs, 0.0])
+                * reference::trans(nalgebra::Vector3::from(m.tool_offset_mm))
+        };
+        CpuPlan {
+            grid: grid.clone(),
+            x_position: x_position.unwrap_or(axes.len()),
+            axes,
+            tail_real: tail(machine),
+            tail_ideal: tail(&ideal_machine),
+        }
+    }
+
+    /// Computes lines `first_line .. first_line + lines` into `out` (`lines · 6 · nx` values).
+    pub fn compute_lines(&self, first_line: u64, lines: u64, out: &mut [f32]) {
+        let nx = self.grid.dims[0];
+        let ny = self.grid.dims[1] as u64;
+        out.par_chunks_mut(CHANNELS.len() * nx)
+            .take(lines as usize)
+            .enumerate()
+            .for_each(|(n, line_out)| {
+                let line = first_line + n as u64;
+                let ijk = [0, (line % ny) as usize, (line / ny) as usize];
+                let (mut pre_r, mut pre_i) = (Transform::identity(), Transform::identity());
+                let (mut post_r, mut post_i) = (Transform::identity(), Transform::identity());
+                for (a, table) in self.axes.iter().enumerate() {
+                    let (r, i) = table.at(ijk);
+                    if a < self.x_position {
+                        pre_r *= r;
+                        pre_i *= i;
+                    } else if a > self.x_position {
+                        post_r *= r;
+                        post_i *= i;
+                    }
+                }
+                post_r *= self.tail_real;
+                post_i *= self.tail_ideal;
+                for i in 0..nx {
+                    let (real, ideal) = match self.axes.get(self.x_position) {
+                        Some(x) => {
+                            let (xr, xi) = x.at([i, 0, 0]);
+                            (pre_r * xr * post_r, pre_i * xi * post_i)
+                        }
+                        None => (pre_r * post_r, pre_i * post_i),
+                    };
+                    let ve = real.fixed_view::<3, 1>(0, 3) - ideal.fixed_view::<3, 1>(0, 3);
+                    let r =
+                        real.fixed_view::<3, 3>(0, 0) * ideal.fixed_view::<3, 3>(0, 0).transpose();
+                    let oe = reference::rotation_vector(&r);
+                    for (c, v) in [oe.x, oe.y, oe.z, ve.x, ve.y, ve.z].iter().enumerate() {
+                        line_out[c * nx + i] = *v as f32;
+                    }
+                }
+            });
+    }
+}
+
+/// The whole map with [`CpuPlan`], chunk by chunk, with the same callback as the GPU engine.
 pub fn run<E>(
     machine: &Machine,
     grid: &Grid,
     chunk_points: Option<u64>,
     mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
 ) -> Result<(), E> {
-    let ideal = machine.without_errors();
+    let plan = CpuPlan::new(machine, grid);
     let chunks = grid.chunks(chunk_points.unwrap_or(CPU_CHUNK_POINTS));
     let nx = grid.dims[0];
     let mut buffer = Vec::new();
     for (first_line, lines) in chunks {
         buffer.resize(lines as usize * nx * CHANNELS.len(), 0.0f32);
-        compute_lines(machine, &ideal, grid, first_line, lines, &mut buffer);
+        plan.compute_lines(first_line, lines, &mut buffer);
         on_chunk(first_line, lines, &buffer)?;
     }
     Ok(())

@@ -47,9 +47,7 @@ impl Engine {
             Some(gpu) => Ok((Engine::Gpu(Box::new(gpu)), None)),
             None if choice == DeviceChoice::Auto => Ok((
                 Engine::Cpu,
-                Some(
-                    "no GPU adapter found: computing on the CPU (f64 reference, all cores)".into(),
-                ),
+                Some("no GPU adapter found: computing on the CPU (f64, all cores)".into()),
             )),
             None => Err(MapError::NoAdapter),
         }

@@ -248,7 +248,9 @@ impl Gpu {
     /// Runs `passes` in order (each sees what the previous wrote), then copies the output into
     /// the readback buffer if one is given, in one submission.
     pub fn submit(&self, passes: &[Pass], readback: Option<Readback>) -> Submission {
-        let mut encoder = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: None,

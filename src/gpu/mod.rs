@@ -217,7 +217,8 @@ impl GpuMapper {
 
     /// The most lines one chunk may hold: one workgroup row per line.
     pub fn max_chunk_lines(&self) -> u64 {
-        let by_binding = self.gpu.max_storage_binding_bytes() / std::mem::size_of::<LineData>() as u64;
+        let by_binding =
+            self.gpu.max_storage_binding_bytes() / std::mem::size_of::<LineData>() as u64;
         (self.gpu.max_workgroups_per_dimension() as u64).min(by_binding)
     }
 
@@ -238,10 +239,14 @@ impl GpuMapper {
             adapter: self.adapter_name().to_string(),
             message,
         };
-        let limit = chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
+        let limit =
+            chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
         let x_groups = nx.div_ceil(WORKGROUP_SIZE);
         if nx > limit || x_groups > gpu.max_workgroups_per_dimension() as u64 {
-            return Err(error(format!("a line of {nx} points does not fit in one chunk of at most {limit} points")).into());
+            return Err(error(format!(
+                "a line of {nx} points does not fit in one chunk of at most {limit} points"
+            ))
+            .into());
         }
         let lines_per_chunk = (limit / nx).min(self.max_chunk_lines()).max(1);
         let chunks = grid.chunks(lines_per_chunk * nx);
@@ -254,12 +259,22 @@ impl GpuMapper {
         let functions = gpu.storage("functions", bytemuck::cast_slice(&packed.functions));
         let pieces = gpu.storage("pieces", bytemuck::cast_slice(&packed.pieces));
         let coefficients = gpu.storage("coefficients", bytemuck::cast_slice(&packed.coefficients));
-        let axis_values = gpu.output("axis values", entries.max(1) * std::mem::size_of::<DevData>() as u64);
+        let axis_values = gpu.output(
+            "axis values",
+            entries.max(1) * std::mem::size_of::<DevData>() as u64,
+        );
 
         // Every axis at every grid value it takes, once per map.
         let axis_bindings = gpu.bind(
             &self.axis_values,
-            &[(0, &params), (1, &axes), (2, &functions), (3, &pieces), (4, &coefficients), (5, &axis_values)],
+            &[
+                (0, &params),
+                (1, &axes),
+                (2, &functions),
+                (3, &pieces),
+                (4, &coefficients),
+                (5, &axis_values),
+            ],
         );
         let groups = entries.div_ceil(WORKGROUP_SIZE);
         if groups > gpu.max_workgroups_per_dimension() as u64 {
@@ -277,12 +292,26 @@ impl GpuMapper {
         let slots: Vec<Slot> = (0..2.min(chunks.len()))
             .map(|_| {
                 let params = gpu.uniform("chunk params", bytemuck::bytes_of(&packed.params));
-                let lines = gpu.output("line values", chunk_lines * std::mem::size_of::<LineData>() as u64);
+                let lines = gpu.output(
+                    "line values",
+                    chunk_lines * std::mem::size_of::<LineData>() as u64,
+                );
                 let output = gpu.output("output", chunk_bytes);
                 let staging = gpu.staging("staging", chunk_bytes);
-                let line_bindings = gpu.bind(&self.line_values, &[(0, &params), (1, &axes), (5, &axis_values), (6, &lines)]);
-                let point_bindings =
-                    gpu.bind(&self.points, &[(0, &params), (1, &axes), (5, &axis_values), (6, &lines), (7, &output)]);
+                let line_bindings = gpu.bind(
+                    &self.line_values,
+                    &[(0, &params), (1, &axes), (5, &axis_values), (6, &lines)],
+                );
+                let point_bindings = gpu.bind(
+                    &self.points,
+                    &[
+                        (0, &params),
+                        (1, &axes),
+                        (5, &axis_values),
+                        (6, &lines),
+                        (7, &output),
+                    ],
+                );
                 Slot {
                     params,
                     output,
@@ -321,7 +350,9 @@ impl GpuMapper {
                 }),
             );
             // Read the previous chunk while this one computes.
-            if let Some((previous, ps, first, count)) = pending.replace((submission, s, first_line, lines)) {
+            if let Some((previous, ps, first, count)) =
+                pending.replace((submission, s, first_line, lines))
+            {
                 self.deliver(previous, &slots[ps], first, count, nx, &mut on_chunk)?;
             }
         }
@@ -341,7 +372,8 @@ impl GpuMapper {
         on_chunk: &mut impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
     ) -> Result<(), E> {
         let bytes = lines * nx * BYTES_PER_POINT;
-        self.gpu
-            .read(submission, &slot.staging, bytes, |data| on_chunk(first_line, lines, bytemuck::cast_slice(data)))?
+        self.gpu.read(submission, &slot.staging, bytes, |data| {
+            on_chunk(first_line, lines, bytemuck::cast_slice(data))
+        })?
     }
 }

@@ -196,15 +196,23 @@ fn more_lines_than_a_dispatch_dimension_holds_run_in_several_chunks() {
     let mut captured = Vec::new();
     let mut chunks = 0;
     let nx = grid.dims[0];
-    gpu.run(&machine, &grid, None, |first, lines, data| -> Result<(), volmap::gpu::GpuError> {
-        chunks += 1;
-        for &p in checked.iter().filter(|&&p| (first..first + lines).contains(&(p / nx as u64))) {
-            let (line, i) = ((p / nx as u64 - first) as usize, (p % nx as u64) as usize);
-            let base = line * CHANNELS.len() * nx + i;
-            captured.push(std::array::from_fn::<f32, 6, _>(|c| data[base + c * nx]));
-        }
-        Ok(())
-    })
+    gpu.run(
+        &machine,
+        &grid,
+        None,
+        |first, lines, data| -> Result<(), volmap::gpu::GpuError> {
+            chunks += 1;
+            for &p in checked
+                .iter()
+                .filter(|&&p| (first..first + lines).contains(&(p / nx as u64)))
+            {
+                let (line, i) = ((p / nx as u64 - first) as usize, (p % nx as u64) as usize);
+                let base = line * CHANNELS.len() * nx + i;
+                captured.push(std::array::from_fn::<f32, 6, _>(|c| data[base + c * nx]));
+            }
+            Ok(())
+        },
+    )
     .unwrap();
     assert_eq!(chunks, 2);
     assert_eq!(captured.len(), checked.len());

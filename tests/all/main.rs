@@ -3,6 +3,7 @@
 
 mod cli;
 mod common;
+mod cpu;
 mod field;
 mod golden;
 mod gpu;
