@@ -57,7 +57,7 @@ impl Engine {
         match self {
             Engine::Gpu(g) => g.adapter_name().to_string(),
             Engine::Cpu => format!(
-                "CPU, f64 reference ({} threads)",
+                "CPU, f64 ({} threads)",
                 rayon::current_num_threads()
             ),
         }
