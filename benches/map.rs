@@ -1,21 +1,27 @@
-//! Throughput of the map paths, in grid points per second: the f64 reference on one core and on
-//! all cores, and the GPU kernel with readback, for the 3-axis and the 5-axis embedded machines.
-//! `cargo bench`. Without an adapter the GPU benchmarks are left out, with a line saying so.
+//! Criterion benchmarks of every map path, in grid points per second, for the 3-axis and the
+//! 5-axis embedded machines: the f64 reference (one thread), the CPU engine (all threads), the
+//! GPU kernel alone and with readback, and writing the EXR field. `cargo bench`; the fixed seed is
+//! the grid itself. Without an adapter the GPU benchmarks are left out, with a line saying so.
+//! `volmap bench` prints the same figures as one table.
 
 use std::hint::black_box;
+use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use volmap::cpu;
-use volmap::gpu::{GpuError, GpuMapper};
+use volmap::cpu::{self, CpuPlan};
+use volmap::field::FieldWriter;
+use volmap::gpu::layout::CHANNELS;
+use volmap::gpu::{GpuError, GpuMapper, KernelChoice};
 use volmap::grid::Grid;
 use volmap::machine::embedded;
-use volmap::reference;
+use volmap::map;
 
 fn bench_maps(c: &mut Criterion) {
     let gpu = GpuMapper::open().ok().flatten();
     if gpu.is_none() {
         eprintln!("no GPU adapter: GPU benchmarks left out");
     }
+    let scratch = tempfile::tempdir().expect("scratch folder");
     for (name, pose) in [
         ("vmc-li2015", [0.0; 6]),
         ("5axis-hwang2014", [0.0, 0.0, 0.0, 0.0, 30.0, 60.0]),
@@ -23,39 +29,69 @@ fn bench_maps(c: &mut Criterion) {
         let machine = embedded::load(name).unwrap();
         let ideal = machine.without_errors();
         let mut group = c.benchmark_group(name);
+        group
+            .sample_size(10)
+            .measurement_time(Duration::from_secs(5));
 
-        let grid = Grid::full_travel(&machine, [16, 16, 16], pose).unwrap();
-        group.throughput(Throughput::Elements(grid.points()));
-        group.bench_function("reference, one core", |b| {
+        let small = Grid::full_travel(&machine, [32, 32, 8], pose).unwrap();
+        group.throughput(Throughput::Elements(small.points()));
+        group.bench_function("f64 reference, 1 thread", |b| {
             b.iter(|| {
-                for p in 0..grid.points() {
-                    black_box(reference::deviation_against(
+                for p in 0..small.points() {
+                    black_box(cpu::point_values(
                         &machine,
                         &ideal,
-                        &grid.command(grid.indices(p)),
+                        &small,
+                        small.indices(p),
                     ));
                 }
             })
         });
-        let mut out = vec![0.0f32; grid.points() as usize * 6];
-        group.bench_function("reference, all cores", |b| {
+
+        let grid = Grid::full_travel(&machine, [128, 128, 64], pose).unwrap();
+        group.throughput(Throughput::Elements(grid.points()));
+        let mut field = vec![0.0f32; grid.points() as usize * CHANNELS.len()];
+        group.bench_function("CPU engine, all threads", |b| {
             b.iter(|| {
-                cpu::reference_lines(
-                    &machine,
-                    &ideal,
-                    &grid,
-                    0,
-                    grid.lines(),
-                    black_box(&mut out),
-                )
+                CpuPlan::new(&machine, &grid).compute_lines(0, grid.lines(), black_box(&mut field))
+            })
+        });
+        let info = map::field_info(&machine, &grid, "bench");
+        let path = scratch.path().join("bench.exr");
+        group.bench_function("EXR write", |b| {
+            b.iter(|| {
+                let mut writer = FieldWriter::create(&path, &info).unwrap();
+                writer.write_lines(0, grid.lines(), &field).unwrap();
+                writer.finish().unwrap();
             })
         });
 
         if let Some(gpu) = &gpu {
-            let grid = Grid::full_travel(&machine, [128, 128, 64], pose).unwrap();
-            group.throughput(Throughput::Elements(grid.points()));
-            group.sample_size(10);
-            group.bench_function("GPU kernel with readback", |b| {
+            group.bench_function("GPU kernel", |b| {
+                b.iter_custom(|iterations| {
+                    (0..iterations)
+                        .map(|_| {
+                            Duration::from_secs_f64(
+                                gpu.time_kernel(&machine, &grid, KernelChoice::Chain)
+                                    .unwrap(),
+                            )
+                        })
+                        .sum()
+                })
+            });
+            group.bench_function("GPU write-only ceiling", |b| {
+                b.iter_custom(|iterations| {
+                    (0..iterations)
+                        .map(|_| {
+                            Duration::from_secs_f64(
+                                gpu.time_kernel(&machine, &grid, KernelChoice::WriteOnly)
+                                    .unwrap(),
+                            )
+                        })
+                        .sum()
+                })
+            });
+            group.bench_function("GPU kernel + readback", |b| {
                 b.iter(|| {
                     gpu.run(
                         &machine,

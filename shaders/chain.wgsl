@@ -372,3 +372,26 @@ fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     out[base + 4u * nx] = ve.y;
     out[base + 5u * nx] = ve.z;
 }
+
+// The ceiling `volmap bench` measures the chain kernel against: the same dispatch and the same
+// output as `points_main`, computing nothing.
+@compute @workgroup_size(64)
+fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let nx = params.grid.x;
+    let i = wid.x * WORKGROUP + lid.x;
+    let local_line = wid.y;
+    if i >= nx || local_line >= params.chunk.y {
+        return;
+    }
+    let base = local_line * 6u * nx + i;
+    if base + 5u * nx >= arrayLength(&out) {
+        return;
+    }
+    let v = f32(i);
+    out[base] = v;
+    out[base + nx] = v;
+    out[base + 2u * nx] = v;
+    out[base + 3u * nx] = v;
+    out[base + 4u * nx] = v;
+    out[base + 5u * nx] = v;
+}

@@ -17,6 +17,7 @@
 //! Feature queries, standard tests and NC compensation build on [`reference`], [`map`] and
 //! [`field`] and get modules of their own beside these.
 
+pub mod bench;
 pub mod cpu;
 pub mod field;
 pub mod gpu;

@@ -37,6 +37,31 @@ enum Command {
         /// The field file (.exr).
         file: PathBuf,
     },
+    /// Measure every path on this machine (CPU reference, CPU engine, GPU kernel, readback, EXR
+    /// writing, whole maps) and print one table.
+    Bench(BenchArgs),
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// The machines to measure, comma-separated (embedded names or files).
+    #[arg(long, default_value = "vmc-li2015,5axis-hwang2014")]
+    machines: String,
+    /// The grid, spanning each machine's travels.
+    #[arg(long, default_value = "128x128x128")]
+    grid: String,
+    /// Rotary axes' positions in degrees for machines that have them.
+    #[arg(long, default_value = "B=30,C=60")]
+    pose: String,
+    /// Points the single-thread f64 reference computes (its rate does not depend on how many).
+    #[arg(long, default_value_t = 100_000)]
+    reference_points: u64,
+    /// Where to compute the GPU paths: `auto` measures them when an adapter exists.
+    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    device: Device,
+    /// Also write the figures as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -100,6 +125,7 @@ fn main() -> ExitCode {
         Command::Map(args) => run_map(args),
         Command::Machines => list_machines(),
         Command::Info { file } => run_info(&file),
+        Command::Bench(args) => run_bench(args),
     };
     match result {
         Ok(code) => code,
@@ -249,5 +275,77 @@ fn run_info(path: &Path) -> Result<ExitCode, Failure> {
         .map_err(bad_input)?;
     print_summary(&info, &stats);
     println!("  field       {}", path.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn run_bench(args: BenchArgs) -> Result<ExitCode, Failure> {
+    let dims = grid::parse_dims(&args.grid).map_err(bad_input)?;
+    let mut machines = Vec::new();
+    for name in args
+        .machines
+        .split(',')
+        .map(str::trim)
+        .filter(|n| !n.is_empty())
+    {
+        let machine = embedded::load(name).map_err(bad_input)?;
+        // Each machine takes the rotary positions of --pose that it has axes for.
+        let pose_text: Vec<&str> = args
+            .pose
+            .split(',')
+            .filter(|p| {
+                p.trim()
+                    .chars()
+                    .next()
+                    .and_then(volmap::machine::AxisLetter::from_char)
+                    .is_some_and(|l| machine.chain.contains(l))
+            })
+            .collect();
+        let pose = grid::parse_pose(&pose_text.join(","), &machine).map_err(bad_input)?;
+        let grid = Grid::full_travel(&machine, dims, pose).map_err(bad_input)?;
+        machines.push((machine, grid));
+    }
+    let gpu = match args.device {
+        Device::Cpu => None,
+        Device::Gpu => {
+            Some(volmap::gpu::GpuMapper::open()?.ok_or(volmap::map::MapError::NoAdapter)?)
+        }
+        Device::Auto => {
+            let gpu = volmap::gpu::GpuMapper::open()?;
+            if gpu.is_none() {
+                eprintln!("volmap: no GPU adapter found: GPU paths left out");
+            }
+            gpu
+        }
+    };
+    let scratch = std::env::temp_dir().join(format!("volmap-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).with_context(|| format!("creating {}", scratch.display()))?;
+    let mut results = Vec::new();
+    for (machine, grid) in &machines {
+        let result = volmap::bench::bench_machine(
+            machine,
+            grid,
+            gpu.as_ref(),
+            &scratch,
+            args.reference_points,
+            |step| eprintln!("bench: {}: {step}", machine.name),
+        );
+        results.push(result.with_context(|| format!("benchmarking {}", machine.name))?);
+    }
+    let _ = std::fs::remove_dir_all(&scratch);
+    let report = volmap::bench::BenchReport {
+        date: volmap::bench::today(),
+        adapter: gpu.as_ref().map(|g| g.adapter_name().to_string()),
+        cpu: volmap::bench::cpu_name(),
+        threads: rayon::current_num_threads(),
+        machines: results,
+    };
+    print!("{}", volmap::bench::table(&report));
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&report).context("encoding the report")?;
+        let temp = path.with_extension("json.part");
+        std::fs::write(&temp, text + "\n")
+            .with_context(|| format!("writing {}", temp.display()))?;
+        std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
+    }
     Ok(ExitCode::SUCCESS)
 }

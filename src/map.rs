@@ -56,10 +56,7 @@ impl Engine {
     pub fn name(&self) -> String {
         match self {
             Engine::Gpu(g) => g.adapter_name().to_string(),
-            Engine::Cpu => format!(
-                "CPU, f64 ({} threads)",
-                rayon::current_num_threads()
-            ),
+            Engine::Cpu => format!("CPU, f64 ({} threads)", rayon::current_num_threads()),
         }
     }
 

@@ -178,6 +178,16 @@ pub struct GpuMapper {
     axis_values: device::Kernel,
     line_values: device::Kernel,
     points: device::Kernel,
+    write_only: device::Kernel,
+}
+
+/// Which per-chunk work [`GpuMapper::time_kernel`] measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum KernelChoice {
+    /// The line and point passes of the chain.
+    Chain,
+    /// A kernel with the same dispatch and output that computes nothing: the ceiling.
+    WriteOnly,
 }
 
 /// The buffers of one chunk in flight.
@@ -187,6 +197,16 @@ struct Slot {
     staging: Buffer,
     line_bindings: device::Bindings,
     point_bindings: device::Bindings,
+    write_only_bindings: device::Bindings,
+}
+
+/// A map ready to run: the machine on the device, its axis values computed, the chunks planned.
+struct Prepared {
+    params: Params,
+    nx: u64,
+    x_groups: u32,
+    chunks: Vec<(u64, u64)>,
+    slots: Vec<Slot>,
 }
 
 impl GpuMapper {
@@ -195,14 +215,17 @@ impl GpuMapper {
         let Some(gpu) = Gpu::open()? else {
             return Ok(None);
         };
-        let axis_values = gpu.kernel("chain.wgsl axis_values", CHAIN_WGSL, "axis_values_main")?;
-        let line_values = gpu.kernel("chain.wgsl line_values", CHAIN_WGSL, "line_values_main")?;
-        let points = gpu.kernel("chain.wgsl points", CHAIN_WGSL, "points_main")?;
+        let kernel = |entry: &str| gpu.kernel(&format!("chain.wgsl {entry}"), CHAIN_WGSL, entry);
+        let axis_values = kernel("axis_values_main")?;
+        let line_values = kernel("line_values_main")?;
+        let points = kernel("points_main")?;
+        let write_only = kernel("write_only_main")?;
         Ok(Some(GpuMapper {
             gpu,
             axis_values,
             line_values,
             points,
+            write_only,
         }))
     }
 
@@ -222,31 +245,30 @@ impl GpuMapper {
         (self.gpu.max_workgroups_per_dimension() as u64).min(by_binding)
     }
 
-    /// Computes the map chunk by chunk. `on_chunk(first_line, lines, data)` receives each chunk's
-    /// output in line order: for each line, `nx` values of each channel of [`CHANNELS`].
-    /// `chunk_points` caps the points per chunk below the device's own limit.
-    pub fn run<E: From<GpuError>>(
+    fn error(&self, message: String) -> GpuError {
+        GpuError::Runtime {
+            adapter: self.adapter_name().to_string(),
+            message,
+        }
+    }
+
+    /// Uploads the machine, computes its axis values and plans the chunks.
+    fn prepare(
         &self,
         machine: &Machine,
         grid: &Grid,
         chunk_points: Option<u64>,
-        mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
-    ) -> Result<(), E> {
+    ) -> Result<Prepared, GpuError> {
         let packed = pack(machine, grid);
         let nx = grid.dims[0] as u64;
         let gpu = &self.gpu;
-        let error = |message: String| GpuError::Runtime {
-            adapter: self.adapter_name().to_string(),
-            message,
-        };
         let limit =
             chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
         let x_groups = nx.div_ceil(WORKGROUP_SIZE);
         if nx > limit || x_groups > gpu.max_workgroups_per_dimension() as u64 {
-            return Err(error(format!(
+            return Err(self.error(format!(
                 "a line of {nx} points does not fit in one chunk of at most {limit} points"
-            ))
-            .into());
+            )));
         }
         let lines_per_chunk = (limit / nx).min(self.max_chunk_lines()).max(1);
         let chunks = grid.chunks(lines_per_chunk * nx);
@@ -278,7 +300,7 @@ impl GpuMapper {
         );
         let groups = entries.div_ceil(WORKGROUP_SIZE);
         if groups > gpu.max_workgroups_per_dimension() as u64 {
-            return Err(error(format!("{entries} axis values exceed one dispatch")).into());
+            return Err(self.error(format!("{entries} axis values exceed one dispatch")));
         }
         gpu.submit(
             &[Pass {
@@ -289,7 +311,7 @@ impl GpuMapper {
             None,
         );
 
-        let slots: Vec<Slot> = (0..2.min(chunks.len()))
+        let slots = (0..2.min(chunks.len()))
             .map(|_| {
                 let params = gpu.uniform("chunk params", bytemuck::bytes_of(&packed.params));
                 let lines = gpu.output(
@@ -312,68 +334,130 @@ impl GpuMapper {
                         (7, &output),
                     ],
                 );
+                let write_only_bindings = gpu.bind(&self.write_only, &[(0, &params), (7, &output)]);
                 Slot {
                     params,
                     output,
                     staging,
                     line_bindings,
                     point_bindings,
+                    write_only_bindings,
                 }
             })
             .collect();
+        Ok(Prepared {
+            params: packed.params,
+            nx,
+            x_groups: x_groups as u32,
+            chunks,
+            slots,
+        })
+    }
 
-        let mut pending: Option<(device::Submission, usize, u64, u64)> = None;
-        for (n, &(first_line, lines)) in chunks.iter().enumerate() {
-            let s = n % slots.len();
-            let slot = &slots[s];
-            let mut chunk_params = packed.params;
-            chunk_params.chunk[0] = first_line as u32;
-            chunk_params.chunk[1] = lines as u32;
-            gpu.write(&slot.params, bytemuck::bytes_of(&chunk_params));
-            let submission = gpu.submit(
-                &[
-                    Pass {
-                        kernel: &self.line_values,
-                        bindings: &slot.line_bindings,
-                        workgroups: [lines.div_ceil(WORKGROUP_SIZE) as u32, 1, 1],
-                    },
-                    Pass {
-                        kernel: &self.points,
-                        bindings: &slot.point_bindings,
-                        workgroups: [x_groups as u32, lines as u32, 1],
-                    },
-                ],
-                Some(Readback {
-                    from: &slot.output,
-                    to: &slot.staging,
-                    bytes: lines * nx * BYTES_PER_POINT,
-                }),
-            );
+    /// Submits chunk `n` of `prepared` into its slot, with or without the copy to the host.
+    fn submit_chunk(
+        &self,
+        prepared: &Prepared,
+        n: usize,
+        choice: KernelChoice,
+        readback: bool,
+    ) -> device::Submission {
+        let (first_line, lines) = prepared.chunks[n];
+        let slot = &prepared.slots[n % prepared.slots.len()];
+        let mut params = prepared.params;
+        params.chunk[0] = first_line as u32;
+        params.chunk[1] = lines as u32;
+        self.gpu.write(&slot.params, bytemuck::bytes_of(&params));
+        let point_grid = [prepared.x_groups, lines as u32, 1];
+        let chain = [
+            Pass {
+                kernel: &self.line_values,
+                bindings: &slot.line_bindings,
+                workgroups: [lines.div_ceil(WORKGROUP_SIZE) as u32, 1, 1],
+            },
+            Pass {
+                kernel: &self.points,
+                bindings: &slot.point_bindings,
+                workgroups: point_grid,
+            },
+        ];
+        let write_only = [Pass {
+            kernel: &self.write_only,
+            bindings: &slot.write_only_bindings,
+            workgroups: point_grid,
+        }];
+        let passes: &[Pass] = match choice {
+            KernelChoice::Chain => &chain,
+            KernelChoice::WriteOnly => &write_only,
+        };
+        let copy = readback.then(|| Readback {
+            from: &slot.output,
+            to: &slot.staging,
+            bytes: lines * prepared.nx * BYTES_PER_POINT,
+        });
+        self.gpu.submit(passes, copy)
+    }
+
+    /// Computes the map chunk by chunk. `on_chunk(first_line, lines, data)` receives each chunk's
+    /// output in line order: for each line, `nx` values of each channel of [`CHANNELS`].
+    /// `chunk_points` caps the points per chunk below the device's own limit.
+    pub fn run<E: From<GpuError>>(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        chunk_points: Option<u64>,
+        mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let prepared = self.prepare(machine, grid, chunk_points)?;
+        let mut pending: Option<(device::Submission, usize)> = None;
+        for n in 0..prepared.chunks.len() {
+            let submission = self.submit_chunk(&prepared, n, KernelChoice::Chain, true);
             // Read the previous chunk while this one computes.
-            if let Some((previous, ps, first, count)) =
-                pending.replace((submission, s, first_line, lines))
-            {
-                self.deliver(previous, &slots[ps], first, count, nx, &mut on_chunk)?;
+            if let Some((previous, p)) = pending.replace((submission, n)) {
+                self.deliver(&prepared, previous, p, &mut on_chunk)?;
             }
         }
-        if let Some((previous, ps, first, count)) = pending {
-            self.deliver(previous, &slots[ps], first, count, nx, &mut on_chunk)?;
+        if let Some((previous, p)) = pending {
+            self.deliver(&prepared, previous, p, &mut on_chunk)?;
         }
         Ok(())
     }
 
     fn deliver<E: From<GpuError>>(
         &self,
+        prepared: &Prepared,
         submission: device::Submission,
-        slot: &Slot,
-        first_line: u64,
-        lines: u64,
-        nx: u64,
+        n: usize,
         on_chunk: &mut impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
     ) -> Result<(), E> {
-        let bytes = lines * nx * BYTES_PER_POINT;
+        let (first_line, lines) = prepared.chunks[n];
+        let slot = &prepared.slots[n % prepared.slots.len()];
+        let bytes = lines * prepared.nx * BYTES_PER_POINT;
         self.gpu.read(submission, &slot.staging, bytes, |data| {
             on_chunk(first_line, lines, bytemuck::cast_slice(data))
         })?
+    }
+
+    /// Seconds the per-chunk kernels take over the whole grid, without any copy to the host
+    /// (wall clock from the first submission to the end of the last).
+    pub fn time_kernel(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        choice: KernelChoice,
+    ) -> Result<f64, GpuError> {
+        let prepared = self.prepare(machine, grid, None)?;
+        // Let the axis pass and any lazy driver work finish before the clock starts.
+        let warm_up = self.submit_chunk(&prepared, 0, choice, false);
+        self.gpu.wait(warm_up)?;
+        let start = std::time::Instant::now();
+        let mut last = None;
+        for n in 0..prepared.chunks.len() {
+            last = Some(self.submit_chunk(&prepared, n, choice, false));
+        }
+        if let Some(last) = last {
+            self.gpu.wait(last)?;
+        }
+        Ok(start.elapsed().as_secs_f64())
     }
 }
