@@ -72,7 +72,7 @@ fn bench_maps(c: &mut Criterion) {
                     (0..iterations)
                         .map(|_| {
                             Duration::from_secs_f64(
-                                gpu.time_kernel(&machine, &grid, KernelChoice::Chain)
+                                gpu.time_kernel(&machine, &grid, KernelChoice::Chain, 1)
                                     .unwrap(),
                             )
                         })
@@ -84,7 +84,7 @@ fn bench_maps(c: &mut Criterion) {
                     (0..iterations)
                         .map(|_| {
                             Duration::from_secs_f64(
-                                gpu.time_kernel(&machine, &grid, KernelChoice::WriteOnly)
+                                gpu.time_kernel(&machine, &grid, KernelChoice::WriteOnly, 1)
                                     .unwrap(),
                             )
                         })

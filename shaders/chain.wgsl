@@ -31,6 +31,7 @@ struct Params {
     tail_offset: vec4<f32>,  // nominal translation of S·Trans(tool)
     tail_delta: vec4<f32>,   // translation deviation of S·Trans(tool)
     tail_m: mat4x4<f32>,     // R_S − I (upper 3×3)
+    options: vec4<u32>,      // x: 1 when a rotary axis stands before X in the product order; y: points per lane
 }
 
 struct AxisData {
@@ -80,6 +81,9 @@ struct LineData {
 @group(0) @binding(5) var<storage, read_write> axis_values: array<DevData>;
 @group(0) @binding(6) var<storage, read_write> line_values: array<LineData>;
 @group(0) @binding(7) var<storage, read_write> out: array<f32>;
+// The component errors of X at each i, (EXX, EYX, EZX, -) and (EAX, EBX, ECX, -): what the point
+// pass needs of A_X besides X's constant location, which the line pass folds into Pre.
+@group(0) @binding(8) var<storage, read_write> x_errors: array<vec4<f32>>;
 
 const NO_FUNCTION: u32 = 0xffffffffu;
 const KIND_LINEAR: u32 = 0u;
@@ -165,6 +169,29 @@ fn rot_deviation(e: vec3<f32>) -> mat3x3<f32> {
     return mxy + mz + mxy * mz;
 }
 
+// (sin x, cos x − 1) for error angles below 0.1 rad (checked on the host), by Taylor series that
+// are exact in f32 there: sin x = x(1 − x²/6(1 − x²/20(1 − x²/42))),
+// cos x − 1 = −x²/2 (1 − x²/12 (1 − x²/30)).
+fn tiny_sincos(x: vec3<f32>) -> array<vec3<f32>, 2> {
+    let x2 = x * x;
+    let s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0)));
+    let cm1 = -0.5 * x2 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0));
+    return array<vec3<f32>, 2>(s, cm1);
+}
+
+// Rot(a, b, c) − I = Rx(a)·Ry(b)·Rz(c) − I in closed form, the diagonal from cos − 1 so that
+// nothing cancels.
+fn tiny_rot_deviation(e: vec3<f32>) -> mat3x3<f32> {
+    let sc = tiny_sincos(e);
+    let s = sc[0];
+    let c1 = sc[1];
+    let c = 1.0 + c1;
+    return mat3x3<f32>(
+        vec3<f32>(c1.y + c1.z + c1.y * c1.z, s.x * s.y * c.z + c.x * s.z, s.x * s.z - c.x * s.y * c.z),
+        vec3<f32>(-c.y * s.z, c1.x + c1.z + c1.x * c1.z - s.x * s.y * s.z, c.x * s.y * s.z + s.x * c.z),
+        vec3<f32>(s.y, -s.x * c.y, c1.x + c1.y + c1.x * c1.y));
+}
+
 // Evaluates error function `index` at position q: wrap (periodic) and clamp into the domain, find
 // the last piece starting at or before q, Horner in q − start.
 fn eval_function(index: u32, q_in: f32) -> f32 {
@@ -226,11 +253,26 @@ fn axis_transform(a: AxisData, q: f32) -> Dev {
     return compose(compose(location, errors), motion);
 }
 
-// The rotation vector of I + m for the small rotations of machine errors (|θ| < 0.1 rad): the
-// axial vector s of the skew part has |s| = sin θ, and θ/sin θ = asin(|s|)/|s| as a series in
-// |s|², so neither sqrt nor atan2 (whose WGSL accuracy is loose) enters.
-fn rotation_vector(m: mat3x3<f32>) -> vec3<f32> {
-    let s = 0.5 * vec3<f32>(m[1].z - m[2].y, m[2].x - m[0].z, m[0].y - m[1].x);
+// twice the axial vector of the skew part of m: (m21 − m12, m02 − m20, m10 − m01).
+fn skew(m: mat3x3<f32>) -> vec3<f32> {
+    return vec3<f32>(m[1].z - m[2].y, m[2].x - m[0].z, m[0].y - m[1].x);
+}
+
+// skew(a·b) from the six entries of a·b it needs.
+fn skew_of_product(a: mat3x3<f32>, b: mat3x3<f32>) -> vec3<f32> {
+    let a0 = vec3<f32>(a[0].x, a[1].x, a[2].x);
+    let a1 = vec3<f32>(a[0].y, a[1].y, a[2].y);
+    let a2 = vec3<f32>(a[0].z, a[1].z, a[2].z);
+    return vec3<f32>(
+        dot(a2, b[1]) - dot(a1, b[2]),
+        dot(a0, b[2]) - dot(a2, b[0]),
+        dot(a1, b[0]) - dot(a0, b[1]));
+}
+
+// The rotation vector of a small rotation R = I + m (|θ| < 0.1 rad) from s, the axial vector of
+// its skew part: |s| = sin θ, and θ/sin θ = asin(|s|)/|s| as a series in |s|², so neither sqrt nor
+// atan2 (whose WGSL accuracy is loose) enters.
+fn rotation_vector_of_skew(s: vec3<f32>) -> vec3<f32> {
     let s2 = dot(s, s);
     let factor = 1.0 + s2 * (1.0 / 6.0 + s2 * (3.0 / 40.0 + s2 * (5.0 / 112.0 + s2 * (35.0 / 1152.0))));
     return s * factor;
@@ -284,6 +326,15 @@ fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 q = params.origin[a.info.y] + f32(entry - first) * params.spacing[a.info.y];
             }
             store_dev(entry, axis_transform(a, q));
+            if a.info.y == 0u {
+                let i = entry - first;
+                x_errors[i] = vec4<f32>(
+                    eval_function(a.functions_a.x, q), eval_function(a.functions_a.y, q),
+                    eval_function(a.functions_a.z, q), 0.0);
+                x_errors[params.grid.x + i] = vec4<f32>(
+                    eval_function(a.functions_a.w, q), eval_function(a.functions_b.x, q),
+                    eval_function(a.functions_b.y, q), 0.0);
+            }
             return;
         }
     }
@@ -320,6 +371,12 @@ fn line_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             post = compose(post, line_entry(n, j, k));
         }
     }
+    if x_position < params.grid.w {
+        // A_X = L_X · [Trans(q·u) · E_X(q)]: the constant L_X joins Pre.
+        let x = axes[x_position];
+        let location_m = mat3x3<f32>(x.location_m[0].xyz, x.location_m[1].xyz, x.location_m[2].xyz);
+        pre = compose(pre, Dev(IDENTITY3, x.offset.xyz, location_m, x.location_delta.xyz));
+    }
     let tail_m = mat3x3<f32>(params.tail_m[0].xyz, params.tail_m[1].xyz, params.tail_m[2].xyz);
     post = compose(post, Dev(IDENTITY3, params.tail_offset.xyz, tail_m, params.tail_delta.xyz));
     let ra = pre.r0;
@@ -331,46 +388,66 @@ fn line_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         vec4<f32>(post.t0 + post.d, 0.0));
 }
 
-// Pre · A_X(i) · Post with A_X = [(I + Mx), tx + dx] (a linear axis has no nominal rotation):
+// Pre · X(i) · Post, with Pre including X's location and X(i) = Trans(q·u) · E_X(q) =
+// [(I + Mx), q·u + e] (a linear axis has no nominal rotation):
 //   M = Ra·M~·Raᵀ,  M~ = M1~ + Mb + M1~·Mb,  M1~ = Ma~ + Mx + Ma~·Mx
-//   d = c0 + Ra·(dx + Ma~·(tx + dx) + M1~·vb)
-// so OE = Ra · rotation_vector(M~) and VE = d.
+//   d = c0 + Ra·(e + Ma~·(q·u + e) + M1~·vb)
+// so VE = d and OE = Ra · rotation_vector(M~), which needs only the skew part of M~. A workgroup
+// covers 64 · params.options.y points of one line: the line's values are loaded once per lane
+// and used for all its points, and each point loads only X's six component errors. Ra is the
+// identity unless a rotary axis stands before X in the product order (params.options.x).
 @compute @workgroup_size(64)
 fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;
-    let i = wid.x * WORKGROUP + lid.x;
     let local_line = wid.y;
-    if i >= nx || local_line >= params.chunk.y {
+    let points_per_lane = params.options.y;
+    let first = wid.x * WORKGROUP * points_per_lane + lid.x;
+    if first >= nx || local_line >= params.chunk.y {
         return;
     }
     let line = line_values[local_line];
-    var mx = ZERO3;
-    var tx = vec3<f32>(0.0);
-    var dx = vec3<f32>(0.0);
-    if params.chunk.z < params.grid.w {
-        let x = load_dev(axes[params.chunk.z].info.w + i);
-        mx = x.m;
-        tx = x.t0;
-        dx = x.d;
-    }
     let ra = columns(line.ra);
     let ma = columns(line.ma);
     let mb = columns(line.mb);
-    let m1 = ma + mx + ma * mx;
-    let m = m1 + mb + m1 * mb;
-    let ve = line.c0.xyz + ra * (dx + ma * (tx + dx) + m1 * line.vb.xyz);
-    let oe = ra * rotation_vector(m);
+    let vb = line.vb.xyz;
+    let rotated = params.options.x != 0u;
+    let has_x = params.chunk.z < params.grid.w;
+    // X moves along ±x: q·u = (q·direction, 0, 0).
+    let direction = axes[min(params.chunk.z, params.grid.w - 1u)].unit.x;
+    let base_line = local_line * 6u * nx;
+    for (var p = 0u; p < points_per_lane; p = p + 1u) {
+        let i = first + p * WORKGROUP;
+        if i >= nx {
+            break;
+        }
+        var mx = ZERO3;
+        var tq = 0.0;
+        var e = vec3<f32>(0.0);
+        if has_x {
+            e = x_errors[i].xyz;
+            mx = tiny_rot_deviation(x_errors[nx + i].xyz);
+            tq = (params.origin.x + f32(i) * params.spacing.x) * direction;
+        }
+        let m1 = ma + mx + ma * mx;
+        var w = e + ma * e + tq * ma[0] + m1 * vb;
+        var rv = rotation_vector_of_skew(0.5 * (skew(m1) + skew(mb) + skew_of_product(m1, mb)));
+        if rotated {
+            w = ra * w;
+            rv = ra * rv;
+        }
+        let ve = line.c0.xyz + w;
 
-    let base = local_line * 6u * nx + i;
-    if base + 5u * nx >= arrayLength(&out) {
-        return;
+        let base = base_line + i;
+        if base + 5u * nx >= arrayLength(&out) {
+            return;
+        }
+        out[base] = rv.x;
+        out[base + nx] = rv.y;
+        out[base + 2u * nx] = rv.z;
+        out[base + 3u * nx] = ve.x;
+        out[base + 4u * nx] = ve.y;
+        out[base + 5u * nx] = ve.z;
     }
-    out[base] = oe.x;
-    out[base + nx] = oe.y;
-    out[base + 2u * nx] = oe.z;
-    out[base + 3u * nx] = ve.x;
-    out[base + 4u * nx] = ve.y;
-    out[base + 5u * nx] = ve.z;
 }
 
 // The ceiling `volmap bench` measures the chain kernel against: the same dispatch and the same
@@ -378,20 +455,28 @@ fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
 @compute @workgroup_size(64)
 fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;
-    let i = wid.x * WORKGROUP + lid.x;
     let local_line = wid.y;
-    if i >= nx || local_line >= params.chunk.y {
+    let points_per_lane = params.options.y;
+    let first = wid.x * WORKGROUP * points_per_lane + lid.x;
+    if first >= nx || local_line >= params.chunk.y {
         return;
     }
-    let base = local_line * 6u * nx + i;
-    if base + 5u * nx >= arrayLength(&out) {
-        return;
+    let base_line = local_line * 6u * nx;
+    for (var p = 0u; p < points_per_lane; p = p + 1u) {
+        let i = first + p * WORKGROUP;
+        if i >= nx {
+            break;
+        }
+        let base = base_line + i;
+        if base + 5u * nx >= arrayLength(&out) {
+            return;
+        }
+        let v = f32(i);
+        out[base] = v;
+        out[base + nx] = v;
+        out[base + 2u * nx] = v;
+        out[base + 3u * nx] = v;
+        out[base + 4u * nx] = v;
+        out[base + 5u * nx] = v;
     }
-    let v = f32(i);
-    out[base] = v;
-    out[base + nx] = v;
-    out[base + 2u * nx] = v;
-    out[base + 3u * nx] = v;
-    out[base + 4u * nx] = v;
-    out[base + 5u * nx] = v;
 }

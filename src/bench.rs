@@ -89,6 +89,9 @@ pub fn today() -> String {
     format!("{year:04}-{month:02}-{day:02}")
 }
 
+/// Kernel timings are the best of this many runs over the grid.
+pub const KERNEL_RUNS: usize = 5;
+
 fn timed<R>(f: impl FnOnce() -> R) -> (R, f64) {
     let start = Instant::now();
     let r = f();
@@ -164,11 +167,11 @@ pub fn bench_machine(
     let mut ceiling = None;
     if let Some(gpu) = gpu {
         on_step("GPU write-only ceiling");
-        let seconds = gpu.time_kernel(machine, grid, KernelChoice::WriteOnly)?;
+        let seconds = gpu.time_kernel(machine, grid, KernelChoice::WriteOnly, KERNEL_RUNS)?;
         ceiling = Some(points as f64 / seconds);
         rows.push(("GPU write-only kernel (ceiling)".into(), points, seconds));
         on_step("GPU kernel");
-        let seconds = gpu.time_kernel(machine, grid, KernelChoice::Chain)?;
+        let seconds = gpu.time_kernel(machine, grid, KernelChoice::Chain, KERNEL_RUNS)?;
         rows.push(("GPU kernel".into(), points, seconds));
         on_step("GPU kernel + readback");
         let (done, seconds) = timed(|| {

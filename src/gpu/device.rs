@@ -22,6 +22,15 @@ pub enum GpuError {
     Readback { adapter: String, message: String },
 }
 
+/// A wgpu error on one line (its description lists the causes on lines of their own).
+fn describe(error: &wgpu::Error) -> String {
+    error
+        .to_string()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// An open device and queue, with what the work needs to know of the adapter.
 pub struct Gpu {
     device: wgpu::Device,
@@ -98,7 +107,7 @@ impl Gpu {
         let sink = uncaptured.clone();
         device.on_uncaptured_error(Arc::new(move |error: wgpu::Error| {
             let mut slot = sink.lock().unwrap_or_else(|p| p.into_inner());
-            slot.get_or_insert_with(|| error.to_string());
+            slot.get_or_insert_with(|| describe(&error));
         }));
         Ok(Some(Gpu {
             device,
@@ -159,7 +168,7 @@ impl Gpu {
             return Err(GpuError::Shader {
                 label: label.to_string(),
                 adapter: self.adapter_name.clone(),
-                message: error.to_string(),
+                message: describe(&error),
             });
         }
         Ok(Kernel { pipeline })

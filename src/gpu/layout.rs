@@ -36,8 +36,11 @@ pub struct Params {
     pub tail_delta: [f32; 4],
     /// Rotation deviation `R_S − I` of the spindle error.
     pub tail_m: Mat4,
+    /// x: 1 when a rotary axis stands before X in the product order (Pre has a nominal
+    /// rotation); y: points per invocation of the point pass; z, w unused.
+    pub options: [u32; 4],
 }
-const _: () = assert!(std::mem::size_of::<Params>() == 160);
+const _: () = assert!(std::mem::size_of::<Params>() == 176);
 
 /// One axis of the chain, in product order. Keep in sync with `struct AxisData` in
 /// `shaders/chain.wgsl`.

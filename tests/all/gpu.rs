@@ -219,3 +219,25 @@ fn more_lines_than_a_dispatch_dimension_holds_run_in_several_chunks() {
     let result = volmap::map::check_against_reference(&machine, &grid, &checked, &captured);
     assert!(result.passed(), "{result:?}");
 }
+
+#[test]
+fn error_angles_beyond_the_kernels_range_are_refused() {
+    let Some(gpu) = gpu() else { return };
+    let mut machine = embedded::embedded("vmc-li2015").unwrap().unwrap();
+    // 5° written where radians belong.
+    machine.axis_mut(AxisLetter::Y).unwrap().location[5] = 5.0;
+    let grid = Grid::full_travel(&machine, [4, 4, 4], [0.0; 6]).unwrap();
+    let error = gpu
+        .run(
+            &machine,
+            &grid,
+            None,
+            |_, _, _| -> Result<(), volmap::gpu::GpuError> { Ok(()) },
+        )
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("below 0.1 rad") && error.contains("--device cpu"),
+        "{error}"
+    );
+}
