@@ -73,7 +73,8 @@ fn bench_maps(c: &mut Criterion) {
                         .map(|_| {
                             Duration::from_secs_f64(
                                 gpu.time_kernel(&machine, &grid, KernelChoice::Chain, 1)
-                                    .unwrap(),
+                                    .unwrap()
+                                    .0,
                             )
                         })
                         .sum()
@@ -85,7 +86,8 @@ fn bench_maps(c: &mut Criterion) {
                         .map(|_| {
                             Duration::from_secs_f64(
                                 gpu.time_kernel(&machine, &grid, KernelChoice::WriteOnly, 1)
-                                    .unwrap(),
+                                    .unwrap()
+                                    .0,
                             )
                         })
                         .sum()

@@ -34,6 +34,8 @@ pub struct MachineResult {
     pub machine: String,
     pub chain: String,
     pub grid: [usize; 3],
+    /// How the GPU kernels were timed: "timestamp queries" or "wall clock".
+    pub kernel_timing: Option<String>,
     pub paths: Vec<PathResult>,
 }
 
@@ -165,13 +167,23 @@ pub fn bench_machine(
     ));
 
     let mut ceiling = None;
+    let mut kernel_timing = None;
     if let Some(gpu) = gpu {
         on_step("GPU write-only ceiling");
-        let seconds = gpu.time_kernel(machine, grid, KernelChoice::WriteOnly, KERNEL_RUNS)?;
+        let (seconds, timestamps) =
+            gpu.time_kernel(machine, grid, KernelChoice::WriteOnly, KERNEL_RUNS)?;
+        kernel_timing = Some(
+            if timestamps {
+                "timestamp queries"
+            } else {
+                "wall clock"
+            }
+            .to_string(),
+        );
         ceiling = Some(points as f64 / seconds);
         rows.push(("GPU write-only kernel (ceiling)".into(), points, seconds));
         on_step("GPU kernel");
-        let seconds = gpu.time_kernel(machine, grid, KernelChoice::Chain, KERNEL_RUNS)?;
+        let (seconds, _) = gpu.time_kernel(machine, grid, KernelChoice::Chain, KERNEL_RUNS)?;
         rows.push(("GPU kernel".into(), points, seconds));
         on_step("GPU kernel + readback");
         let (done, seconds) = timed(|| {
@@ -220,6 +232,7 @@ pub fn bench_machine(
         machine: machine.name.clone(),
         chain: machine.chain.hwang_notation(),
         grid: grid.dims,
+        kernel_timing,
         paths,
     })
 }
@@ -238,12 +251,15 @@ pub fn table(report: &BenchReport) -> String {
     );
     for m in &report.machines {
         out.push_str(&format!(
-            "\n{} ({}), grid {}x{}x{}\n  {:<40} {:>10} {:>11} {:>12}\n",
+            "\n{} ({}), grid {}x{}x{}{}\n  {:<40} {:>10} {:>11} {:>12}\n",
             m.machine,
             m.chain,
             m.grid[0],
             m.grid[1],
             m.grid[2],
+            m.kernel_timing
+                .as_ref()
+                .map_or(String::new(), |t| format!(", GPU kernels timed by {t}")),
             "path",
             "Mpts/s",
             "× reference",

@@ -39,6 +39,16 @@ pub struct Gpu {
     limits: wgpu::Limits,
     /// Errors the device reports outside an error scope, checked after each submission.
     uncaptured: Arc<Mutex<Option<String>>>,
+    /// Whether the device was opened with timestamp queries.
+    timestamps: bool,
+}
+
+/// Timestamp queries around the compute pass of up to `count / 2` submissions.
+pub struct Timer {
+    set: wgpu::QuerySet,
+    resolved: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    count: u32,
 }
 
 /// A compiled compute kernel.
@@ -93,9 +103,11 @@ impl Gpu {
         let adapter_name = format!("{} ({:?}, {:?})", info.name, info.backend, info.device_type);
         // Ask for what the adapter has: chunk sizes follow these limits.
         let limits = adapter.limits();
+        // Timestamp queries, where the adapter has them, time kernels without the host's noise.
+        let features = adapter.features() & wgpu::Features::TIMESTAMP_QUERY;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("volmap"),
-            required_features: wgpu::Features::empty(),
+            required_features: features,
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -115,6 +127,7 @@ impl Gpu {
             adapter_name,
             limits,
             uncaptured,
+            timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
         }))
     }
 
@@ -257,13 +270,60 @@ impl Gpu {
     /// Runs `passes` in order (each sees what the previous wrote), then copies the output into
     /// the readback buffer if one is given, in one submission.
     pub fn submit(&self, passes: &[Pass], readback: Option<Readback>) -> Submission {
+        self.submit_timed(passes, readback, None)
+    }
+
+    /// A timer for `submissions` timed submissions, where the device has timestamp queries.
+    pub fn timer(&self, submissions: usize) -> Option<Timer> {
+        let count = u32::try_from(2 * submissions)
+            .ok()
+            .filter(|&c| c > 0 && c <= wgpu::QUERY_SET_MAX_QUERIES)?;
+        if !self.timestamps {
+            return None;
+        }
+        let bytes = count as u64 * 8;
+        Some(Timer {
+            set: self.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("kernel timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            }),
+            resolved: self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("resolved timestamps"),
+                size: bytes,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            readback: self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps"),
+                size: bytes,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            count,
+        })
+    }
+
+    /// [`Gpu::submit`], with timestamps at the start and end of the compute pass written to
+    /// queries `2n` and `2n + 1` of the timer when `timed` is `Some((timer, n))`.
+    pub fn submit_timed(
+        &self,
+        passes: &[Pass],
+        readback: Option<Readback>,
+        timed: Option<(&Timer, u32)>,
+    ) -> Submission {
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         {
+            let timestamp_writes = timed.map(|(timer, n)| wgpu::ComputePassTimestampWrites {
+                query_set: &timer.set,
+                beginning_of_pass_write_index: Some(2 * n),
+                end_of_pass_write_index: Some(2 * n + 1),
+            });
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: None,
-                timestamp_writes: None,
+                timestamp_writes,
             });
             for p in passes {
                 pass.set_pipeline(&p.kernel.pipeline);
@@ -278,6 +338,32 @@ impl Gpu {
         Submission {
             index: self.queue.submit([encoder.finish()]),
         }
+    }
+
+    /// The seconds the first `submissions` timed passes took on the device, added up.
+    pub fn timed_seconds(&self, timer: &Timer, submissions: u32) -> Result<f64, GpuError> {
+        let used = (2 * submissions).min(timer.count);
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        encoder.resolve_query_set(&timer.set, 0..used, &timer.resolved, 0);
+        encoder.copy_buffer_to_buffer(&timer.resolved, 0, &timer.readback, 0, used as u64 * 8);
+        let submission = Submission {
+            index: self.queue.submit([encoder.finish()]),
+        };
+        let period_ns = self.queue.get_timestamp_period() as f64;
+        let buffer = Buffer {
+            inner: timer.readback.clone(),
+        };
+        self.read(submission, &buffer, used as u64 * 8, |bytes| {
+            let ticks: &[u64] = bytemuck::cast_slice(bytes);
+            ticks
+                .chunks_exact(2)
+                .map(|pair| pair[1].saturating_sub(pair[0]) as f64)
+                .sum::<f64>()
+                * period_ns
+                * 1e-9
+        })
     }
 
     /// Waits until everything submitted so far has run.
