@@ -175,3 +175,54 @@ fn without_an_adapter_auto_says_so_once_and_maps_on_the_cpu() {
         .code(1)
         .stderr(predicate::str::contains("no GPU adapter found"));
 }
+
+#[test]
+fn bench_prints_a_table_and_writes_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    volmap()
+        .args([
+            "bench",
+            "--machines",
+            "vmc-li2015,5axis-hwang2014",
+            "--grid",
+            "16x8x4",
+            "--reference-points",
+            "50",
+            "--json",
+        ])
+        .arg(&json)
+        .assert()
+        .success()
+        .stdout(
+            predicate::str::contains("f64 reference, 1 thread")
+                .and(predicate::str::contains("CPU engine"))
+                .and(predicate::str::contains("EXR write"))
+                .and(predicate::str::contains("map to EXR, f64 reference")),
+        );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let machines = report["machines"].as_array().unwrap();
+    assert_eq!(machines.len(), 2);
+    for m in machines {
+        let paths = m["paths"].as_array().unwrap();
+        assert_eq!(paths[0]["ratio_to_reference"].as_f64(), Some(1.0));
+        for p in paths {
+            assert!(p["mpts_per_s"].as_f64().unwrap() > 0.0, "{p}");
+        }
+        let gpu_paths = paths
+            .iter()
+            .filter(|p| p["path"].as_str().unwrap().starts_with("GPU"))
+            .count();
+        // With an adapter the GPU paths are there, each with its fraction of the ceiling.
+        if report["adapter"].is_string() {
+            assert_eq!(gpu_paths, 3);
+            assert!(paths
+                .iter()
+                .filter(|p| p["path"].as_str().unwrap().starts_with("GPU"))
+                .all(|p| p["fraction_of_ceiling"].is_number()));
+        } else {
+            assert_eq!(gpu_paths, 0);
+        }
+    }
+}
