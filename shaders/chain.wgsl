@@ -31,7 +31,7 @@ struct Params {
     tail_offset: vec4<f32>,  // nominal translation of S·Trans(tool)
     tail_delta: vec4<f32>,   // translation deviation of S·Trans(tool)
     tail_m: mat4x4<f32>,     // R_S − I (upper 3×3)
-    options: vec4<u32>,      // x: 1 when a rotary axis stands before X in the product order; y: points per lane
+    options: vec4<u32>,      // x: 1 when a rotary axis stands before X in the product order; y: points per lane; z: lanes per line
 }
 
 struct AxisData {
@@ -388,20 +388,33 @@ fn line_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         vec4<f32>(post.t0 + post.d, 0.0));
 }
 
+// Which points an invocation of the point pass computes: params.options.z lanes share a line
+// (a power of two up to 64, so short lines share a workgroup), each taking params.options.y
+// points, params.options.z apart. Returns (line in the chunk, first i).
+fn point_tile(wid: vec3<u32>, lid: vec3<u32>) -> vec2<u32> {
+    let lanes_per_line = params.options.z;
+    let lines_per_group = WORKGROUP / lanes_per_line;
+    let local_line = wid.y * lines_per_group + lid.x / lanes_per_line;
+    let first = wid.x * lanes_per_line * params.options.y + lid.x % lanes_per_line;
+    return vec2<u32>(local_line, first);
+}
+
 // Pre · X(i) · Post, with Pre including X's location and X(i) = Trans(q·u) · E_X(q) =
 // [(I + Mx), q·u + e] (a linear axis has no nominal rotation):
 //   M = Ra·M~·Raᵀ,  M~ = M1~ + Mb + M1~·Mb,  M1~ = Ma~ + Mx + Ma~·Mx
 //   d = c0 + Ra·(e + Ma~·(q·u + e) + M1~·vb)
-// so VE = d and OE = Ra · rotation_vector(M~), which needs only the skew part of M~. A workgroup
-// covers 64 · params.options.y points of one line: the line's values are loaded once per lane
-// and used for all its points, and each point loads only X's six component errors. Ra is the
+// so VE = d and OE = Ra · rotation_vector(M~), which needs only the skew part of M~. Each
+// invocation computes several points of one line (see `point_tile`): the line's values are loaded
+// once and used for all of them, and each point loads only X's six component errors. Ra is the
 // identity unless a rotary axis stands before X in the product order (params.options.x).
 @compute @workgroup_size(64)
 fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;
-    let local_line = wid.y;
+    let tile = point_tile(wid, lid);
+    let local_line = tile.x;
+    let first = tile.y;
+    let stride = params.options.z;
     let points_per_lane = params.options.y;
-    let first = wid.x * WORKGROUP * points_per_lane + lid.x;
     if first >= nx || local_line >= params.chunk.y {
         return;
     }
@@ -416,7 +429,7 @@ fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     let direction = axes[min(params.chunk.z, params.grid.w - 1u)].unit.x;
     let base_line = local_line * 6u * nx;
     for (var p = 0u; p < points_per_lane; p = p + 1u) {
-        let i = first + p * WORKGROUP;
+        let i = first + p * stride;
         if i >= nx {
             break;
         }
@@ -455,15 +468,17 @@ fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
 @compute @workgroup_size(64)
 fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;
-    let local_line = wid.y;
+    let tile = point_tile(wid, lid);
+    let local_line = tile.x;
+    let first = tile.y;
+    let stride = params.options.z;
     let points_per_lane = params.options.y;
-    let first = wid.x * WORKGROUP * points_per_lane + lid.x;
     if first >= nx || local_line >= params.chunk.y {
         return;
     }
     let base_line = local_line * 6u * nx;
     for (var p = 0u; p < points_per_lane; p = p + 1u) {
-        let i = first + p * WORKGROUP;
+        let i = first + p * stride;
         if i >= nx {
             break;
         }

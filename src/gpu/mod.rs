@@ -251,6 +251,7 @@ struct Prepared {
     params: Params,
     nx: u64,
     x_groups: u32,
+    lines_per_group: u64,
     chunks: Vec<(u64, u64)>,
     slots: Vec<Slot>,
 }
@@ -311,7 +312,11 @@ impl GpuMapper {
         let gpu = &self.gpu;
         let limit =
             chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
-        let x_groups = nx.div_ceil(WORKGROUP_SIZE * MAX_POINTS_PER_LANE);
+        // Up to MAX_POINTS_PER_LANE points per invocation; lines shorter than a workgroup's
+        // worth share it (lanes per line a power of two).
+        let lanes_per_line = nx.div_ceil(MAX_POINTS_PER_LANE).next_power_of_two().min(WORKGROUP_SIZE);
+        let lines_per_group = WORKGROUP_SIZE / lanes_per_line;
+        let x_groups = nx.div_ceil(lanes_per_line * MAX_POINTS_PER_LANE);
         if nx > limit || x_groups > gpu.max_workgroups_per_dimension() as u64 {
             return Err(self.error(format!(
                 "a line of {nx} points does not fit in one chunk of at most {limit} points"
@@ -395,11 +400,13 @@ impl GpuMapper {
             })
             .collect();
         let mut params = packed.params;
-        params.options[1] = nx.div_ceil(WORKGROUP_SIZE * x_groups) as u32;
+        params.options[1] = nx.div_ceil(lanes_per_line * x_groups) as u32;
+        params.options[2] = lanes_per_line as u32;
         Ok(Prepared {
             params,
             nx,
             x_groups: x_groups as u32,
+            lines_per_group,
             chunks,
             slots,
         })
@@ -420,7 +427,7 @@ impl GpuMapper {
         params.chunk[0] = first_line as u32;
         params.chunk[1] = lines as u32;
         self.gpu.write(&slot.params, bytemuck::bytes_of(&params));
-        let point_grid = [prepared.x_groups, lines as u32, 1];
+        let point_grid = [prepared.x_groups, lines.div_ceil(prepared.lines_per_group) as u32, 1];
         let chain = [
             Pass {
                 kernel: &self.line_values,
