@@ -199,7 +199,7 @@ pub fn bench_machine(
     ));
 
     rows.append(&mut gpu_rows);
-    if let Some(gpu) = gpu {
+    if gpu.is_some() {
         on_step("map to EXR, GPU");
         let engine = Engine::Gpu(Box::new(
             GpuMapper::open()?.expect("an adapter was open a moment ago"),
