@@ -81,8 +81,9 @@ struct LineData {
 @group(0) @binding(5) var<storage, read_write> axis_values: array<DevData>;
 @group(0) @binding(6) var<storage, read_write> line_values: array<LineData>;
 @group(0) @binding(7) var<storage, read_write> out: array<f32>;
-// The component errors of X at each i, (EXX, EYX, EZX, -) and (EAX, EBX, ECX, -): what the point
-// pass needs of A_X besides X's constant location, which the line pass folds into Pre.
+// The component errors of X at each i: (EXX, EYX, EZX, -) at [i] and (EAX, EBX, ECX, -) at
+// [nx + i]. What the point pass needs of A_X besides X's constant location, which the line pass
+// folds into Pre.
 @group(0) @binding(8) var<storage, read_write> x_errors: array<vec4<f32>>;
 
 const NO_FUNCTION: u32 = 0xffffffffu;
