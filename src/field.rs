@@ -328,6 +328,10 @@ impl Drop for FieldWriter {
 pub struct FieldReader {
     path: String,
     file: BufReader<File>,
+    /// Where the file stands after the last line read, if known.
+    position: Option<u64>,
+    /// The bytes of the last line read.
+    scratch: Vec<u8>,
     info: FieldInfo,
     offsets: Vec<u64>,
 }
@@ -385,7 +389,7 @@ impl FieldReader {
             path: display.clone(),
             source,
         })?;
-        let mut reader = BufReader::new(file);
+        let mut reader = BufReader::with_capacity(1 << 20, file);
         let mut c = Cursor {
             path: &display,
             reader: &mut reader,
@@ -536,6 +540,8 @@ impl FieldReader {
         Ok(FieldReader {
             path: display,
             file: reader,
+            position: None,
+            scratch: Vec::new(),
             info,
             offsets,
         })
@@ -564,7 +570,11 @@ impl FieldReader {
             path: self.path.clone(),
             source,
         };
-        self.file.seek(SeekFrom::Start(offset)).map_err(io)?;
+        // Lines of volmap's files follow each other: seek (which empties the read buffer) only
+        // when this one does not start where the last one ended.
+        if self.position != Some(offset) {
+            self.file.seek(SeekFrom::Start(offset)).map_err(io)?;
+        }
         let mut head = [0u8; 8];
         self.file
             .read_exact(&mut head)
@@ -576,13 +586,14 @@ impl FieldReader {
                 "line {line}: chunk header says line {y} of {size} bytes"
             )));
         }
-        let mut bytes = vec![0u8; size as usize];
+        self.scratch.resize(size as usize, 0);
         self.file
-            .read_exact(&mut bytes)
+            .read_exact(&mut self.scratch)
             .map_err(|_| format(format!("line {line} is truncated")))?;
-        for (v, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+        for (v, b) in out.iter_mut().zip(self.scratch.chunks_exact(4)) {
             *v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
         }
+        self.position = Some(offset + 8 + size as u64);
         Ok(())
     }
 

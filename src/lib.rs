@@ -12,7 +12,9 @@
 //! - [`cpu`]: the reference over a grid on all cores, the fallback where no adapter exists;
 //! - [`grid`]: the grid of commanded positions a map covers;
 //! - [`field`]: field files (OpenEXR) written as a stream and read back;
-//! - [`map`]: a whole map run, its statistics and its spot check.
+//! - [`map`]: a whole map run, its statistics and its spot check;
+//! - [`query`]: VE and OE at arbitrary positions, from a field or exactly;
+//! - [`bench`]: `volmap bench`.
 //!
 //! Feature queries, standard tests and NC compensation build on [`reference`], [`map`] and
 //! [`field`] and get modules of their own beside these.
@@ -24,4 +26,5 @@ pub mod gpu;
 pub mod grid;
 pub mod machine;
 pub mod map;
+pub mod query;
 pub mod reference;

@@ -4,6 +4,7 @@
 //! file, grid, pose, field file, command-line values); 4 `--check` found the field further from
 //! the f64 reference than the tolerance.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -37,9 +38,35 @@ enum Command {
         /// The field file (.exr).
         file: PathBuf,
     },
+    /// VE and OE at arbitrary commanded positions (CSV in, CSV out): interpolated from a field
+    /// file, or exactly from the machine model.
+    Sample(SampleArgs),
     /// Measure every path on this machine (CPU reference, CPU engine, GPU kernel, readback, EXR
     /// writing, whole maps) and print one table.
     Bench(BenchArgs),
+}
+
+#[derive(clap::Args)]
+struct SampleArgs {
+    /// Positions: CSV with a header row naming X, Y, Z (mm) and optionally A, B, C (degrees).
+    #[arg(long)]
+    points: PathBuf,
+    /// Interpolate (trilinear) in this field file; positions outside its grid are an error.
+    #[arg(long, conflicts_with = "exact")]
+    field: Option<PathBuf>,
+    /// Compute exactly from the machine model (the f64 reference) instead of a field.
+    #[arg(long, requires = "machine")]
+    exact: bool,
+    /// The machine for --exact: an embedded name or a machine file.
+    #[arg(long)]
+    machine: Option<String>,
+    /// With --exact: positions of rotary axes the CSV has no column for, e.g. `B=30,C=-45`
+    /// (not named: 0).
+    #[arg(long, default_value = "", requires = "exact")]
+    pose: String,
+    /// Where to write the result (CSV); standard output when left out.
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -125,6 +152,7 @@ fn main() -> ExitCode {
         Command::Map(args) => run_map(args),
         Command::Machines => list_machines(),
         Command::Info { file } => run_info(&file),
+        Command::Sample(args) => run_sample(args),
         Command::Bench(args) => run_bench(args),
     };
     match result {
@@ -346,6 +374,67 @@ fn run_bench(args: BenchArgs) -> Result<ExitCode, Failure> {
         std::fs::write(&temp, text + "\n")
             .with_context(|| format!("writing {}", temp.display()))?;
         std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn run_sample(args: SampleArgs) -> Result<ExitCode, Failure> {
+    use volmap::query;
+    let points = query::read_points(&args.points).map_err(bad_input)?;
+    let samples = match (&args.field, &args.machine) {
+        (Some(field), _) => {
+            let loaded = query::LoadedField::open(field).map_err(bad_input)?;
+            query::sample_field(&loaded, &points, &args.points.display().to_string())
+                .map_err(bad_input)?
+        }
+        (None, Some(machine)) if args.exact => {
+            let machine = embedded::load(machine).map_err(bad_input)?;
+            let pose = grid::parse_pose(&args.pose, &machine).map_err(bad_input)?;
+            let points: Vec<query::QueryPoint> = points
+                .iter()
+                .map(|p| {
+                    let mut p = p.clone();
+                    for ((value, given), posed) in
+                        p.command.iter_mut().zip(p.given).zip(pose).skip(3)
+                    {
+                        if !given {
+                            *value = posed;
+                        }
+                    }
+                    p
+                })
+                .collect();
+            query::sample_exact(&machine, &points)
+        }
+        _ => {
+            return Err(bad_input(anyhow::anyhow!(
+                "say where the values come from: --field FILE.exr, or --exact --machine M"
+            )))
+        }
+    };
+    match &args.out {
+        None => {
+            let stdout = std::io::stdout();
+            let mut out = std::io::BufWriter::new(stdout.lock());
+            query::write_samples(&mut out, &points, &samples)
+                .context("writing to standard output")?;
+            out.flush().context("writing to standard output")?;
+        }
+        Some(path) => {
+            let temp = path.with_extension("csv.part");
+            let write = || -> std::io::Result<()> {
+                let mut out = std::io::BufWriter::new(std::fs::File::create(&temp)?);
+                query::write_samples(&mut out, &points, &samples)?;
+                out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+                std::fs::rename(&temp, path)
+            };
+            if let Err(e) = write() {
+                let _ = std::fs::remove_file(&temp);
+                return Err(anyhow::Error::new(e)
+                    .context(format!("writing {}", path.display()))
+                    .into());
+            }
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

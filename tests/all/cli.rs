@@ -226,3 +226,102 @@ fn bench_prints_a_table_and_writes_json() {
         }
     }
 }
+
+#[test]
+fn sample_from_a_field_and_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let field = dir.path().join("f.exr");
+    volmap()
+        .args([
+            "map",
+            "--machine",
+            "vmc-li2015",
+            "--grid",
+            "5x5x5",
+            "--device",
+            "cpu",
+            "--out",
+        ])
+        .arg(&field)
+        .assert()
+        .success();
+    let points = dir.path().join("p.csv");
+    std::fs::write(&points, "X,Y,Z\n500,300,250\n0,0,0\n").unwrap();
+    let out = dir.path().join("s.csv");
+    volmap()
+        .args(["sample", "--field"])
+        .arg(&field)
+        .arg("--points")
+        .arg(&points)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&out).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("X,Y,Z,VE.X,VE.Y,VE.Z,OE.X,OE.Y,OE.Z"));
+    assert_eq!(lines.count(), 2);
+    volmap()
+        .args(["sample", "--exact", "--machine", "vmc-li2015", "--points"])
+        .arg(&points)
+        .assert()
+        .success()
+        .stdout(
+            predicate::str::starts_with("X,Y,Z,VE.X").and(predicate::str::contains("500,300,250,")),
+        );
+    std::fs::write(&points, "X,Y,Z\n5000,0,0\n").unwrap();
+    volmap()
+        .args(["sample", "--field"])
+        .arg(&field)
+        .arg("--points")
+        .arg(&points)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("line 2: X=5000 lies outside"));
+    volmap()
+        .args(["sample", "--points"])
+        .arg(&points)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--field"));
+}
+
+#[test]
+fn exact_samples_take_the_pose_from_the_columns_or_from_pose() {
+    let dir = tempfile::tempdir().unwrap();
+    let with_columns = dir.path().join("a.csv");
+    let without = dir.path().join("b.csv");
+    std::fs::write(&with_columns, "X,Y,Z,B,C\n100,200,300,30,60\n").unwrap();
+    std::fs::write(&without, "X,Y,Z\n100,200,300\n").unwrap();
+    let run = |points: &std::path::Path, pose: &str| {
+        let output = volmap()
+            .args([
+                "sample",
+                "--exact",
+                "--machine",
+                "5axis-hwang2014",
+                "--pose",
+                pose,
+                "--points",
+            ])
+            .arg(points)
+            .output()
+            .unwrap();
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let text = String::from_utf8(output.stdout).unwrap();
+        let row: Vec<String> = text
+            .lines()
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .map(str::to_string)
+            .collect();
+        row[row.len() - 6..].to_vec()
+    };
+    assert_eq!(run(&with_columns, ""), run(&without, "B=30,C=60"));
+    assert_ne!(run(&without, ""), run(&without, "B=30,C=60"));
+}

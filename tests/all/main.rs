@@ -8,5 +8,6 @@ mod field;
 mod golden;
 mod gpu;
 mod machine_file;
+mod query;
 mod reference;
 mod shaders;

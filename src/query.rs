@@ -1,0 +1,360 @@
+//! Point queries: VE and OE at arbitrary commanded positions, from a field file (trilinear
+//! interpolation within its grid) or exactly from the machine model (the f64 reference).
+//!
+//! Positions come from CSV: one header row naming the columns `X Y Z` (mm) and, optionally,
+//! `A B C` (degrees); one position per row.
+
+use std::io::Write;
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use crate::field::{FieldError, FieldInfo, FieldReader};
+use crate::gpu::layout::CHANNELS;
+use crate::machine::{AxisLetter, Command, Machine};
+use crate::reference;
+
+#[derive(Debug, thiserror::Error)]
+pub enum QueryError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: line {line}: {message}")]
+    Csv {
+        path: String,
+        line: usize,
+        message: String,
+    },
+    #[error("{path}: line {line}: {axis}={value} lies outside the field's grid ({lo} to {hi}); a field is not extrapolated")]
+    Outside {
+        path: String,
+        line: usize,
+        axis: char,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    },
+    #[error(
+        "{path}: line {line}: {axis}={value}°, but the field holds the pose {axis}={field}° only"
+    )]
+    Pose {
+        path: String,
+        line: usize,
+        axis: char,
+        value: f64,
+        field: f64,
+    },
+    #[error(transparent)]
+    Field(#[from] FieldError),
+}
+
+/// One queried position and the CSV line it came from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QueryPoint {
+    pub line: usize,
+    pub command: Command,
+    /// Which of the six axis columns the CSV gave (the others are 0).
+    pub given: [bool; 6],
+}
+
+/// The six values at a point, in the output order VE.X VE.Y VE.Z (mm) OE.X OE.Y OE.Z (rad).
+pub type Sample = [f64; 6];
+
+/// The output columns after the position columns.
+pub const SAMPLE_COLUMNS: [&str; 6] = ["VE.X", "VE.Y", "VE.Z", "OE.X", "OE.Y", "OE.Z"];
+
+/// Reads positions from CSV text; `path` names it in errors.
+pub fn parse_points(text: &str, path: &str) -> Result<Vec<QueryPoint>, QueryError> {
+    let csv_error = |line: usize, message: String| QueryError::Csv {
+        path: path.to_string(),
+        line,
+        message,
+    };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (header_index, header) = lines.next().ok_or_else(|| {
+        csv_error(
+            1,
+            "empty: expected a header row naming X, Y, Z (and A, B, C)".into(),
+        )
+    })?;
+    let mut columns = Vec::new();
+    let mut given = [false; 6];
+    for name in header.split(',').map(str::trim) {
+        let letter = match name.chars().collect::<Vec<_>>()[..] {
+            [c] => AxisLetter::from_char(c),
+            _ => None,
+        }
+        .ok_or_else(|| {
+            csv_error(
+                header_index + 1,
+                format!("unknown column `{name}` (the columns are X, Y, Z, A, B, C)"),
+            )
+        })?;
+        if std::mem::replace(&mut given[letter.index()], true) {
+            return Err(csv_error(
+                header_index + 1,
+                format!("column {letter} appears twice"),
+            ));
+        }
+        columns.push(letter);
+    }
+    for letter in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z] {
+        if !given[letter.index()] {
+            return Err(csv_error(
+                header_index + 1,
+                format!("no column {letter}: X, Y and Z are required"),
+            ));
+        }
+    }
+    let mut points = Vec::new();
+    for (n, row) in lines {
+        let fields: Vec<&str> = row.split(',').map(str::trim).collect();
+        if fields.len() != columns.len() {
+            return Err(csv_error(
+                n + 1,
+                format!(
+                    "{} fields, the header names {}",
+                    fields.len(),
+                    columns.len()
+                ),
+            ));
+        }
+        let mut command = [0.0; 6];
+        for (letter, field) in columns.iter().zip(&fields) {
+            let value: f64 = field
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    csv_error(
+                        n + 1,
+                        format!("`{field}` in column {letter} is not a finite number"),
+                    )
+                })?;
+            command[letter.index()] = value;
+        }
+        points.push(QueryPoint {
+            line: n + 1,
+            command,
+            given,
+        });
+    }
+    Ok(points)
+}
+
+pub fn read_points(path: &Path) -> Result<Vec<QueryPoint>, QueryError> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| QueryError::Io {
+        path: name.clone(),
+        source,
+    })?;
+    parse_points(&text, &name)
+}
+
+/// A field file read into memory, point-interleaved for sampling: the six values of a grid point
+/// in the [`SAMPLE_COLUMNS`] order side by side, so a trilinear sample touches eight places.
+pub struct LoadedField {
+    pub info: FieldInfo,
+    /// `[p][c]` with `p = i + nx·(j + ny·k)`.
+    values: Vec<[f32; 6]>,
+}
+
+impl LoadedField {
+    pub fn open(path: &Path) -> Result<LoadedField, QueryError> {
+        let mut reader = FieldReader::open(path)?;
+        let info = reader.info().clone();
+        let nx = info.dims[0];
+        let mut values = Vec::with_capacity(reader.lines() as usize * nx);
+        reader.for_each_chunk((1 << 20) / nx as u64, |_, _, chunk| {
+            for line in chunk.chunks_exact(CHANNELS.len() * nx) {
+                values.extend((0..nx).map(|i| CHANNELS_TO_SAMPLE.map(|c| line[c * nx + i])));
+            }
+        })?;
+        Ok(LoadedField { info, values })
+    }
+
+    /// The values at grid point `(i, j, k)`.
+    fn at(&self, [i, j, k]: [usize; 3]) -> &[f32; 6] {
+        let [nx, ny, _] = self.info.dims;
+        &self.values[i + nx * (j + ny * k)]
+    }
+
+    /// Trilinear interpolation at a commanded position; `Err((axis, lo, hi))` when the position
+    /// lies outside the grid along `axis`. Positions within 1e-9 of the travel of the grid count
+    /// as inside (the ends of a grid are rounded).
+    pub fn sample(&self, command: &Command) -> Result<Sample, (usize, f64, f64)> {
+        let mut base = [0usize; 3];
+        let mut t = [0.0f64; 3];
+        for d in 0..3 {
+            let n = self.info.dims[d];
+            let (origin, step) = (self.info.origin_mm[d], self.info.spacing_mm[d]);
+            let end = origin + (n - 1) as f64 * step;
+            let slack = 1e-9 * (1.0 + origin.abs().max(end.abs()));
+            let q = command[d];
+            if q < origin - slack || q > end + slack {
+                return Err((d, origin, end));
+            }
+            if n > 1 {
+                let u = ((q - origin) / step).clamp(0.0, (n - 1) as f64);
+                base[d] = (u.floor() as usize).min(n - 2);
+                t[d] = u - base[d] as f64;
+            }
+        }
+        let mut out = [0.0; 6];
+        for corner in 0..8usize {
+            let mut weight = 1.0;
+            let mut ijk = base;
+            for d in 0..3 {
+                let upper = corner >> d & 1 == 1;
+                if upper {
+                    if self.info.dims[d] == 1 {
+                        weight = 0.0;
+                        break;
+                    }
+                    ijk[d] += 1;
+                    weight *= t[d];
+                } else {
+                    weight *= 1.0 - t[d];
+                }
+            }
+            if weight == 0.0 {
+                continue;
+            }
+            for (o, v) in out.iter_mut().zip(self.at(ijk)) {
+                *o += weight * *v as f64;
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// For each output column of [`SAMPLE_COLUMNS`], its channel in [`CHANNELS`].
+const CHANNELS_TO_SAMPLE: [usize; 6] = [3, 4, 5, 0, 1, 2];
+
+/// Samples the field at every point, in parallel, visiting the points in grid order (a random
+/// order would miss the cache at nearly every corner). Rotary columns, where given, must name
+/// the field's own pose.
+pub fn sample_field(
+    field: &LoadedField,
+    points: &[QueryPoint],
+    path: &str,
+) -> Result<Vec<Sample>, QueryError> {
+    let grid = field.info.grid();
+    // The number of the grid cell that holds each point (clamped: outliers fail later).
+    let cell = |p: &QueryPoint| -> u64 {
+        (0..3).rev().fold(0u64, |key, d| {
+            let n = grid.dims[d] as u64;
+            let step = grid.spacing_mm[d];
+            let index = if step > 0.0 {
+                ((p.command[d] - grid.origin_mm[d]) / step)
+                    .floor()
+                    .clamp(0.0, (n - 1) as f64) as u64
+            } else {
+                0
+            };
+            key * n + index
+        })
+    };
+    let mut keyed: Vec<(u64, usize)> = points
+        .par_iter()
+        .enumerate()
+        .map(|(n, p)| (cell(p), n))
+        .collect();
+    keyed.par_sort_unstable();
+    let order: Vec<usize> = keyed.into_iter().map(|(_, n)| n).collect();
+    let sorted: Vec<(usize, Sample)> = order
+        .par_iter()
+        .map(|&n| sample_one(field, &points[n], path).map(|s| (n, s)))
+        .collect::<Result<_, _>>()?;
+    let mut samples = vec![[0.0; 6]; points.len()];
+    for (n, s) in sorted {
+        samples[n] = s;
+    }
+    Ok(samples)
+}
+
+fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample, QueryError> {
+    for (n, axis) in ['A', 'B', 'C'].into_iter().enumerate() {
+        let given = p.command[3 + n];
+        let pose = field.info.pose_deg[n];
+        if p.given[3 + n] && (given - pose).abs() > 1e-9 * (1.0 + pose.abs()) {
+            return Err(QueryError::Pose {
+                path: path.to_string(),
+                line: p.line,
+                axis,
+                value: given,
+                field: pose,
+            });
+        }
+    }
+    field
+        .sample(&p.command)
+        .map_err(|(d, lo, hi)| QueryError::Outside {
+            path: path.to_string(),
+            line: p.line,
+            axis: ['X', 'Y', 'Z'][d],
+            value: p.command[d],
+            lo,
+            hi,
+        })
+}
+
+/// The f64 reference at every point, in parallel.
+pub fn sample_exact(machine: &Machine, points: &[QueryPoint]) -> Vec<Sample> {
+    let ideal = machine.without_errors();
+    points
+        .par_iter()
+        .map(|p| {
+            let d = reference::deviation_against(machine, &ideal, &p.command);
+            let (ve, oe) = (d.volumetric_mm, d.orientation_rad);
+            [ve.x, ve.y, ve.z, oe.x, oe.y, oe.z]
+        })
+        .collect()
+}
+
+/// Writes the positions with their samples as CSV: the position columns the input named, then
+/// [`SAMPLE_COLUMNS`]. Rows are formatted in parallel, written in order.
+pub fn write_samples(
+    out: &mut impl Write,
+    points: &[QueryPoint],
+    samples: &[Sample],
+) -> std::io::Result<()> {
+    let given = points
+        .first()
+        .map_or([true, true, true, false, false, false], |p| p.given);
+    let letters: Vec<usize> = (0..6).filter(|&n| given[n]).collect();
+    let mut header: Vec<String> = letters
+        .iter()
+        .map(|&n| AxisLetter::ALL[n].to_string())
+        .collect();
+    header.extend(SAMPLE_COLUMNS.iter().map(|c| c.to_string()));
+    writeln!(out, "{}", header.join(","))?;
+    let blocks: Vec<Vec<u8>> = points
+        .par_chunks(16_384)
+        .zip(samples.par_chunks(16_384))
+        .map(|(points, samples)| {
+            let mut block = Vec::with_capacity(points.len() * 160);
+            for (p, s) in points.iter().zip(samples) {
+                for (n, &letter) in letters.iter().enumerate() {
+                    let separator = if n > 0 { "," } else { "" };
+                    let _ = write!(block, "{separator}{}", p.command[letter]);
+                }
+                for v in s {
+                    let _ = write!(block, ",{v:e}");
+                }
+                block.push(b'\n');
+            }
+            block
+        })
+        .collect();
+    for block in blocks {
+        out.write_all(&block)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,177 @@
+//! Point queries: trilinear sampling of fields and exact values from the model.
+
+use volmap::grid::Grid;
+use volmap::machine::{embedded, AxisLetter, ErrorFunction, Machine};
+use volmap::map::{self, Engine, MapOptions};
+use volmap::query::{self, LoadedField, QueryError};
+
+use super::common::Rng;
+use AxisLetter::*;
+
+/// A machine whose VE is linear in the commanded position: trilinear interpolation is exact.
+fn linear_machine() -> Machine {
+    let mut m = Machine::nominal(
+        "linear",
+        "FFXYZ",
+        &[(X, [0.0, 600.0]), (Y, [-200.0, 200.0]), (Z, [0.0, 300.0])],
+    )
+    .unwrap();
+    m.axis_mut(X).unwrap().components[0] = Some(ErrorFunction::Poly(vec![0.001, 2e-5]));
+    m.axis_mut(Y).unwrap().components[1] = Some(ErrorFunction::Poly(vec![-0.002, 3e-5]));
+    m.axis_mut(Z).unwrap().components[2] = Some(ErrorFunction::Poly(vec![0.0, -1e-5]));
+    m
+}
+
+fn mapped(
+    dir: &std::path::Path,
+    machine: &Machine,
+    dims: [usize; 3],
+    pose: [f64; 6],
+) -> std::path::PathBuf {
+    let grid = Grid::full_travel(machine, dims, pose).unwrap();
+    let path = dir.join("field.exr");
+    map::map_to_file(
+        machine,
+        &grid,
+        &Engine::Cpu,
+        &path,
+        &MapOptions::default(),
+        |_| {},
+    )
+    .unwrap();
+    path
+}
+
+fn points_csv(points: &[[f64; 3]]) -> String {
+    let mut text = String::from("X,Y,Z\n");
+    for p in points {
+        text.push_str(&format!("{},{},{}\n", p[0], p[1], p[2]));
+    }
+    text
+}
+
+#[test]
+fn trilinear_sampling_is_exact_where_the_field_is_trilinear() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = linear_machine();
+    let field = LoadedField::open(&mapped(dir.path(), &machine, [7, 5, 4], [0.0; 6])).unwrap();
+    let mut rng = Rng(17);
+    let positions: Vec<[f64; 3]> = (0..500)
+        .map(|_| {
+            [
+                rng.uniform(0.0, 600.0),
+                rng.uniform(-200.0, 200.0),
+                rng.uniform(0.0, 300.0),
+            ]
+        })
+        .chain([[0.0, -200.0, 0.0], [600.0, 200.0, 300.0]])
+        .collect();
+    let points = query::parse_points(&points_csv(&positions), "p.csv").unwrap();
+    let sampled = query::sample_field(&field, &points, "p.csv").unwrap();
+    let exact = query::sample_exact(&machine, &points);
+    for ((p, s), e) in points.iter().zip(&sampled).zip(&exact) {
+        for c in 0..6 {
+            // The field stores f32: equal up to its rounding.
+            assert!(
+                (s[c] - e[c]).abs() <= 1e-7 * e[c].abs() + 1e-12,
+                "{:?} column {c}: {} vs {}",
+                p.command,
+                s[c],
+                e[c]
+            );
+        }
+    }
+    assert!((exact[0][0] - (0.001 + 2e-5 * positions[0][0])).abs() < 1e-12);
+}
+
+#[test]
+fn grid_nodes_give_the_stored_values_and_midpoints_their_means() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let pose = [0.0, 0.0, 0.0, 0.0, 15.0, 100.0];
+    let path = mapped(dir.path(), &machine, [5, 4, 3], pose);
+    let field = LoadedField::open(&path).unwrap();
+    let grid = field.info.grid();
+    let node = |ijk: [usize; 3]| field.sample(&grid.command(ijk)).unwrap();
+    let a = node([1, 2, 1]);
+    let b = node([2, 2, 1]);
+    let mut mid = grid.command([1, 2, 1]);
+    mid[0] += grid.spacing_mm[0] / 2.0;
+    let m = field.sample(&mid).unwrap();
+    for c in 0..6 {
+        assert!(
+            (m[c] - (a[c] + b[c]) / 2.0).abs() <= 1e-12 + 1e-9 * m[c].abs(),
+            "column {c}"
+        );
+    }
+    // Nodes hold what the map wrote: the f32 of the model's value.
+    let exact = query::sample_exact(
+        &machine,
+        &query::parse_points("X,Y,Z,B,C\n200,400,250,15,100\n", "p.csv").unwrap(),
+    );
+    let stored = node([1, 2, 1]);
+    assert_eq!(grid.command([1, 2, 1])[..3], [200.0, 400.0, 250.0]);
+    for c in 0..6 {
+        assert_eq!(stored[c], exact[0][c] as f32 as f64, "column {c}");
+    }
+}
+
+#[test]
+fn positions_outside_the_grid_or_the_pose_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let field = LoadedField::open(&mapped(
+        dir.path(),
+        &machine,
+        [4, 4, 4],
+        [0.0, 0.0, 0.0, 0.0, 15.0, 100.0],
+    ))
+    .unwrap();
+    let outside = query::parse_points("X,Y,Z\n10,10,10\n\n800.5,0,0\n", "p.csv").unwrap();
+    let error = query::sample_field(&field, &outside, "p.csv").unwrap_err();
+    assert!(
+        matches!(
+            error,
+            QueryError::Outside {
+                line: 4,
+                axis: 'X',
+                ..
+            }
+        ),
+        "{error}"
+    );
+    assert!(
+        error.to_string().contains("p.csv: line 4: X=800.5"),
+        "{error}"
+    );
+    let wrong_pose = query::parse_points("X,Y,Z,B\n10,10,10,15\n10,10,10,20\n", "p.csv").unwrap();
+    let error = query::sample_field(&field, &wrong_pose, "p.csv")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("line 3") && error.contains("B=20") && error.contains("B=15"),
+        "{error}"
+    );
+}
+
+#[test]
+fn bad_point_files_name_the_line() {
+    let cases = [
+        ("", "line 1: empty"),
+        ("X,Y\n1,2\n", "no column Z"),
+        ("X,Y,Z,Q\n1,2,3,4\n", "unknown column `Q`"),
+        ("X,Y,Z,X\n1,2,3,4\n", "column X appears twice"),
+        ("X,Y,Z\n1,2,3\n4,5\n", "line 3: 2 fields"),
+        ("X,Y,Z\n1,2,abc\n", "line 2: `abc` in column Z"),
+        ("X,Y,Z\n1,2,nan\n", "not a finite number"),
+    ];
+    for (text, message) in cases {
+        let error = query::parse_points(text, "pts.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("pts.csv") && error.contains(message),
+            "`{text}`: {error}"
+        );
+    }
+}
