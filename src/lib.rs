@@ -28,3 +28,4 @@ pub mod machine;
 pub mod map;
 pub mod query;
 pub mod reference;
+pub mod tolerance;

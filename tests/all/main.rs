@@ -11,3 +11,4 @@ mod machine_file;
 mod query;
 mod reference;
 mod shaders;
+mod tolerance;

@@ -1,0 +1,321 @@
+//! Form tolerances as ISO 1101 defines them: the minimum zone, not a least-squares fit.
+//!
+//! Flatness is the smallest distance between two parallel planes that hold every point;
+//! cylindricity the smallest radial distance between two coaxial cylinders that do. Both are
+//! found by linear programming on the deviations from the nominal feature (Chebyshev fits):
+//!
+//! - flatness: with `h` the height of a point over the nominal plane and `(u, v)` its position in
+//!   it, minimise `w` subject to `0 ≤ h − (a·u + b·v + c) ≤ w`. The planes' normal is
+//!   `n − a·e1 − b·e2`; the width reported is the exact spread of the points along that normal.
+//!   The LP neglects the factor `1/√(1 + a² + b²)` in the width, a relative error of `(a² + b²)/2`
+//!   (1e-10 for a tilt of 1e-5 between the nominal and the machined plane).
+//! - cylindricity: with `r`, `θ`, `z` the cylindrical coordinates of a point about the current
+//!   axis, minimise `w` subject to `0 ≤ r − (dx + ax·z)·cos θ − (dy + ay·z)·sin θ − R ≤ w`, move
+//!   the axis by the offset `(dx, dy)` and tilt `(ax, ay)` found, and repeat until the axis stops
+//!   moving (the linearised distance is exact to second order in the axis change). The width
+//!   reported is the exact radial spread about the final axis.
+//!
+//! Coordinates are centred and scaled to order one before the LP so its tolerances act on
+//! relative, not absolute, values.
+
+use microlp::{ComparisonOp, OptimizationDirection, Problem, SolveOutcome};
+use nalgebra::Vector3;
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ToleranceError {
+    #[error("{feature}: needs at least {needed} points, got {got}")]
+    TooFewPoints {
+        feature: &'static str,
+        needed: usize,
+        got: usize,
+    },
+    #[error("{feature}: a point is not finite")]
+    NotFinite { feature: &'static str },
+    #[error("{feature}: the nominal direction has zero length")]
+    ZeroDirection { feature: &'static str },
+    #[error("{feature}: the minimum-zone linear program failed: {message}")]
+    Solver {
+        feature: &'static str,
+        message: String,
+    },
+}
+
+/// Two parallel planes holding every point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlaneZone {
+    /// Distance between the planes, mm.
+    pub width_mm: f64,
+    /// Unit normal of the planes, on the side of the nominal normal.
+    pub normal: Vector3<f64>,
+    /// The point farthest above the lower plane and the one on it (indices into the input).
+    pub highest: usize,
+    pub lowest: usize,
+}
+
+/// Two coaxial cylinders holding every point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CylinderZone {
+    /// Radial distance between the cylinders, mm.
+    pub width_mm: f64,
+    /// A point of the axis and its unit direction.
+    pub axis_point: Vector3<f64>,
+    pub axis_direction: Vector3<f64>,
+    /// Radii of the inner and the outer cylinder, mm.
+    pub inner_radius_mm: f64,
+    pub outer_radius_mm: f64,
+    /// The points on the outer and on the inner cylinder (indices into the input).
+    pub outermost: usize,
+    pub innermost: usize,
+}
+
+/// Two unit vectors completing `n` to a right-handed orthonormal frame.
+fn frame(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+    let helper = if n.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let e1 = n.cross(&helper).normalize();
+    (e1, n.cross(&e1))
+}
+
+fn check(
+    feature: &'static str,
+    points: &[Vector3<f64>],
+    needed: usize,
+    direction: &Vector3<f64>,
+) -> Result<Vector3<f64>, ToleranceError> {
+    if points.len() < needed {
+        return Err(ToleranceError::TooFewPoints {
+            feature,
+            needed,
+            got: points.len(),
+        });
+    }
+    if points.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(ToleranceError::NotFinite { feature });
+    }
+    let norm = direction.norm();
+    if !(norm > 0.0 && norm.is_finite()) {
+        return Err(ToleranceError::ZeroDirection { feature });
+    }
+    Ok(direction / norm)
+}
+
+/// Minimises `w` subject to `0 ≤ target_i − Σ_k x_k·coefficients_ik ≤ w`; returns `x` and `w`.
+fn chebyshev(
+    feature: &'static str,
+    rows: &[(Vec<f64>, f64)],
+    unknowns: usize,
+) -> Result<(Vec<f64>, f64), ToleranceError> {
+    let mut problem = Problem::new(OptimizationDirection::Minimize);
+    let x: Vec<_> = (0..unknowns)
+        .map(|_| problem.add_var(0.0, (f64::NEG_INFINITY, f64::INFINITY)))
+        .collect();
+    let w = problem.add_var(1.0, (0.0, f64::INFINITY));
+    for (coefficients, target) in rows {
+        let terms: Vec<_> = x
+            .iter()
+            .copied()
+            .zip(coefficients.iter().copied())
+            .collect();
+        problem.add_constraint(terms.as_slice(), ComparisonOp::Le, *target);
+        let mut with_w = terms.clone();
+        with_w.push((w, 1.0));
+        problem.add_constraint(with_w.as_slice(), ComparisonOp::Ge, *target);
+    }
+    let solver = |message: String| ToleranceError::Solver { feature, message };
+    match problem.solve().map_err(|e| solver(e.to_string()))? {
+        SolveOutcome::Solution(solution) => {
+            Ok((x.iter().map(|&v| solution[v]).collect(), solution[w]))
+        }
+        SolveOutcome::Interrupted(_) => Err(solver("interrupted before a solution".into())),
+    }
+}
+
+fn spread(values: impl Iterator<Item = f64>) -> (f64, usize, f64, usize) {
+    let (mut lo, mut lo_at, mut hi, mut hi_at) = (f64::INFINITY, 0, f64::NEG_INFINITY, 0);
+    for (n, v) in values.enumerate() {
+        if v < lo {
+            (lo, lo_at) = (v, n);
+        }
+        if v > hi {
+            (hi, hi_at) = (v, n);
+        }
+    }
+    (lo, lo_at, hi, hi_at)
+}
+
+/// The planes normal to `normal` (unit) through the lowest and highest point.
+fn plane_zone(points: &[Vector3<f64>], normal: Vector3<f64>) -> PlaneZone {
+    let (lo, lowest, hi, highest) = spread(points.iter().map(|p| normal.dot(p)));
+    PlaneZone {
+        width_mm: hi - lo,
+        normal,
+        highest,
+        lowest,
+    }
+}
+
+/// Flatness by the minimum zone. `nominal_normal` is the normal of the feature as drawn.
+pub fn flatness_min_zone(
+    points: &[Vector3<f64>],
+    nominal_normal: &Vector3<f64>,
+) -> Result<PlaneZone, ToleranceError> {
+    const FEATURE: &str = "flatness";
+    let n = check(FEATURE, points, 3, nominal_normal)?;
+    let (e1, e2) = frame(&n);
+    let centre = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    let local: Vec<[f64; 3]> = points
+        .iter()
+        .map(|p| {
+            let d = p - centre;
+            [e1.dot(&d), e2.dot(&d), n.dot(&d)]
+        })
+        .collect();
+    let length = local
+        .iter()
+        .map(|l| l[0].abs().max(l[1].abs()))
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let height = local.iter().map(|l| l[2].abs()).fold(0.0, f64::max);
+    if height == 0.0 {
+        return Ok(plane_zone(points, n));
+    }
+    let rows: Vec<(Vec<f64>, f64)> = local
+        .iter()
+        .map(|l| (vec![l[0] / length, l[1] / length, 1.0], l[2] / height))
+        .collect();
+    let (x, _) = chebyshev(FEATURE, &rows, 3)?;
+    let (a, b) = (x[0] * height / length, x[1] * height / length);
+    Ok(plane_zone(points, (n - a * e1 - b * e2).normalize()))
+}
+
+/// The least-squares plane (the plane through the centroid minimising the squared distances),
+/// and the zone of planes parallel to it: wider than the minimum zone, or as wide.
+pub fn flatness_least_squares(
+    points: &[Vector3<f64>],
+    nominal_normal: &Vector3<f64>,
+) -> Result<PlaneZone, ToleranceError> {
+    let n = check("flatness", points, 3, nominal_normal)?;
+    let centre = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    let covariance = points.iter().fold(nalgebra::Matrix3::zeros(), |acc, p| {
+        let d = p - centre;
+        acc + d * d.transpose()
+    });
+    let eigen = covariance.symmetric_eigen();
+    let smallest = eigen.eigenvalues.imin();
+    let mut normal: Vector3<f64> = eigen.eigenvectors.column(smallest).into_owned();
+    if normal.dot(&n) < 0.0 {
+        normal = -normal;
+    }
+    Ok(plane_zone(points, normal))
+}
+
+/// Radial distances of the points from an axis.
+fn radii(points: &[Vector3<f64>], point: &Vector3<f64>, direction: &Vector3<f64>) -> Vec<f64> {
+    points
+        .iter()
+        .map(|p| {
+            let d = p - point;
+            (d - direction * direction.dot(&d)).norm()
+        })
+        .collect()
+}
+
+fn cylinder_zone(
+    points: &[Vector3<f64>],
+    axis_point: Vector3<f64>,
+    axis_direction: Vector3<f64>,
+) -> CylinderZone {
+    let (inner, innermost, outer, outermost) =
+        spread(radii(points, &axis_point, &axis_direction).into_iter());
+    CylinderZone {
+        width_mm: outer - inner,
+        axis_point,
+        axis_direction,
+        inner_radius_mm: inner,
+        outer_radius_mm: outer,
+        outermost,
+        innermost,
+    }
+}
+
+/// Cylindricity by the minimum zone, starting from the nominal axis (a point and a direction).
+pub fn cylindricity_min_zone(
+    points: &[Vector3<f64>],
+    axis_point: &Vector3<f64>,
+    axis_direction: &Vector3<f64>,
+) -> Result<CylinderZone, ToleranceError> {
+    const FEATURE: &str = "cylindricity";
+    let mut direction = check(FEATURE, points, 6, axis_direction)?;
+    // Start on the axis level with the points' centroid, where z is centred.
+    let centroid = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    let mut point = axis_point + direction * direction.dot(&(centroid - axis_point));
+    let mut zone = cylinder_zone(points, point, direction);
+    for _ in 0..20 {
+        let (e1, e2) = frame(&direction);
+        let local: Vec<(f64, f64, f64, f64)> = points
+            .iter()
+            .map(|p| {
+                let d = p - point;
+                let z = direction.dot(&d);
+                let radial = d - direction * z;
+                let r = radial.norm();
+                let (c, s) = if r > 0.0 {
+                    (e1.dot(&radial) / r, e2.dot(&radial) / r)
+                } else {
+                    (1.0, 0.0)
+                };
+                (r, c, s, z)
+            })
+            .collect();
+        let length = local
+            .iter()
+            .map(|l| l.3.abs())
+            .fold(0.0, f64::max)
+            .max(1e-300);
+        let mean_r = local.iter().map(|l| l.0).sum::<f64>() / local.len() as f64;
+        let scale = local
+            .iter()
+            .map(|l| (l.0 - mean_r).abs())
+            .fold(0.0, f64::max);
+        if scale == 0.0 {
+            break;
+        }
+        // Unknowns, mm: dx, dy (offset), ax, ay (tilt times length), R − mean_r; every row divided
+        // by the radial spread.
+        let rows: Vec<(Vec<f64>, f64)> = local
+            .iter()
+            .map(|&(r, c, s, z)| {
+                let zl = z / length;
+                (
+                    vec![
+                        c / scale,
+                        s / scale,
+                        c * zl / scale,
+                        s * zl / scale,
+                        1.0 / scale,
+                    ],
+                    (r - mean_r) / scale,
+                )
+            })
+            .collect();
+        let (x, _) = chebyshev(FEATURE, &rows, 5)?;
+        let offset = x[0] * e1 + x[1] * e2;
+        let tilt = (x[2] * e1 + x[3] * e2) / length;
+        let candidate_point = point + offset;
+        let candidate_direction = (direction + tilt).normalize();
+        let candidate = cylinder_zone(points, candidate_point, candidate_direction);
+        let moved = offset.norm() + tilt.norm() * length;
+        if candidate.width_mm < zone.width_mm {
+            zone = candidate;
+        }
+        point = candidate_point;
+        direction = candidate_direction;
+        if moved <= 1e-12 * (1.0 + mean_r) {
+            break;
+        }
+    }
+    Ok(zone)
+}
