@@ -26,6 +26,7 @@ pub mod gpu;
 pub mod grid;
 pub mod machine;
 pub mod map;
+pub mod mesh;
 pub mod query;
 pub mod reference;
 pub mod tolerance;

@@ -8,6 +8,7 @@ mod field;
 mod golden;
 mod gpu;
 mod machine_file;
+mod mesh;
 mod query;
 mod reference;
 mod shaders;
