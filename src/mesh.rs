@@ -57,7 +57,7 @@ impl Mesh {
             let scale = (corners[1] - corners[0])
                 .norm()
                 .max((corners[2] - corners[0]).norm());
-            if !(area2 > 1e-12 * scale * scale) {
+            if area2.is_nan() || area2 <= 1e-12 * scale * scale {
                 return Err(MeshError::Degenerate {
                     path: path.to_string(),
                     triangle: n,
