@@ -11,7 +11,7 @@ use serde::Serialize;
 use crate::cpu::{self, CpuPlan};
 use crate::field::FieldWriter;
 use crate::gpu::layout::CHANNELS;
-use crate::gpu::{GpuError, GpuMapper, KernelChoice};
+use crate::gpu::{GpuError, KernelChoice};
 use crate::grid::Grid;
 use crate::machine::Machine;
 use crate::map::{self, Engine, MapError, MapOptions};
@@ -100,13 +100,14 @@ fn timed<R>(f: impl FnOnce() -> R) -> (R, f64) {
     (r, start.elapsed().as_secs_f64())
 }
 
-/// Measures every path for `machine` over `grid`, writing scratch fields into `scratch`.
+/// Measures every path for `machine` over `grid` (the GPU paths when `engine` is the GPU),
+/// writing scratch fields into `scratch`.
 /// `reference_points` bounds the points the single-thread reference computes (its throughput
 /// does not depend on how many); `on_step` names each path as it starts.
 pub fn bench_machine(
     machine: &Machine,
     grid: &Grid,
-    gpu: Option<&GpuMapper>,
+    engine: &Engine,
     scratch: &Path,
     reference_points: u64,
     mut on_step: impl FnMut(&str),
@@ -118,7 +119,7 @@ pub fn bench_machine(
     let mut gpu_rows: Vec<(String, u64, f64)> = Vec::new();
     let mut ceiling = None;
     let mut kernel_timing = None;
-    if let Some(gpu) = gpu {
+    if let Engine::Gpu(gpu) = engine {
         on_step("GPU write-only ceiling");
         let (seconds, timestamps) =
             gpu.time_kernel(machine, grid, KernelChoice::WriteOnly, KERNEL_RUNS)?;
@@ -199,20 +200,10 @@ pub fn bench_machine(
     ));
 
     rows.append(&mut gpu_rows);
-    if gpu.is_some() {
+    if let Engine::Gpu(_) = engine {
         on_step("map to EXR, GPU");
-        let engine = Engine::Gpu(Box::new(
-            GpuMapper::open()?.expect("an adapter was open a moment ago"),
-        ));
         let (summary, _) = timed(|| {
-            map::map_to_file(
-                machine,
-                grid,
-                &engine,
-                &path,
-                &MapOptions::default(),
-                |_| {},
-            )
+            map::map_to_file(machine, grid, engine, &path, &MapOptions::default(), |_| {})
         });
         rows.push(("map to EXR, GPU".into(), points, summary?.seconds));
     }

@@ -124,6 +124,16 @@ enum Device {
     Cpu,
 }
 
+impl From<Device> for DeviceChoice {
+    fn from(device: Device) -> DeviceChoice {
+        match device {
+            Device::Auto => DeviceChoice::Auto,
+            Device::Gpu => DeviceChoice::Gpu,
+            Device::Cpu => DeviceChoice::Cpu,
+        }
+    }
+}
+
 /// A failure with the exit code it maps to.
 struct Failure {
     code: u8,
@@ -195,12 +205,7 @@ fn run_map(args: MapArgs) -> Result<ExitCode, Failure> {
             args.out.display()
         )));
     }
-    let choice = match args.device {
-        Device::Auto => DeviceChoice::Auto,
-        Device::Gpu => DeviceChoice::Gpu,
-        Device::Cpu => DeviceChoice::Cpu,
-    };
-    let (engine, note) = Engine::select(choice)?;
+    let (engine, note) = Engine::select(args.device.into())?;
     if let Some(note) = note {
         eprintln!("volmap: {note}");
     }
@@ -332,19 +337,10 @@ fn run_bench(args: BenchArgs) -> Result<ExitCode, Failure> {
         let grid = Grid::full_travel(&machine, dims, pose).map_err(bad_input)?;
         machines.push((machine, grid));
     }
-    let gpu = match args.device {
-        Device::Cpu => None,
-        Device::Gpu => {
-            Some(volmap::gpu::GpuMapper::open()?.ok_or(volmap::map::MapError::NoAdapter)?)
-        }
-        Device::Auto => {
-            let gpu = volmap::gpu::GpuMapper::open()?;
-            if gpu.is_none() {
-                eprintln!("volmap: no GPU adapter found: GPU paths left out");
-            }
-            gpu
-        }
-    };
+    let (engine, note) = Engine::select(args.device.into())?;
+    if note.is_some() {
+        eprintln!("volmap: no GPU adapter found: GPU paths left out");
+    }
     let scratch = std::env::temp_dir().join(format!("volmap-bench-{}", std::process::id()));
     std::fs::create_dir_all(&scratch).with_context(|| format!("creating {}", scratch.display()))?;
     let mut results = Vec::new();
@@ -352,7 +348,7 @@ fn run_bench(args: BenchArgs) -> Result<ExitCode, Failure> {
         let result = volmap::bench::bench_machine(
             machine,
             grid,
-            gpu.as_ref(),
+            &engine,
             &scratch,
             args.reference_points,
             |step| eprintln!("bench: {}: {step}", machine.name),
@@ -362,7 +358,10 @@ fn run_bench(args: BenchArgs) -> Result<ExitCode, Failure> {
     let _ = std::fs::remove_dir_all(&scratch);
     let report = volmap::bench::BenchReport {
         date: volmap::bench::today(),
-        adapter: gpu.as_ref().map(|g| g.adapter_name().to_string()),
+        adapter: match &engine {
+            Engine::Gpu(g) => Some(g.adapter_name().to_string()),
+            Engine::Cpu => None,
+        },
         cpu: volmap::bench::cpu_name(),
         threads: rayon::current_num_threads(),
         machines: results,
