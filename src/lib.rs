@@ -14,13 +14,16 @@
 //! - [`field`]: field files (OpenEXR) written as a stream and read back;
 //! - [`map`]: a whole map run, its statistics and its spot check;
 //! - [`query`]: VE and OE at arbitrary positions, from a field or exactly;
+//! - [`features`]: part files, feature errors and machine capability, on [`tolerance`]
+//!   (minimum zones) and [`mesh`] (STL in, PLY out);
 //! - [`bench`]: `volmap bench`.
 //!
-//! Feature queries, standard tests and NC compensation build on [`reference`], [`map`] and
-//! [`field`] and get modules of their own beside these.
+//! Standard tests and NC compensation build on [`reference`], [`map`] and [`field`] and get
+//! modules of their own beside these.
 
 pub mod bench;
 pub mod cpu;
+pub mod features;
 pub mod field;
 pub mod gpu;
 pub mod grid;

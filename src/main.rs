@@ -1,8 +1,9 @@
 //! The `volmap` command line.
 //!
 //! Exit codes: 0 success; 1 a failure while working (GPU, file system); 2 bad input (machine
-//! file, grid, pose, field file, command-line values); 4 `--check` found the field further from
-//! the f64 reference than the tolerance.
+//! file, grid, pose, field file, part file, CSV, command-line values); 3 `features` found a
+//! feature the machine is unfit for; 4 `--check` found the field further from the f64 reference
+//! than the tolerance.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -41,6 +42,9 @@ enum Command {
     /// VE and OE at arbitrary commanded positions (CSV in, CSV out): interpolated from a field
     /// file, or exactly from the machine model.
     Sample(SampleArgs),
+    /// The GD&T error each feature of a part gets from the machine, against its tolerance: the
+    /// machine's capability (exit code 3 when any feature is unfit).
+    Features(FeaturesArgs),
     /// Measure every path on this machine (CPU reference, CPU engine, GPU kernel, readback, EXR
     /// writing, whole maps) and print one table.
     Bench(BenchArgs),
@@ -67,6 +71,22 @@ struct SampleArgs {
     /// Where to write the result (CSV); standard output when left out.
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+struct FeaturesArgs {
+    /// The part file (TOML): placement, cutter and features with their tolerances.
+    #[arg(long)]
+    part: PathBuf,
+    /// Take the machine's error from this field file (trilinear interpolation).
+    #[arg(long, conflicts_with = "machine")]
+    field: Option<PathBuf>,
+    /// Take the machine's error exactly from this machine (embedded name or file).
+    #[arg(long)]
+    machine: Option<String>,
+    /// Also write the rows as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -163,6 +183,7 @@ fn main() -> ExitCode {
         Command::Machines => list_machines(),
         Command::Info { file } => run_info(&file),
         Command::Sample(args) => run_sample(args),
+        Command::Features(args) => run_features(args),
         Command::Bench(args) => run_bench(args),
     };
     match result {
@@ -434,6 +455,66 @@ fn run_sample(args: SampleArgs) -> Result<ExitCode, Failure> {
                     .into());
             }
         }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn run_features(args: FeaturesArgs) -> Result<ExitCode, Failure> {
+    use volmap::features::{self, ErrorSource, PartFile, Verdict};
+    let part_name = args.part.display().to_string();
+    let part = PartFile::read(&args.part).map_err(bad_input)?;
+    let field;
+    let machine;
+    let source = match (&args.field, &args.machine) {
+        (Some(path), _) => {
+            field = volmap::query::LoadedField::open(path).map_err(bad_input)?;
+            ErrorSource::Field(&field)
+        }
+        (None, Some(name)) => {
+            machine = embedded::load(name).map_err(bad_input)?;
+            ErrorSource::Exact(&machine)
+        }
+        (None, None) => {
+            return Err(bad_input(anyhow::anyhow!(
+                "say where the machine's error comes from: --field FILE.exr or --machine M"
+            )))
+        }
+    };
+    let rows = features::evaluate(&part, source, &part_name).map_err(bad_input)?;
+    println!("{} ({} features)", part.name, rows.len());
+    println!(
+        "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} worst point (commanded X Y Z, mm)",
+        "feature", "kind", "error mm", "tolerance mm", "safety", "verdict"
+    );
+    for r in &rows {
+        let safety = r.safety.map_or("-".to_string(), |s| format!("{s:.2}"));
+        let verdict = match r.verdict {
+            Verdict::Unfit => "unfit",
+            Verdict::Inspect => "inspect",
+            Verdict::Fit => "fit",
+        };
+        println!(
+            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:.3} {:.3} {:.3}",
+            r.name,
+            r.kind,
+            r.error_mm,
+            r.tolerance_mm,
+            safety,
+            verdict,
+            r.worst_point[0],
+            r.worst_point[1],
+            r.worst_point[2]
+        );
+    }
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&rows).context("encoding the rows")?;
+        let temp = path.with_extension("json.part");
+        std::fs::write(&temp, text + "\n")
+            .with_context(|| format!("writing {}", temp.display()))?;
+        std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
+        return Ok(ExitCode::from(3));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -69,7 +69,7 @@ pub struct CylinderZone {
 }
 
 /// Two unit vectors completing `n` to a right-handed orthonormal frame.
-fn frame(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+pub(crate) fn frame(n: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let helper = if n.x.abs() < 0.9 {
         Vector3::x()
     } else {

@@ -325,3 +325,115 @@ fn exact_samples_take_the_pose_from_the_columns_or_from_pose() {
     assert_eq!(run(&with_columns, ""), run(&without, "B=30,C=60"));
     assert_ne!(run(&without, ""), run(&without, "B=30,C=60"));
 }
+
+#[test]
+fn features_rate_the_machine_from_the_model_or_a_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let example =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/li2015-part.toml");
+    let json = dir.path().join("rows.json");
+    volmap()
+        .args(["features", "--machine", "vmc-li2015", "--part"])
+        .arg(&example)
+        .arg("--json")
+        .arg(&json)
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("pocket floor").and(predicate::str::contains("inspect")));
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    for row in rows {
+        for key in [
+            "name",
+            "kind",
+            "error_mm",
+            "tolerance_mm",
+            "safety",
+            "verdict",
+            "worst_point",
+        ] {
+            assert!(row.get(key).is_some(), "{key} missing in {row}");
+        }
+        let error = row["error_mm"].as_f64().unwrap();
+        assert!(error > 0.0 && error < 0.1, "{row}");
+    }
+
+    // The same from a field over the part's region: close to the exact figures.
+    let field = dir.path().join("f.exr");
+    volmap()
+        .args([
+            "map",
+            "--machine",
+            "vmc-li2015",
+            "--grid",
+            "101x61x51",
+            "--device",
+            "cpu",
+            "--out",
+        ])
+        .arg(&field)
+        .assert()
+        .success();
+    let from_field = dir.path().join("field.json");
+    volmap()
+        .args(["features", "--field"])
+        .arg(&field)
+        .arg("--part")
+        .arg(&example)
+        .arg("--json")
+        .arg(&from_field)
+        .assert()
+        .code(0);
+    let field_rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&from_field).unwrap()).unwrap();
+    for (exact, sampled) in rows.iter().zip(field_rows.as_array().unwrap()) {
+        let (e, s) = (
+            exact["error_mm"].as_f64().unwrap(),
+            sampled["error_mm"].as_f64().unwrap(),
+        );
+        assert!(
+            (e - s).abs() < 0.05 * e + 1e-5,
+            "{}: {e} exact, {s} from the field",
+            exact["name"]
+        );
+    }
+
+    // A tighter tolerance makes the machine unfit: exit code 3.
+    let tight = dir.path().join("tight.toml");
+    std::fs::write(
+        &tight,
+        std::fs::read_to_string(&example)
+            .unwrap()
+            .replace("tolerance_mm = 0.05", "tolerance_mm = 0.001"),
+    )
+    .unwrap();
+    volmap()
+        .args(["features", "--machine", "vmc-li2015", "--part"])
+        .arg(&tight)
+        .assert()
+        .code(3)
+        .stdout(predicate::str::contains("unfit"));
+    // A part beyond the mapped grid is an error naming the feature.
+    let far = dir.path().join("far.toml");
+    std::fs::write(
+        &far,
+        std::fs::read_to_string(&example).unwrap().replace(
+            "zero_mm = [200.0, 150.0, 300.0]",
+            "zero_mm = [900.0, 150.0, 300.0]",
+        ),
+    )
+    .unwrap();
+    volmap()
+        .args(["features", "--field"])
+        .arg(&field)
+        .arg("--part")
+        .arg(&far)
+        .assert()
+        .code(2)
+        .stderr(
+            predicate::str::contains("feature `pocket floor`")
+                .and(predicate::str::contains("outside the mapped grid")),
+        );
+}

@@ -4,6 +4,7 @@
 mod cli;
 mod common;
 mod cpu;
+mod features;
 mod field;
 mod golden;
 mod gpu;

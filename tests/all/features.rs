@@ -1,0 +1,205 @@
+//! Feature errors on machines whose effect on a feature is known by hand.
+
+use volmap::features::{evaluate, ErrorSource, FeatureError, PartFile, Verdict};
+use volmap::machine::{AxisLetter, ErrorFunction, Interp, Machine, Table};
+use AxisLetter::*;
+
+fn gantry() -> Machine {
+    Machine::nominal(
+        "gantry",
+        "FFXYZ",
+        &[(X, [0.0, 400.0]), (Y, [0.0, 300.0]), (Z, [-100.0, 100.0])],
+    )
+    .unwrap()
+}
+
+const PART: &str = r#"
+name = "test part"
+[placement]
+zero_mm = [0.0, 0.0, 0.0]
+[cutter]
+radius_mm = 5.0
+length_mm = 40.0
+[sampling]
+spacing_mm = 5.0
+"#;
+
+fn part(features: &str) -> PartFile {
+    PartFile::parse(&format!("{PART}\n{features}"), "part.toml").unwrap()
+}
+
+#[test]
+fn a_z_straightness_alone_gives_its_height_as_flatness() {
+    let mut m = gantry();
+    let arc = Table::new(
+        vec![(0.0, 0.0), (200.0, 0.01), (400.0, 0.0)],
+        Interp::Quadratic,
+        false,
+    )
+    .unwrap();
+    m.axis_mut(X).unwrap().components[2] = Some(ErrorFunction::Table(arc));
+    let p = part(
+        r#"[[features]]
+kind = "end_milled_plane"
+name = "floor"
+corner_mm = [0.0, 0.0, -10.0]
+size_mm = [400.0, 100.0]
+tolerance_mm = 0.05
+"#,
+    );
+    let rows = evaluate(&p, ErrorSource::Exact(&m), "part.toml").unwrap();
+    assert!(
+        (rows[0].error_mm - 0.01).abs() < 1e-9,
+        "{}",
+        rows[0].error_mm
+    );
+    assert!((rows[0].safety.unwrap() - 5.0).abs() < 1e-6);
+    assert_eq!(rows[0].verdict, Verdict::Fit);
+    assert!(
+        (rows[0].worst_point[0] - 200.0).abs() < 1e-9
+            || rows[0].worst_point[0].abs() < 1e-9
+            || (rows[0].worst_point[0] - 400.0).abs() < 1e-9
+    );
+}
+
+#[test]
+fn a_pure_spindle_tilt_lowers_a_rib_by_radius_times_tilt() {
+    let mut m = gantry();
+    m.spindle[3] = 2e-4;
+    let p = part(
+        r#"[[features]]
+kind = "rib_height"
+name = "rib"
+corner_mm = [100.0, 100.0, 0.0]
+size_mm = [50.0, 4.0]
+tolerance_mm = 0.002
+
+[[features]]
+kind = "end_milled_plane"
+name = "floor"
+corner_mm = [100.0, 100.0, -20.0]
+size_mm = [50.0, 50.0]
+tolerance_mm = 0.01
+"#,
+    );
+    let rows = evaluate(&p, ErrorSource::Exact(&m), "part.toml").unwrap();
+    assert!(
+        (rows[0].error_mm - 5.0 * 2e-4).abs() < 1e-12,
+        "{}",
+        rows[0].error_mm
+    );
+    assert_eq!(rows[0].verdict, Verdict::Inspect);
+    // The tilt lowers the whole floor alike: no flatness error.
+    assert!(rows[1].error_mm < 1e-12, "{}", rows[1].error_mm);
+    assert_eq!(rows[1].safety, None);
+}
+
+#[test]
+fn a_pitch_error_tilts_two_holes_apart_by_depth_times_pitch() {
+    let b1 = 1e-7;
+    let mut m = gantry();
+    m.axis_mut(X).unwrap().components[4] = Some(ErrorFunction::Poly(vec![3e-5, b1]));
+    let p = part(
+        r#"[[features]]
+kind = "hole"
+name = "A"
+centre_mm = [50.0, 150.0, 0.0]
+diameter_mm = 10.0
+depth_mm = 20.0
+tolerance_mm = 0.01
+
+[[features]]
+kind = "parallel_hole"
+name = "B"
+centre_mm = [250.0, 150.0, 0.0]
+diameter_mm = 10.0
+depth_mm = 20.0
+datum = "A"
+tolerance_mm = 0.0003
+"#,
+    );
+    let rows = evaluate(&p, ErrorSource::Exact(&m), "part.toml").unwrap();
+    // Bored (cutter as wide as the hole): each hole's sections across the tool axis are circles
+    // shifted along the tilted cutter, so across its own axis the hole is an ellipse: the
+    // R·(1 − cos β) of Li et al.'s Eq. (12) is its whole cylindricity.
+    let beta: f64 = 3e-5 + b1 * 50.0;
+    let ellipse = 5.0 * (1.0 - beta.cos());
+    assert!(
+        (rows[0].error_mm - ellipse).abs() < 1e-12,
+        "{} vs {ellipse}",
+        rows[0].error_mm
+    );
+    let expected = 20.0 * b1 * 200.0;
+    assert!(
+        (rows[1].error_mm - expected).abs() < 1e-8,
+        "{} vs {expected}",
+        rows[1].error_mm
+    );
+    assert_eq!(rows[1].verdict, Verdict::Unfit);
+}
+
+#[test]
+fn a_wall_follows_the_tilt_of_the_cutter() {
+    // A roll of the X carriage (EAX = k·x) tilts the cutter about x by an amount that grows
+    // along a wall running along x.
+    let mut m = gantry();
+    m.axis_mut(X).unwrap().components[3] = Some(ErrorFunction::Poly(vec![0.0, 1e-7]));
+    let p = part(
+        r#"[[features]]
+kind = "flank_milled_plane"
+name = "wall"
+start_mm = [0.0, 50.0, -10.0]
+direction_deg = 0.0
+length_mm = 300.0
+depth_mm = 10.0
+tolerance_mm = 0.01
+"#,
+    );
+    let rows = evaluate(&p, ErrorSource::Exact(&m), "part.toml").unwrap();
+    assert!(rows[0].error_mm > 0.0);
+    // The wall's deviation is k·x·(s − 10) (the roll tilts the cutter, and moves its tip by the
+    // 10 mm it stands below the Y-Z carriage): a twisted surface, whose best plane leaves
+    // k·(x − X/2)·(s − S/2), between ±k·X·S/4: a zone k·X·S/2 wide.
+    assert!(
+        (rows[0].error_mm - 1e-7 * 300.0 * 10.0 / 2.0).abs() < 1e-9,
+        "{}",
+        rows[0].error_mm
+    );
+}
+
+#[test]
+fn bad_part_files_are_clear_errors() {
+    let bad = |features: &str| match PartFile::parse(&format!("{PART}\n{features}"), "part.toml") {
+        Ok(_) => panic!("accepted: {features}"),
+        Err(e) => e.to_string(),
+    };
+    let hole = "[[features]]\nkind = \"hole\"\nname = \"A\"\ncentre_mm = [0.0, 0.0, 0.0]\ndiameter_mm = 10.0\ndepth_mm = 5.0\ntolerance_mm = 0.01\n";
+    let message = bad(&hole.replace("tolerance_mm = 0.01", "tolerance_mm = 0.0"));
+    assert!(
+        message.contains("part.toml: feature `A`: tolerance_mm must be a positive"),
+        "{message}"
+    );
+    let message = bad(&format!("{hole}[[features]]\nkind = \"parallel_hole\"\nname = \"B\"\ncentre_mm = [0.0, 0.0, 0.0]\ndiameter_mm = 10.0\ndepth_mm = 5.0\ndatum = \"C\"\ntolerance_mm = 0.01\n"));
+    assert!(
+        message.contains("feature `B`: datum `C` names no feature"),
+        "{message}"
+    );
+    let message = bad(&hole.replace("depth_mm = 5.0", "depth_mm = 5.0\ncolour = 1"));
+    assert!(
+        message.contains("part.toml") && message.contains("colour"),
+        "{message}"
+    );
+    let message = bad(&hole.replace("kind = \"hole\"", "kind = \"thread\""));
+    assert!(message.contains("thread"), "{message}");
+    // A feature the cutter cannot reach, and one outside the map.
+    let deep = part(&hole.replace("depth_mm = 5.0", "depth_mm = 50.0"));
+    let error = evaluate(&deep, ErrorSource::Exact(&gantry()), "part.toml").unwrap_err();
+    assert!(
+        matches!(&error, FeatureError::Feature { feature, .. } if feature == "A"),
+        "{error}"
+    );
+    assert!(
+        error.to_string().contains("exceeds the cutter length"),
+        "{error}"
+    );
+}
