@@ -6,7 +6,7 @@
 //!
 //! The crate is laid out as the architecture:
 //! - [`machine`]: the machine model, its TOML file and the embedded machines;
-//! - [`reference`]: the f64 CPU reference (nalgebra), ground truth of every test;
+//! - [`reference`](mod@reference): the f64 CPU reference (nalgebra), ground truth of every test;
 //! - [`gpu`]: the WGSL chain kernel (`shaders/chain.wgsl`) on wgpu, all wgpu calls in
 //!   [`gpu::device`];
 //! - [`cpu`]: the reference over a grid on all cores, the fallback where no adapter exists;
@@ -18,7 +18,7 @@
 //!   (minimum zones) and [`mesh`] (STL in, PLY out);
 //! - [`bench`]: `volmap bench`.
 //!
-//! Standard tests and NC compensation build on [`reference`], [`map`] and [`field`] and get
+//! Standard tests and NC compensation build on [`reference`](mod@reference), [`map`] and [`field`] and get
 //! modules of their own beside these.
 
 pub mod bench;
