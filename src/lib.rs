@@ -16,7 +16,7 @@
 //! - [`query`]: VE and OE at arbitrary positions, from a field or exactly;
 //! - [`features`]: part files, feature errors and machine capability, on [`tolerance`]
 //!   (minimum zones) and [`mesh`] (STL in, PLY out);
-//! - [`bench`]: `volmap bench`.
+//! - [`bench`](mod@bench): `volmap bench`.
 //!
 //! Standard tests and NC compensation build on [`reference`](mod@reference), [`map`] and [`field`] and get
 //! modules of their own beside these.

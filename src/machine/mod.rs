@@ -1,5 +1,5 @@
 //! The machine model: kinematic chain, axes with their nominal geometry and ISO 230-1 errors,
-//! spindle errors and the tool offset (MODEL.md). Machines come from TOML files ([`file`]) or are
+//! spindle errors and the tool offset (MODEL.md). Machines come from TOML files ([`file`](mod@file)) or are
 //! embedded in the binary ([`embedded`]).
 
 pub mod chain;
