@@ -176,6 +176,30 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
     }
 }
 
+/// Writes a file through a temporary file in its folder, renamed into place once complete, so a
+/// failed run never leaves half a file.
+fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> anyhow::Result<()> {
+    let temp = path.with_file_name(format!(
+        ".{}.part",
+        path.file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    ));
+    let result = (|| -> std::io::Result<()> {
+        let mut out = std::io::BufWriter::new(std::fs::File::create(&temp)?);
+        write(&mut out)?;
+        out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&temp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&temp);
+    }
+    result.with_context(|| format!("writing {}", path.display()))
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -390,10 +414,7 @@ fn run_bench(args: BenchArgs) -> Result<ExitCode, Failure> {
     print!("{}", volmap::bench::table(&report));
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&report).context("encoding the report")?;
-        let temp = path.with_extension("json.part");
-        std::fs::write(&temp, text + "\n")
-            .with_context(|| format!("writing {}", temp.display()))?;
-        std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
+        write_atomically(path, |out| writeln!(out, "{text}"))?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -440,21 +461,7 @@ fn run_sample(args: SampleArgs) -> Result<ExitCode, Failure> {
                 .context("writing to standard output")?;
             out.flush().context("writing to standard output")?;
         }
-        Some(path) => {
-            let temp = path.with_extension("csv.part");
-            let write = || -> std::io::Result<()> {
-                let mut out = std::io::BufWriter::new(std::fs::File::create(&temp)?);
-                query::write_samples(&mut out, &points, &samples)?;
-                out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-                std::fs::rename(&temp, path)
-            };
-            if let Err(e) = write() {
-                let _ = std::fs::remove_file(&temp);
-                return Err(anyhow::Error::new(e)
-                    .context(format!("writing {}", path.display()))
-                    .into());
-            }
-        }
+        Some(path) => write_atomically(path, |out| query::write_samples(out, &points, &samples))?,
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -508,10 +515,7 @@ fn run_features(args: FeaturesArgs) -> Result<ExitCode, Failure> {
     }
     if let Some(path) = &args.json {
         let text = serde_json::to_string_pretty(&rows).context("encoding the rows")?;
-        let temp = path.with_extension("json.part");
-        std::fs::write(&temp, text + "\n")
-            .with_context(|| format!("writing {}", temp.display()))?;
-        std::fs::rename(&temp, path).with_context(|| format!("writing {}", path.display()))?;
+        write_atomically(path, |out| writeln!(out, "{text}"))?;
     }
     if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
         return Ok(ExitCode::from(3));

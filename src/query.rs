@@ -321,7 +321,7 @@ pub fn sample_exact(machine: &Machine, points: &[QueryPoint]) -> Vec<Sample> {
 /// Writes the positions with their samples as CSV: the position columns the input named, then
 /// [`SAMPLE_COLUMNS`]. Rows are formatted in parallel, written in order.
 pub fn write_samples(
-    out: &mut impl Write,
+    out: &mut (impl Write + ?Sized),
     points: &[QueryPoint],
     samples: &[Sample],
 ) -> std::io::Result<()> {
