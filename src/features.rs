@@ -19,6 +19,9 @@
 //!   moves by `VE + ω × s·a`, with `VE, ω` at the cutter position for `θ` (the whole
 //!   displacement, so a cutter that only shifts and tilts leaves a true cylinder).
 //!
+//! - profile of a meshed surface (normal `n` per triangle): `d = n·VE`, sampled over the
+//!   surface at the sampling spacing.
+//!
 //! Flatness and cylindricity are minimum zones ([`crate::tolerance`]); the height of a rib is the
 //! largest deviation of its top from nominal; the parallelism of a hole to a datum hole is the
 //! diameter of the smallest cylinder parallel to the datum's axis that holds the hole's derived
@@ -64,6 +67,9 @@ pub enum FeatureError {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PartFile {
+    /// The folder mesh paths are relative to: the part file's.
+    #[serde(skip)]
+    pub base: std::path::PathBuf,
     pub name: String,
     pub placement: Placement,
     pub cutter: Cutter,
@@ -162,6 +168,16 @@ pub enum FeatureSpec {
         datum: String,
         tolerance_mm: f64,
     },
+    /// A free-form surface given as an STL mesh (part frame, mm; a path relative to the part
+    /// file): the surface profile, a zone `tolerance_mm` wide centred on the nominal surface.
+    /// `ply`, when given, is where the per-vertex normal deviation is written.
+    Profile {
+        name: String,
+        mesh: String,
+        tolerance_mm: f64,
+        #[serde(default)]
+        ply: Option<String>,
+    },
 }
 
 impl FeatureSpec {
@@ -171,7 +187,8 @@ impl FeatureSpec {
             | FeatureSpec::RibHeight { name, .. }
             | FeatureSpec::FlankMilledPlane { name, .. }
             | FeatureSpec::Hole { name, .. }
-            | FeatureSpec::ParallelHole { name, .. } => name,
+            | FeatureSpec::ParallelHole { name, .. }
+            | FeatureSpec::Profile { name, .. } => name,
         }
     }
 
@@ -182,6 +199,7 @@ impl FeatureSpec {
             FeatureSpec::FlankMilledPlane { .. } => "flank_milled_plane",
             FeatureSpec::Hole { .. } => "hole",
             FeatureSpec::ParallelHole { .. } => "parallel_hole",
+            FeatureSpec::Profile { .. } => "profile",
         }
     }
 
@@ -191,7 +209,8 @@ impl FeatureSpec {
             | FeatureSpec::RibHeight { tolerance_mm, .. }
             | FeatureSpec::FlankMilledPlane { tolerance_mm, .. }
             | FeatureSpec::Hole { tolerance_mm, .. }
-            | FeatureSpec::ParallelHole { tolerance_mm, .. } => *tolerance_mm,
+            | FeatureSpec::ParallelHole { tolerance_mm, .. }
+            | FeatureSpec::Profile { tolerance_mm, .. } => *tolerance_mm,
         }
     }
 }
@@ -237,6 +256,9 @@ pub struct FeatureResult {
     pub verdict: Verdict,
     /// The commanded position (mm) of the cutter where the feature's worst point was cut.
     pub worst_point: [f64; 3],
+    /// Profiles: the fraction of the surface's area outside the tolerance zone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub area_outside: Option<f64>,
 }
 
 /// A machined point: where it should be and where it is (commanded frame), its deviation along
@@ -267,7 +289,9 @@ impl PartFile {
             file: file.clone(),
             source,
         })?;
-        PartFile::parse(&text, &file)
+        let mut part = PartFile::parse(&text, &file)?;
+        part.base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Ok(part)
     }
 
     pub fn parse(text: &str, file: &str) -> Result<PartFile, FeatureError> {
@@ -326,6 +350,7 @@ impl PartFile {
                     positive(f.name(), "diameter_mm", *diameter_mm)?;
                     positive(f.name(), "depth_mm", *depth_mm)?;
                 }
+                FeatureSpec::Profile { .. } => {}
             }
         }
         for f in &part.features {
@@ -553,6 +578,113 @@ impl Evaluator<'_> {
         Ok(levels)
     }
 
+    /// The profile of a meshed surface: the normal deviation `n·VE` sampled at the centroids of
+    /// every triangle cut into sub-triangles no longer than the sampling spacing (each standing
+    /// for its area), and at every vertex (with the area-weighted vertex normal) for the PLY.
+    fn profile(
+        &self,
+        name: &str,
+        mesh: &crate::mesh::Mesh,
+        tolerance: f64,
+    ) -> Result<Profile, FeatureError> {
+        use rayon::prelude::*;
+        let spacing = self.part.sampling.spacing_mm;
+        let vertices: Vec<Vector3<f64>> = mesh
+            .vertices
+            .iter()
+            .map(|v| self.part.commanded((*v).into()))
+            .collect();
+        let normal_of = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            (b - a).cross(&(c - a))
+        };
+        struct Partial {
+            max: f64,
+            worst: Vector3<f64>,
+            outside: f64,
+            area: f64,
+        }
+        let empty = || Partial {
+            max: 0.0,
+            worst: Vector3::zeros(),
+            outside: 0.0,
+            area: 0.0,
+        };
+        let total = mesh
+            .triangles
+            .par_iter()
+            .map(|t| -> Result<Partial, FeatureError> {
+                let twice_area = normal_of(t);
+                let n = twice_area.normalize();
+                let [a, b, c] = t.map(|i| vertices[i as usize]);
+                let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
+                let m = ((longest / spacing).ceil() as usize).max(1);
+                let piece = twice_area.norm() / 2.0 / (m * m) as f64;
+                let mut partial = empty();
+                let at = |i: f64, j: f64| a + (b - a) * (i / m as f64) + (c - a) * (j / m as f64);
+                for i in 0..m {
+                    for j in 0..m - i {
+                        let (fi, fj) = (i as f64, j as f64);
+                        let mut centroids =
+                            vec![(at(fi, fj) + at(fi + 1.0, fj) + at(fi, fj + 1.0)) / 3.0];
+                        if i + j + 1 < m {
+                            centroids.push(
+                                (at(fi + 1.0, fj) + at(fi, fj + 1.0) + at(fi + 1.0, fj + 1.0))
+                                    / 3.0,
+                            );
+                        }
+                        for p in centroids {
+                            let (ve, _) = self.errors(name, &p)?;
+                            let d = n.dot(&ve);
+                            if d.abs() > partial.max {
+                                partial.max = d.abs();
+                                partial.worst = p;
+                            }
+                            if d.abs() > tolerance / 2.0 {
+                                partial.outside += piece;
+                            }
+                            partial.area += piece;
+                        }
+                    }
+                }
+                Ok(partial)
+            })
+            .try_reduce(empty, |x, y| {
+                let (max, worst) = if y.max > x.max {
+                    (y.max, y.worst)
+                } else {
+                    (x.max, x.worst)
+                };
+                Ok(Partial {
+                    max,
+                    worst,
+                    outside: x.outside + y.outside,
+                    area: x.area + y.area,
+                })
+            })?;
+        let mut vertex_normals = vec![Vector3::zeros(); vertices.len()];
+        for t in &mesh.triangles {
+            let twice_area = normal_of(t);
+            for &i in t {
+                vertex_normals[i as usize] += twice_area;
+            }
+        }
+        let vertex_deviation = vertices
+            .par_iter()
+            .zip(&vertex_normals)
+            .map(|(v, n)| {
+                self.errors(name, v)
+                    .map(|(ve, _)| n.normalize().dot(&ve) as f32)
+            })
+            .collect::<Result<Vec<f32>, _>>()?;
+        Ok(Profile {
+            max_deviation: total.max,
+            worst: total.worst.into(),
+            area_outside: total.outside / total.area,
+            vertex_deviation,
+        })
+    }
+
     fn feature_error(&self, feature: &str, message: String) -> FeatureError {
         FeatureError::Feature {
             file: self.file.to_string(),
@@ -569,6 +701,17 @@ impl Evaluator<'_> {
             source,
         }
     }
+}
+
+/// What the profile of a meshed surface comes to.
+struct Profile {
+    /// The largest normal deviation from the nominal surface, mm.
+    max_deviation: f64,
+    worst: [f64; 3],
+    /// The fraction of the area outside the zone `±tolerance/2`.
+    area_outside: f64,
+    /// The normal deviation at each vertex, mm.
+    vertex_deviation: Vec<f32>,
 }
 
 /// The cutter position of the cut farthest from the middle of the zone the deviations span.
@@ -707,7 +850,26 @@ pub fn evaluate(
     order.sort_by_key(|f| !matches!(f, FeatureSpec::Hole { .. }));
     for feature in order {
         let name = feature.name();
+        let mut area_outside = None;
         let (error_mm, worst_point) = match feature {
+            FeatureSpec::Profile {
+                mesh,
+                tolerance_mm,
+                ply,
+                ..
+            } => {
+                let path = part.base.join(mesh);
+                let mesh = crate::mesh::Mesh::read_stl(&path)
+                    .map_err(|e| evaluator.feature_error(name, e.to_string()))?;
+                let profile = evaluator.profile(name, &mesh, *tolerance_mm)?;
+                if let Some(ply) = ply {
+                    let ply_path = part.base.join(ply);
+                    mesh.write_ply(&ply_path, "deviation_mm", &profile.vertex_deviation)
+                        .map_err(|e| evaluator.feature_error(name, e.to_string()))?;
+                }
+                area_outside = Some(profile.area_outside);
+                (2.0 * profile.max_deviation, profile.worst)
+            }
             FeatureSpec::EndMilledPlane {
                 corner_mm, size_mm, ..
             } => {
@@ -797,6 +959,7 @@ pub fn evaluate(
             safety,
             verdict: safety.map_or(Verdict::Fit, Verdict::of),
             worst_point,
+            area_outside,
         });
     }
     // Report in the order of the file.

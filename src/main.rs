@@ -500,8 +500,11 @@ fn run_features(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             Verdict::Inspect => "inspect",
             Verdict::Fit => "fit",
         };
+        let area = r.area_outside.map_or(String::new(), |a| {
+            format!("  ({:.1}% of the area outside the zone)", 100.0 * a)
+        });
         println!(
-            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:.3} {:.3} {:.3}",
+            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:.3} {:.3} {:.3}{area}",
             r.name,
             r.kind,
             r.error_mm,

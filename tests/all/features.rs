@@ -203,3 +203,80 @@ fn bad_part_files_are_clear_errors() {
         "{error}"
     );
 }
+
+fn square_stl(size: f64) -> String {
+    let c = [[0.0, 0.0], [size, 0.0], [size, size], [0.0, size]];
+    let facet = |t: [usize; 3]| {
+        let mut f = String::from("facet normal 0 0 1\nouter loop\n");
+        for i in t {
+            f.push_str(&format!("vertex {} {} 0\n", c[i][0], c[i][1]));
+        }
+        f + "endloop\nendfacet\n"
+    };
+    format!(
+        "solid square\n{}{}endsolid square\n",
+        facet([0, 1, 2]),
+        facet([0, 2, 3])
+    )
+}
+
+#[test]
+fn a_meshed_profile_gives_its_largest_deviation_and_the_area_outside_the_zone() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("square.stl"), square_stl(100.0)).unwrap();
+    // VE_z = a·x over a 100 mm square: the deviation runs from 0 to 0.01 mm; a 0.01 mm zone
+    // (±0.005) leaves out the half where x > 50.
+    let a = 1e-4;
+    let mut m = gantry();
+    m.axis_mut(X).unwrap().components[2] = Some(ErrorFunction::Poly(vec![0.0, a]));
+    let part_path = dir.path().join("part.toml");
+    std::fs::write(
+        &part_path,
+        format!("{PART}\n[[features]]\nkind = \"profile\"\nname = \"skin\"\nmesh = \"square.stl\"\ntolerance_mm = 0.01\nply = \"skin.ply\"\n"),
+    )
+    .unwrap();
+    let p = PartFile::read(&part_path).unwrap();
+    let rows = evaluate(&p, ErrorSource::Exact(&m), "part.toml").unwrap();
+    let row = &rows[0];
+    // Sampled at sub-triangle centroids no farther apart than 5 mm: the largest lies within a
+    // few mm of the far edge.
+    assert!(
+        row.error_mm <= 2.0 * a * 100.0 && row.error_mm > 2.0 * a * 96.0,
+        "{}",
+        row.error_mm
+    );
+    let outside = row.area_outside.unwrap();
+    assert!((outside - 0.5).abs() < 0.02, "{outside}");
+    assert_eq!(row.verdict, Verdict::Unfit);
+    // The PLY holds the deviation at the four corners: 0 at x = 0, a·100 at x = 100.
+    let bytes = std::fs::read(dir.path().join("skin.ply")).unwrap();
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    let float =
+        |k: usize| f32::from_le_bytes(bytes[end + 4 * k..end + 4 * k + 4].try_into().unwrap());
+    for v in 0..4 {
+        let (x, deviation) = (float(4 * v), float(4 * v + 3));
+        assert!(
+            (deviation as f64 - a * x as f64).abs() < 1e-9,
+            "vertex at x={x}: {deviation}"
+        );
+    }
+}
+
+#[test]
+fn a_missing_mesh_names_the_feature_and_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let part_path = dir.path().join("part.toml");
+    std::fs::write(&part_path, format!("{PART}\n[[features]]\nkind = \"profile\"\nname = \"skin\"\nmesh = \"absent.stl\"\ntolerance_mm = 0.1\n")).unwrap();
+    let p = PartFile::read(&part_path).unwrap();
+    let error = evaluate(&p, ErrorSource::Exact(&gantry()), "part.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("feature `skin`") && error.contains("absent.stl"),
+        "{error}"
+    );
+}
