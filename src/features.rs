@@ -25,7 +25,11 @@
 //! Flatness and cylindricity are minimum zones ([`crate::tolerance`]); the height of a rib is the
 //! largest deviation of its top from nominal; the parallelism of a hole to a datum hole is the
 //! diameter of the smallest cylinder parallel to the datum's axis that holds the hole's derived
-//! median line (the centres of its sections, least-squares circles).
+//! median line (the centres of its sections, least-squares circles). Positions are measured
+//! against datum planes: each datum plane moves by its mean deviation along its normal, the datum
+//! frame by the translation that best matches them, and the true position with it; a hole's
+//! position error is the diameter of the cylinder about the true position that holds its derived
+//! median line, a rib side's the width of the zone about its true position that holds it.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -168,6 +172,30 @@ pub enum FeatureSpec {
         datum: String,
         tolerance_mm: f64,
     },
+    /// The position of a hole against datum planes (`end_milled_plane` or `flank_milled_plane`
+    /// features): its derived median line within a cylinder of diameter `tolerance_mm` about the
+    /// true position, which moves with the datums.
+    HolePosition {
+        name: String,
+        centre_mm: [f64; 3],
+        diameter_mm: f64,
+        depth_mm: f64,
+        datums: Vec<String>,
+        tolerance_mm: f64,
+    },
+    /// The position of a rib's side (a wall, as for `flank_milled_plane`) against datum planes:
+    /// within a zone `tolerance_mm` wide about its true position, which moves with the datums.
+    RibPosition {
+        name: String,
+        start_mm: [f64; 3],
+        direction_deg: f64,
+        length_mm: f64,
+        depth_mm: f64,
+        #[serde(default)]
+        normal_left: bool,
+        datums: Vec<String>,
+        tolerance_mm: f64,
+    },
     /// A free-form surface given as an STL mesh (part frame, mm; a path relative to the part
     /// file): the surface profile, a zone `tolerance_mm` wide centred on the nominal surface.
     /// `ply`, when given, is where the per-vertex normal deviation is written.
@@ -188,6 +216,8 @@ impl FeatureSpec {
             | FeatureSpec::FlankMilledPlane { name, .. }
             | FeatureSpec::Hole { name, .. }
             | FeatureSpec::ParallelHole { name, .. }
+            | FeatureSpec::HolePosition { name, .. }
+            | FeatureSpec::RibPosition { name, .. }
             | FeatureSpec::Profile { name, .. } => name,
         }
     }
@@ -199,6 +229,8 @@ impl FeatureSpec {
             FeatureSpec::FlankMilledPlane { .. } => "flank_milled_plane",
             FeatureSpec::Hole { .. } => "hole",
             FeatureSpec::ParallelHole { .. } => "parallel_hole",
+            FeatureSpec::HolePosition { .. } => "hole_position",
+            FeatureSpec::RibPosition { .. } => "rib_position",
             FeatureSpec::Profile { .. } => "profile",
         }
     }
@@ -210,6 +242,8 @@ impl FeatureSpec {
             | FeatureSpec::FlankMilledPlane { tolerance_mm, .. }
             | FeatureSpec::Hole { tolerance_mm, .. }
             | FeatureSpec::ParallelHole { tolerance_mm, .. }
+            | FeatureSpec::HolePosition { tolerance_mm, .. }
+            | FeatureSpec::RibPosition { tolerance_mm, .. }
             | FeatureSpec::Profile { tolerance_mm, .. } => *tolerance_mm,
         }
     }
@@ -350,7 +384,44 @@ impl PartFile {
                     positive(f.name(), "diameter_mm", *diameter_mm)?;
                     positive(f.name(), "depth_mm", *depth_mm)?;
                 }
+                FeatureSpec::HolePosition {
+                    diameter_mm,
+                    depth_mm,
+                    ..
+                } => {
+                    positive(f.name(), "diameter_mm", *diameter_mm)?;
+                    positive(f.name(), "depth_mm", *depth_mm)?;
+                }
+                FeatureSpec::RibPosition {
+                    length_mm,
+                    depth_mm,
+                    ..
+                } => {
+                    positive(f.name(), "length_mm", *length_mm)?;
+                    positive(f.name(), "depth_mm", *depth_mm)?;
+                }
                 FeatureSpec::Profile { .. } => {}
+            }
+        }
+        for f in &part.features {
+            if let FeatureSpec::HolePosition { datums, .. }
+            | FeatureSpec::RibPosition { datums, .. } = f
+            {
+                if datums.is_empty() || datums.len() > 3 {
+                    return Err(error(
+                        f.name(),
+                        format!("names {} datums: give one to three", datums.len()),
+                    ));
+                }
+                for datum in datums {
+                    match names.get(datum) {
+                        Some(&"end_milled_plane") | Some(&"flank_milled_plane") => {}
+                        Some(kind) => {
+                            return Err(error(f.name(), format!("datum `{datum}` is a {kind}: datums are end_milled_plane or flank_milled_plane features")))
+                        }
+                        None => return Err(error(f.name(), format!("datum `{datum}` names no feature of the part"))),
+                    }
+                }
             }
         }
         for f in &part.features {
@@ -799,6 +870,18 @@ fn enclosing_diameter(points: &[Vector2<f64>]) -> f64 {
     best
 }
 
+/// How far the datum planes move the datum frame: the translation `s` that best gives each
+/// datum plane its mean deviation along its normal (`n_i·s = m_i`, least squares; along
+/// directions no datum constrains, `s` has no component).
+fn datum_shift(datums: impl Iterator<Item = (Vector3<f64>, f64)>) -> Vector3<f64> {
+    let (a, b) = datums.fold(
+        (nalgebra::Matrix3::zeros(), Vector3::zeros()),
+        |(a, b), (n, m)| (a + n * n.transpose(), b + n * m),
+    );
+    a.pseudo_inverse(1e-9)
+        .map_or(Vector3::zeros(), |inverse| inverse * b)
+}
+
 /// The derived median line of a hole: the centres of its sections, with their heights.
 fn median_line(levels: &[Vec<Cut>]) -> Vec<Vector3<f64>> {
     levels
@@ -847,7 +930,15 @@ pub fn evaluate(
     let mut results = Vec::new();
     // Holes first, so parallel holes find their datum's axis whatever the order in the file.
     let mut order: Vec<&FeatureSpec> = part.features.iter().collect();
-    order.sort_by_key(|f| !matches!(f, FeatureSpec::Hole { .. }));
+    // Holes first (datums of parallel holes), positions last (after their datum planes).
+    order.sort_by_key(|f| match f {
+        FeatureSpec::Hole { .. } => 0,
+        FeatureSpec::HolePosition { .. } | FeatureSpec::RibPosition { .. } => 2,
+        _ => 1,
+    });
+    // Each plane's outward normal and mean deviation along it: where it moves a datum frame.
+    let mut planes: HashMap<String, (Vector3<f64>, f64)> = HashMap::new();
+    let mean = |cuts: &[Cut]| cuts.iter().map(|c| c.deviation).sum::<f64>() / cuts.len() as f64;
     for feature in order {
         let name = feature.name();
         let mut area_outside = None;
@@ -870,10 +961,57 @@ pub fn evaluate(
                 area_outside = Some(profile.area_outside);
                 (2.0 * profile.max_deviation, profile.worst)
             }
+            FeatureSpec::HolePosition {
+                centre_mm,
+                diameter_mm,
+                depth_mm,
+                datums,
+                ..
+            } => {
+                let shift = datum_shift(datums.iter().map(|d| planes[d]));
+                let levels = evaluator.hole_cuts(name, *centre_mm, *diameter_mm, *depth_mm)?;
+                let true_position = part.commanded(*centre_mm) + shift;
+                let (distance, at) = median_line(&levels)
+                    .into_iter()
+                    .map(|c| ((c - true_position).xy().norm(), c))
+                    .max_by(|a, b| a.0.total_cmp(&b.0))
+                    .expect("levels");
+                (2.0 * distance, at.into())
+            }
+            FeatureSpec::RibPosition {
+                start_mm,
+                direction_deg,
+                length_mm,
+                depth_mm,
+                normal_left,
+                datums,
+                ..
+            } => {
+                let shift = datum_shift(datums.iter().map(|d| planes[d]));
+                let (normal, cuts) = evaluator.wall_cuts(
+                    name,
+                    *start_mm,
+                    *direction_deg,
+                    *length_mm,
+                    *depth_mm,
+                    *normal_left,
+                )?;
+                let moved = normal.dot(&shift);
+                let c = cuts
+                    .iter()
+                    .max_by(|a, b| {
+                        (a.deviation - moved)
+                            .abs()
+                            .total_cmp(&(b.deviation - moved).abs())
+                    })
+                    .expect("cuts");
+                (2.0 * (c.deviation - moved).abs(), c.cutter.into())
+            }
             FeatureSpec::EndMilledPlane {
                 corner_mm, size_mm, ..
             } => {
                 let cuts = evaluator.floor_cuts(name, *corner_mm, *size_mm)?;
+                planes.insert(name.to_string(), (Vector3::z(), mean(&cuts)));
                 let points: Vec<_> = cuts.iter().map(|c| c.actual).collect();
                 let zone = tolerance::flatness_min_zone(&points, &Vector3::z())
                     .map_err(evaluator.tolerance_error(name))?;
@@ -905,6 +1043,7 @@ pub fn evaluate(
                     *depth_mm,
                     *normal_left,
                 )?;
+                planes.insert(name.to_string(), (normal, mean(&cuts)));
                 let points: Vec<_> = cuts.iter().map(|c| c.actual).collect();
                 let zone = tolerance::flatness_min_zone(&points, &normal)
                     .map_err(evaluator.tolerance_error(name))?;

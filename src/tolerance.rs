@@ -113,7 +113,12 @@ fn chebyshev(
         .map(|_| problem.add_var(0.0, (f64::NEG_INFINITY, f64::INFINITY)))
         .collect();
     let w = problem.add_var(1.0, (0.0, f64::INFINITY));
+    // Values at the rounding level of order-one rows are zeros: the solver rejects rows whose
+    // coefficients span more than about 1e6.
+    let clean = |v: f64| if v.abs() < 1e-12 { 0.0 } else { v };
     for (coefficients, target) in rows {
+        let coefficients: Vec<f64> = coefficients.iter().map(|&c| clean(c)).collect();
+        let target = &clean(*target);
         let terms: Vec<_> = x
             .iter()
             .copied()
@@ -179,7 +184,8 @@ pub fn flatness_min_zone(
         .fold(0.0, f64::max)
         .max(1e-300);
     let height = local.iter().map(|l| l[2].abs()).fold(0.0, f64::max);
-    if height == 0.0 {
+    // Heights at the rounding level of the coordinates: the points lie in the nominal plane.
+    if height <= 1e-13 * (length + centre.norm()) {
         return Ok(plane_zone(points, n));
     }
     let rows: Vec<(Vec<f64>, f64)> = local
@@ -280,7 +286,7 @@ pub fn cylindricity_min_zone(
             .iter()
             .map(|l| (l.0 - mean_r).abs())
             .fold(0.0, f64::max);
-        if scale == 0.0 {
+        if scale <= 1e-13 * (mean_r + point.norm()) {
             break;
         }
         // Unknowns, mm: dx, dy (offset), ax, ay (tilt times length), R − mean_r; every row divided

@@ -280,3 +280,109 @@ fn a_missing_mesh_names_the_feature_and_the_file() {
         "{error}"
     );
 }
+
+const DATUMS: &str = r#"
+[[features]]
+kind = "flank_milled_plane"
+name = "A"
+start_mm = [0.0, 0.0, -10.0]
+direction_deg = 90.0
+length_mm = 200.0
+depth_mm = 10.0
+normal_left = true
+tolerance_mm = 0.1
+
+[[features]]
+kind = "flank_milled_plane"
+name = "B"
+start_mm = [0.0, 0.0, -10.0]
+direction_deg = 0.0
+length_mm = 300.0
+depth_mm = 10.0
+tolerance_mm = 0.1
+
+[[features]]
+kind = "hole_position"
+name = "H"
+centre_mm = [200.0, 100.0, 0.0]
+diameter_mm = 10.0
+depth_mm = 20.0
+datums = ["A", "B"]
+tolerance_mm = 0.05
+
+[[features]]
+kind = "rib_position"
+name = "R"
+start_mm = [250.0, 0.0, 0.0]
+direction_deg = 90.0
+length_mm = 100.0
+depth_mm = 10.0
+datums = ["A"]
+tolerance_mm = 0.05
+"#;
+
+#[test]
+fn positions_move_with_their_datums() {
+    // Wall A at x = 0 faces -x (normal to the left of +y), wall B at y = 0 faces -y.
+    let with_x_error = |f: ErrorFunction| {
+        let mut m = gantry();
+        m.axis_mut(X).unwrap().components[0] = Some(f);
+        m
+    };
+    let p = part(DATUMS);
+    // A uniform X offset moves datums and features alike: no position error.
+    let rows = evaluate(
+        &p,
+        ErrorSource::Exact(&with_x_error(ErrorFunction::Constant(0.02))),
+        "part.toml",
+    )
+    .unwrap();
+    let by_name = |rows: &[volmap::features::FeatureResult], n: &str| {
+        rows.iter().find(|r| r.name == n).unwrap().error_mm
+    };
+    assert!(by_name(&rows, "H") < 1e-9, "{}", by_name(&rows, "H"));
+    assert!(by_name(&rows, "R") < 1e-9, "{}", by_name(&rows, "R"));
+    // A scale error k·x: datum A is cut with the cutter's axis at x = -5 (its radius off the
+    // wall), so it moves by -5k; the hole (bored at x = 200) by 200k; the rib side, cut from
+    // x = 255, by 255k. Twice the distance from the true position is the position error.
+    let k = 5e-5;
+    let rows = evaluate(
+        &p,
+        ErrorSource::Exact(&with_x_error(ErrorFunction::Poly(vec![0.0, k]))),
+        "part.toml",
+    )
+    .unwrap();
+    assert!(
+        (by_name(&rows, "H") - 2.0 * k * 205.0).abs() < 1e-9,
+        "{}",
+        by_name(&rows, "H")
+    );
+    assert!(
+        (by_name(&rows, "R") - 2.0 * k * 260.0).abs() < 1e-9,
+        "{}",
+        by_name(&rows, "R")
+    );
+    assert_eq!(
+        rows.iter().find(|r| r.name == "H").unwrap().verdict,
+        Verdict::Inspect
+    );
+}
+
+#[test]
+fn positions_need_plane_datums() {
+    let bad = |text: String| {
+        PartFile::parse(&format!("{PART}\n{text}"), "part.toml")
+            .unwrap_err()
+            .to_string()
+    };
+    let message = bad(DATUMS.replace("datums = [\"A\", \"B\"]", "datums = []"));
+    assert!(message.contains("feature `H`: names 0 datums"), "{message}");
+    let message = bad(format!(
+        "{DATUMS}\n[[features]]\nkind = \"hole\"\nname = \"D\"\ncentre_mm = [0.0, 0.0, 0.0]\ndiameter_mm = 5.0\ndepth_mm = 5.0\ntolerance_mm = 0.1\n"
+    )
+    .replace("datums = [\"A\"]", "datums = [\"D\"]"));
+    assert!(
+        message.contains("feature `R`: datum `D` is a hole"),
+        "{message}"
+    );
+}
