@@ -345,8 +345,10 @@ pub fn write_samples(
                     let separator = if n > 0 { "," } else { "" };
                     let _ = write!(block, "{separator}{}", p.command[letter]);
                 }
+                let mut number = ryu::Buffer::new();
                 for v in s {
-                    let _ = write!(block, ",{v:e}");
+                    block.push(b',');
+                    block.extend_from_slice(number.format(*v).as_bytes());
                 }
                 block.push(b'\n');
             }
