@@ -367,6 +367,11 @@ impl PartFile {
                     length_mm,
                     depth_mm,
                     ..
+                }
+                | FeatureSpec::RibPosition {
+                    length_mm,
+                    depth_mm,
+                    ..
                 } => {
                     positive(f.name(), "length_mm", *length_mm)?;
                     positive(f.name(), "depth_mm", *depth_mm)?;
@@ -380,24 +385,13 @@ impl PartFile {
                     diameter_mm,
                     depth_mm,
                     ..
-                } => {
-                    positive(f.name(), "diameter_mm", *diameter_mm)?;
-                    positive(f.name(), "depth_mm", *depth_mm)?;
                 }
-                FeatureSpec::HolePosition {
+                | FeatureSpec::HolePosition {
                     diameter_mm,
                     depth_mm,
                     ..
                 } => {
                     positive(f.name(), "diameter_mm", *diameter_mm)?;
-                    positive(f.name(), "depth_mm", *depth_mm)?;
-                }
-                FeatureSpec::RibPosition {
-                    length_mm,
-                    depth_mm,
-                    ..
-                } => {
-                    positive(f.name(), "length_mm", *length_mm)?;
                     positive(f.name(), "depth_mm", *depth_mm)?;
                 }
                 FeatureSpec::Profile { .. } => {}
