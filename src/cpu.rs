@@ -95,12 +95,7 @@ impl CpuPlan {
                 if dimension == Some(0) {
                     x_position = Some(n);
                 }
-                let positions: Vec<f64> = match dimension {
-                    Some(d) => (0..grid.dims[d])
-                        .map(|v| grid.origin_mm[d] + v as f64 * grid.spacing_mm[d])
-                        .collect(),
-                    None => vec![grid.pose[axis.letter.index()]],
-                };
+                let positions = grid.axis_positions(axis.letter);
                 AxisTable {
                     dimension,
                     real: positions

@@ -103,6 +103,19 @@ impl Grid {
             .collect()
     }
 
+    /// Every commanded position `axis` takes on this grid: the grid values along its dimension
+    /// for X, Y, Z, the pose for a rotary axis.
+    pub fn axis_positions(&self, axis: AxisLetter) -> Vec<f64> {
+        if axis.is_linear() {
+            let d = axis.direction_index();
+            (0..self.dims[d])
+                .map(|v| self.origin_mm[d] + v as f64 * self.spacing_mm[d])
+                .collect()
+        } else {
+            vec![self.pose[axis.index()]]
+        }
+    }
+
     /// `(i, j, k)` of point number `p`.
     pub fn indices(&self, p: u64) -> [usize; 3] {
         let nx = self.dims[0] as u64;

@@ -77,14 +77,7 @@ pub fn check_error_angles(machine: &Machine, grid: &Grid) -> Result<(), String> 
     let mut total = machine.spindle[3].abs() + machine.spindle[4].abs();
     for axis in &machine.axes {
         total += axis.location[3..].iter().map(|a| a.abs()).sum::<f64>();
-        let positions: Vec<f64> = if axis.letter.is_linear() {
-            let d = axis.letter.direction_index();
-            (0..grid.dims[d])
-                .map(|v| grid.origin_mm[d] + v as f64 * grid.spacing_mm[d])
-                .collect()
-        } else {
-            vec![grid.pose[axis.letter.index()]]
-        };
+        let positions = grid.axis_positions(axis.letter);
         let largest = positions
             .iter()
             .map(|&q| {
