@@ -489,6 +489,8 @@ fn steps(lo: f64, hi: f64, spacing: f64) -> Vec<f64> {
 
 struct Evaluator<'a> {
     part: &'a PartFile,
+    /// The part's rotary pose, as a command with X Y Z to fill in.
+    pose: Command,
     source: ErrorSource<'a>,
     ideal: Option<Machine>,
     file: &'a str,
@@ -501,7 +503,7 @@ impl Evaluator<'_> {
         feature: &str,
         tip: &Vector3<f64>,
     ) -> Result<(Vector3<f64>, Vector3<f64>), FeatureError> {
-        let mut command = self.part.pose();
+        let mut command = self.pose;
         command[0] = tip.x;
         command[1] = tip.y;
         command[2] = tip.z;
@@ -898,24 +900,22 @@ pub fn evaluate(
         ErrorSource::Exact(machine) => Some(machine.without_errors()),
         ErrorSource::Field(_) => None,
     };
+    let pose = part.pose();
     if let ErrorSource::Field(field) = &source {
-        let pose = part.pose();
-        for (n, axis) in ['A', 'B', 'C'].into_iter().enumerate() {
-            if (pose[3 + n] - field.info.pose_deg[n]).abs() > 1e-9 * (1.0 + pose[3 + n].abs()) {
-                return Err(FeatureError::Feature {
-                    file: file.to_string(),
-                    feature: "(placement)".into(),
-                    message: format!(
-                        "the part is machined at {axis}={}°, the field holds {axis}={}°",
-                        pose[3 + n],
-                        field.info.pose_deg[n]
-                    ),
-                });
-            }
+        if let Some((n, value, held)) = field.pose_mismatch(&pose, [true; 3]) {
+            let axis = ['A', 'B', 'C'][n];
+            return Err(FeatureError::Feature {
+                file: file.to_string(),
+                feature: "(placement)".into(),
+                message: format!(
+                    "the part is machined at {axis}={value}°, the field holds {axis}={held}°"
+                ),
+            });
         }
     }
     let evaluator = Evaluator {
         part,
+        pose,
         source,
         ideal,
         file,

@@ -179,6 +179,17 @@ impl LoadedField {
         Ok(LoadedField { info, values })
     }
 
+    /// The first rotary axis (0 A, 1 B, 2 C) among those `given` whose position in `command`
+    /// differs from the field's pose, with that position and the field's: a field holds one
+    /// pose only.
+    pub fn pose_mismatch(&self, command: &Command, given: [bool; 3]) -> Option<(usize, f64, f64)> {
+        (0..3).find_map(|n| {
+            let (asked, held) = (command[3 + n], self.info.pose_deg[n]);
+            (given[n] && (asked - held).abs() > 1e-9 * (1.0 + held.abs()))
+                .then_some((n, asked, held))
+        })
+    }
+
     /// The values at grid point `(i, j, k)`.
     fn at(&self, [i, j, k]: [usize; 3]) -> &[f32; 6] {
         let [nx, ny, _] = self.info.dims;
@@ -280,18 +291,15 @@ pub fn sample_field(
 }
 
 fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample, QueryError> {
-    for (n, axis) in ['A', 'B', 'C'].into_iter().enumerate() {
-        let given = p.command[3 + n];
-        let pose = field.info.pose_deg[n];
-        if p.given[3 + n] && (given - pose).abs() > 1e-9 * (1.0 + pose.abs()) {
-            return Err(QueryError::Pose {
-                path: path.to_string(),
-                line: p.line,
-                axis,
-                value: given,
-                field: pose,
-            });
-        }
+    let given = [p.given[3], p.given[4], p.given[5]];
+    if let Some((n, value, held)) = field.pose_mismatch(&p.command, given) {
+        return Err(QueryError::Pose {
+            path: path.to_string(),
+            line: p.line,
+            axis: ['A', 'B', 'C'][n],
+            value,
+            field: held,
+        });
     }
     field
         .sample(&p.command)
