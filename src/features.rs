@@ -576,15 +576,7 @@ impl Evaluator<'_> {
             along.cross(&a)
         };
         let radius = self.part.cutter.radius_mm;
-        if depth > self.part.cutter.length_mm {
-            return Err(self.feature_error(
-                name,
-                format!(
-                    "depth {depth} mm exceeds the cutter length {} mm",
-                    self.part.cutter.length_mm
-                ),
-            ));
-        }
+        self.check_reach(name, depth)?;
         let mut cuts = Vec::new();
         for t in steps(0.0, length, spacing) {
             let bottom = self.part.commanded(start) + along * t;
@@ -609,15 +601,7 @@ impl Evaluator<'_> {
         let spacing = self.part.sampling.spacing_mm;
         let a = Vector3::z();
         let radius = self.part.cutter.radius_mm;
-        if depth > self.part.cutter.length_mm {
-            return Err(self.feature_error(
-                name,
-                format!(
-                    "depth {depth} mm exceeds the cutter length {} mm",
-                    self.part.cutter.length_mm
-                ),
-            ));
-        }
+        self.check_reach(name, depth)?;
         let bottom = self.part.commanded(centre) - a * depth;
         let path_radius = (diameter / 2.0 - radius).max(0.0);
         let angles = ((std::f64::consts::PI * diameter / spacing).ceil() as usize).max(24);
@@ -750,6 +734,18 @@ impl Evaluator<'_> {
             area_outside: total.outside / total.area,
             vertex_deviation,
         })
+    }
+
+    /// The cutter's flutes must reach the whole depth of a wall or hole.
+    fn check_reach(&self, feature: &str, depth: f64) -> Result<(), FeatureError> {
+        let length = self.part.cutter.length_mm;
+        if depth > length {
+            return Err(self.feature_error(
+                feature,
+                format!("depth {depth} mm exceeds the cutter length {length} mm"),
+            ));
+        }
+        Ok(())
     }
 
     fn feature_error(&self, feature: &str, message: String) -> FeatureError {
