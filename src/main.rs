@@ -71,6 +71,10 @@ struct SampleArgs {
     /// Where to write the result (CSV); standard output when left out.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Where to interpolate in a field: `auto` uses a hardware GPU when there is one and the CPU
+    /// otherwise (a CPU adapter such as lavapipe is slower at this than the CPU path).
+    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    device: Device,
 }
 
 #[derive(clap::Args)]
@@ -158,6 +162,17 @@ impl From<Device> for DeviceChoice {
 struct Failure {
     code: u8,
     error: anyhow::Error,
+}
+
+/// Exit code 1 when the device failed, 2 when the input is at fault.
+fn query_failure(error: volmap::query::QueryError) -> Failure {
+    match error {
+        volmap::query::QueryError::Gpu(_) | volmap::query::QueryError::NoAdapter => Failure {
+            code: 1,
+            error: error.into(),
+        },
+        _ => bad_input(error),
+    }
 }
 
 fn bad_input(error: impl Into<anyhow::Error>) -> Failure {
@@ -421,12 +436,30 @@ fn run_bench(args: BenchArgs) -> Result<ExitCode, Failure> {
 
 fn run_sample(args: SampleArgs) -> Result<ExitCode, Failure> {
     use volmap::query;
-    let points = query::read_points(&args.points).map_err(bad_input)?;
-    let samples = match (&args.field, &args.machine) {
-        (Some(field), _) => {
-            let loaded = query::LoadedField::open(field).map_err(bad_input)?;
-            query::sample_field(&loaded, &points, &args.points.display().to_string())
-                .map_err(bad_input)?
+    // The points and the field are read side by side: both are mostly parsing.
+    let (points, loaded) = rayon::join(
+        || query::read_points(&args.points),
+        || {
+            args.field
+                .as_deref()
+                .map(query::LoadedField::open)
+                .transpose()
+        },
+    );
+    let points = points.map_err(bad_input)?;
+    let loaded = loaded.map_err(bad_input)?;
+    let samples = match (&loaded, &args.machine) {
+        (Some(loaded), _) => {
+            let path = args.points.display().to_string();
+            let (sampler, note) = query::open_sampler(args.device.into())?;
+            if let Some(note) = note {
+                eprintln!("note: {note}");
+            }
+            match &sampler {
+                Some(sampler) => query::sample_field_gpu(loaded, &points, &path, sampler),
+                None => query::sample_field(loaded, &points, &path),
+            }
+            .map_err(query_failure)?
         }
         (None, Some(machine)) if args.exact => {
             let machine = embedded::load(machine).map_err(bad_input)?;

@@ -10,8 +10,10 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use crate::field::{FieldError, FieldInfo, FieldReader};
-use crate::gpu::layout::CHANNELS;
+use crate::gpu::layout::{SamplePoint, CHANNELS};
+use crate::gpu::{GpuError, GpuSampler};
 use crate::machine::{AxisLetter, Command, Machine};
+use crate::map::DeviceChoice;
 use crate::reference;
 
 #[derive(Debug, thiserror::Error)]
@@ -49,6 +51,10 @@ pub enum QueryError {
     },
     #[error(transparent)]
     Field(#[from] FieldError),
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error("no GPU adapter found (--device gpu); use --device auto or cpu to sample on the CPU")]
+    NoAdapter,
 }
 
 /// One queried position and the CSV line it came from.
@@ -157,6 +163,26 @@ pub fn read_points(path: &Path) -> Result<Vec<QueryPoint>, QueryError> {
     parse_points(&text, &name)
 }
 
+/// The grid cell that holds a position: its lower corner and the position's fractions within it
+/// along X, Y, Z (0 along a dimension one point deep).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridCell {
+    pub lower: [usize; 3],
+    pub fraction: [f64; 3],
+}
+
+impl GridCell {
+    /// The cell as the GPU sampling kernel takes it.
+    pub fn for_gpu(&self) -> SamplePoint {
+        let [i, j, k] = self.lower.map(|n| n as u32);
+        let [tx, ty, tz] = self.fraction.map(|t| t as f32);
+        SamplePoint {
+            cell: [i, j, k, 0],
+            t: [tx, ty, tz, 0.0],
+        }
+    }
+}
+
 /// A field file read into memory, point-interleaved for sampling: the six values of a grid point
 /// in the [`SAMPLE_COLUMNS`] order side by side, so a trilinear sample touches eight places.
 pub struct LoadedField {
@@ -196,10 +222,11 @@ impl LoadedField {
         &self.values[i + nx * (j + ny * k)]
     }
 
-    /// Trilinear interpolation at a commanded position; `Err((axis, lo, hi))` when the position
-    /// lies outside the grid along `axis`. Positions within 1e-9 of the travel of the grid count
-    /// as inside (the ends of a grid are rounded).
-    pub fn sample(&self, command: &Command) -> Result<Sample, (usize, f64, f64)> {
+    /// The grid cell that holds a commanded position (its lower corner) and the fractions of the
+    /// position within it; `Err((axis, lo, hi))` when the position lies outside the grid along
+    /// `axis`. Positions within 1e-9 of the travel of the grid count as inside (the ends of a
+    /// grid are rounded). Along a dimension one point deep the cell is 0 and the fraction 0.
+    pub fn cell(&self, command: &Command) -> Result<GridCell, (usize, f64, f64)> {
         let mut base = [0usize; 3];
         let mut t = [0.0f64; 3];
         for d in 0..3 {
@@ -217,6 +244,21 @@ impl LoadedField {
                 t[d] = u - base[d] as f64;
             }
         }
+        Ok(GridCell {
+            lower: base,
+            fraction: t,
+        })
+    }
+
+    /// Trilinear interpolation at a commanded position, in f64; `Err((axis, lo, hi))` as
+    /// [`LoadedField::cell`]. The GPU twin is `shaders/sample.wgsl`.
+    pub fn sample(&self, command: &Command) -> Result<Sample, (usize, f64, f64)> {
+        Ok(self.blend(&self.cell(command)?))
+    }
+
+    /// The trilinear blend of the eight corners of a cell.
+    fn blend(&self, cell: &GridCell) -> Sample {
+        let (base, t) = (cell.lower, cell.fraction);
         let mut out = [0.0; 6];
         for corner in 0..8usize {
             let mut weight = 1.0;
@@ -241,7 +283,13 @@ impl LoadedField {
                 *o += weight * *v as f64;
             }
         }
-        Ok(out)
+        out
+    }
+
+    /// The values of every grid point, `[p][column]` with `p = i + nx·(j + ny·k)` and the
+    /// columns of [`SAMPLE_COLUMNS`].
+    pub fn values(&self) -> &[[f32; 6]] {
+        &self.values
     }
 }
 
@@ -290,7 +338,8 @@ pub fn sample_field(
     Ok(samples)
 }
 
-fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample, QueryError> {
+/// Checks a position against the field (its pose and its grid) and finds its cell.
+fn locate(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<GridCell, QueryError> {
     let given = [p.given[3], p.given[4], p.given[5]];
     if let Some((n, value, held)) = field.pose_mismatch(&p.command, given) {
         return Err(QueryError::Pose {
@@ -302,7 +351,7 @@ fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample,
         });
     }
     field
-        .sample(&p.command)
+        .cell(&p.command)
         .map_err(|(d, lo, hi)| QueryError::Outside {
             path: path.to_string(),
             line: p.line,
@@ -311,6 +360,53 @@ fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample,
             lo,
             hi,
         })
+}
+
+fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample, QueryError> {
+    Ok(field.blend(&locate(field, p, path)?))
+}
+
+/// The GPU sampler `choice` asks for, or `None` for the CPU. `Auto` takes a hardware GPU only: on
+/// a CPU adapter (lavapipe) the CPU path is faster, and with no adapter there is a note saying
+/// so.
+pub fn open_sampler(
+    choice: DeviceChoice,
+) -> Result<(Option<GpuSampler>, Option<String>), QueryError> {
+    if choice == DeviceChoice::Cpu {
+        return Ok((None, None));
+    }
+    match GpuSampler::open()? {
+        Some(sampler) if choice == DeviceChoice::Gpu || !sampler.is_software() => {
+            Ok((Some(sampler), None))
+        }
+        Some(_) => Ok((None, None)),
+        None if choice == DeviceChoice::Auto => Ok((
+            None,
+            Some("no GPU adapter found: sampling on the CPU".into()),
+        )),
+        None => Err(QueryError::NoAdapter),
+    }
+}
+
+/// [`sample_field`] on the GPU: positions checked and their cells found on the host (in
+/// parallel, f64), the eight-corner blend in `shaders/sample.wgsl` (f32). The samples agree with
+/// the CPU's to f32 rounding of the blend: within 1e-6 of the largest value of the cell's
+/// corners.
+pub fn sample_field_gpu(
+    field: &LoadedField,
+    points: &[QueryPoint],
+    path: &str,
+    sampler: &GpuSampler,
+) -> Result<Vec<Sample>, QueryError> {
+    let located: Vec<SamplePoint> = points
+        .par_iter()
+        .map(|p| locate(field, p, path).map(|cell| cell.for_gpu()))
+        .collect::<Result<_, _>>()?;
+    let samples = sampler.sample(field.info.dims, &field.values, &located, None)?;
+    Ok(samples
+        .into_par_iter()
+        .map(|v| v.map(|x| x as f64))
+        .collect())
 }
 
 /// The f64 reference at every point, in parallel.
@@ -348,12 +444,20 @@ pub fn write_samples(
         .zip(samples.par_chunks(16_384))
         .map(|(points, samples)| {
             let mut block = Vec::with_capacity(points.len() * 160);
+            let mut number = ryu::Buffer::new();
             for (p, s) in points.iter().zip(samples) {
                 for (n, &letter) in letters.iter().enumerate() {
-                    let separator = if n > 0 { "," } else { "" };
-                    let _ = write!(block, "{separator}{}", p.command[letter]);
+                    if n > 0 {
+                        block.push(b',');
+                    }
+                    let value = p.command[letter];
+                    // Whole millimetres and degrees as integers, the way positions are written.
+                    if value.fract() == 0.0 && value.abs() < 1e15 {
+                        let _ = write!(block, "{}", value as i64);
+                    } else {
+                        block.extend_from_slice(number.format(value).as_bytes());
+                    }
                 }
-                let mut number = ryu::Buffer::new();
                 for v in s {
                     block.push(b',');
                     block.extend_from_slice(number.format(*v).as_bytes());

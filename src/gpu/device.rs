@@ -41,6 +41,8 @@ pub struct Gpu {
     uncaptured: Arc<Mutex<Option<String>>>,
     /// Whether the device was opened with timestamp queries.
     timestamps: bool,
+    /// Whether the adapter is a CPU implementation.
+    software: bool,
 }
 
 /// Timestamp queries around the compute pass of up to `count / 2` submissions.
@@ -128,6 +130,7 @@ impl Gpu {
             limits,
             uncaptured,
             timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
+            software: info.device_type == wgpu::DeviceType::Cpu,
         }))
     }
 
@@ -140,6 +143,11 @@ impl Gpu {
         self.limits
             .max_storage_buffer_binding_size
             .min(self.limits.max_buffer_size)
+    }
+
+    /// Whether the adapter is a CPU implementation (lavapipe and the like).
+    pub fn is_software(&self) -> bool {
+        self.software
     }
 
     pub fn max_workgroups_per_dimension(&self) -> u32 {

@@ -1,6 +1,6 @@
-//! Host mirrors of the WGSL structs in `shaders/chain.wgsl`. Keep in sync with that file: one
-//! `#[repr(C)]` Pod struct per WGSL struct, vec4/mat4 fields only (no vec3 in buffers), explicit
-//! padding, and a compile-time size check for each.
+//! Host mirrors of the WGSL structs in `shaders/chain.wgsl` and `shaders/sample.wgsl`. Keep in
+//! sync with those files: one `#[repr(C)]` Pod struct per WGSL struct, vec4/mat4 fields only (no
+//! vec3 in buffers), explicit padding, and a compile-time size check for each.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -119,3 +119,27 @@ const _: () = assert!(std::mem::size_of::<LineData>() == 176);
 /// The output per point and channel, in EXR channel order (alphabetical): for each line of a
 /// chunk, `nx` values of each channel in turn.
 pub const CHANNELS: [&str; 6] = ["OE.X", "OE.Y", "OE.Z", "VE.X", "VE.Y", "VE.Z"];
+
+/// What the sampling kernel needs to know of the field and the dispatch. Keep in sync with
+/// `struct SampleParams` in `shaders/sample.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct SampleParams {
+    /// nx, ny, nz of the whole grid; w unused.
+    pub dims: [u32; 4],
+    /// First z plane held in the field buffer, unused, points in this dispatch, unused.
+    pub range: [u32; 4],
+}
+const _: () = assert!(std::mem::size_of::<SampleParams>() == 32);
+
+/// One position to sample: its grid cell and the fractions within it, found on the host in f64.
+/// Keep in sync with `struct SamplePoint` in `shaders/sample.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct SamplePoint {
+    /// i, j, k of the cell's lower corner (k in the whole grid); w unused.
+    pub cell: [u32; 4],
+    /// Fractions along x, y, z in [0, 1] (0 along a dimension one point deep); w unused.
+    pub t: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<SamplePoint>() == 32);

@@ -3,6 +3,7 @@
 
 pub mod device;
 pub mod layout;
+pub mod sample;
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -12,6 +13,7 @@ use crate::reference;
 pub use device::GpuError;
 use device::{Buffer, Gpu, Pass, Readback};
 use layout::{AxisData, DevData, Function, LineData, Mat4, Params, Piece, CHANNELS};
+pub use sample::{GpuSampler, SAMPLE_WGSL};
 
 /// The chain kernel's WGSL source.
 pub const CHAIN_WGSL: &str = include_str!("../../shaders/chain.wgsl");

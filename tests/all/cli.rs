@@ -437,3 +437,61 @@ fn features_rate_the_machine_from_the_model_or_a_field() {
                 .and(predicate::str::contains("outside the mapped grid")),
         );
 }
+
+#[test]
+fn sample_on_the_gpu_agrees_with_the_cpu_and_needs_an_adapter() {
+    let dir = tempfile::tempdir().unwrap();
+    let field = dir.path().join("field.exr");
+    volmap()
+        .args(["map", "--grid", "9x8x7", "--device", "cpu", "--out"])
+        .arg(&field)
+        .assert()
+        .success();
+    let points = dir.path().join("points.csv");
+    std::fs::write(&points, "X,Y,Z\n10,20,30\n312.5,4.25,17\n0,0,0\n").unwrap();
+    let sample = |device: &str| {
+        let output = volmap()
+            .args(["sample", "--device", device, "--field"])
+            .arg(&field)
+            .arg("--points")
+            .arg(&points)
+            .output()
+            .unwrap();
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        String::from_utf8(output.stdout).unwrap()
+    };
+    let on_cpu = sample("cpu");
+    if super::common::sampler().is_some() {
+        let on_gpu = sample("gpu");
+        let rows = |text: &str| -> Vec<Vec<f64>> {
+            text.lines()
+                .skip(1)
+                .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+                .collect()
+        };
+        let (a, b) = (rows(&on_cpu), rows(&on_gpu));
+        assert_eq!(a.len(), 3);
+        assert_eq!(on_cpu.lines().next(), on_gpu.lines().next());
+        for (x, y) in a.iter().zip(&b) {
+            for (u, v) in x.iter().zip(y) {
+                assert!(
+                    (u - v).abs() <= 1e-6 * u.abs().max(1e-6),
+                    "{on_cpu}\n{on_gpu}"
+                );
+            }
+        }
+    }
+    volmap()
+        .env("WGPU_BACKEND", "gl")
+        .args(["sample", "--device", "gpu", "--field"])
+        .arg(&field)
+        .arg("--points")
+        .arg(&points)
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("no GPU adapter found"));
+}

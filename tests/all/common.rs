@@ -2,7 +2,7 @@
 
 use std::sync::OnceLock;
 
-use volmap::gpu::GpuMapper;
+use volmap::gpu::{GpuMapper, GpuSampler};
 use volmap::machine::{AxisLetter, ErrorFunction, Interp, Machine, Table};
 
 /// The GPU engine, opened once. `None` (test skipped, with a line on stderr) only where no
@@ -19,6 +19,23 @@ pub fn gpu() -> Option<&'static GpuMapper> {
         eprintln!("SKIPPED: no GPU adapter on this machine");
     }
     gpu
+}
+
+/// The GPU sampler, opened once; skipped and required like [`gpu`].
+pub fn sampler() -> Option<&'static GpuSampler> {
+    static SAMPLER: OnceLock<Option<GpuSampler>> = OnceLock::new();
+    let sampler = SAMPLER
+        .get_or_init(|| {
+            GpuSampler::open().expect("an adapter exists but the device failed to open")
+        })
+        .as_ref();
+    if sampler.is_none() {
+        if std::env::var_os("VOLMAP_REQUIRE_GPU").is_some() {
+            panic!("VOLMAP_REQUIRE_GPU is set but no GPU adapter exists (install mesa-vulkan-drivers for lavapipe)");
+        }
+        eprintln!("SKIPPED: no GPU adapter on this machine");
+    }
+    sampler
 }
 
 /// A small deterministic generator (splitmix64) for test data.

@@ -5,7 +5,7 @@ use volmap::machine::{embedded, AxisLetter, ErrorFunction, Machine};
 use volmap::map::{self, Engine, MapOptions};
 use volmap::query::{self, LoadedField, QueryError};
 
-use super::common::Rng;
+use super::common::{sampler, Rng};
 use AxisLetter::*;
 
 /// A machine whose VE is linear in the commanded position: trilinear interpolation is exact.
@@ -174,4 +174,100 @@ fn bad_point_files_name_the_line() {
             "`{text}`: {error}"
         );
     }
+}
+
+/// Random positions within the field's grid, its corners and the middle of its faces included.
+fn positions_within(field: &LoadedField, count: usize, rng: &mut Rng) -> Vec<[f64; 3]> {
+    let grid = field.info.grid();
+    let end = |d: usize| grid.origin_mm[d] + (grid.dims[d] - 1) as f64 * grid.spacing_mm[d];
+    let mut positions: Vec<[f64; 3]> = (0..8)
+        .map(|c| {
+            std::array::from_fn(|d| {
+                if c >> d & 1 == 1 {
+                    end(d)
+                } else {
+                    grid.origin_mm[d]
+                }
+            })
+        })
+        .collect();
+    positions.push(std::array::from_fn(|d| 0.5 * (grid.origin_mm[d] + end(d))));
+    positions.extend(
+        (0..count).map(|_| std::array::from_fn(|d| rng.uniform(grid.origin_mm[d], end(d)))),
+    );
+    positions
+}
+
+/// The largest difference per column and the largest magnitude of each column.
+fn column_differences(a: &[query::Sample], b: &[query::Sample]) -> ([f64; 6], [f64; 6]) {
+    let mut difference = [0.0f64; 6];
+    let mut largest = [0.0f64; 6];
+    for (x, y) in a.iter().zip(b) {
+        for c in 0..6 {
+            difference[c] = difference[c].max((x[c] - y[c]).abs());
+            largest[c] = largest[c].max(x[c].abs());
+        }
+    }
+    (difference, largest)
+}
+
+#[test]
+fn gpu_sampling_matches_the_cpu() {
+    let Some(sampler) = sampler() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    for dims in [[9, 7, 6], [5, 4, 1], [1, 6, 3]] {
+        let field = LoadedField::open(&mapped(
+            dir.path(),
+            &machine,
+            dims,
+            [0.0, 0.0, 0.0, 0.0, 30.0, 60.0],
+        ))
+        .unwrap();
+        let positions = positions_within(&field, 2000, &mut Rng(5));
+        let points = query::parse_points(&points_csv(&positions), "p.csv").unwrap();
+        let on_cpu = query::sample_field(&field, &points, "p.csv").unwrap();
+        let on_gpu = query::sample_field_gpu(&field, &points, "p.csv", sampler).unwrap();
+        let (difference, largest) = column_differences(&on_cpu, &on_gpu);
+        // An f32 blend of f32 values: a few units of f32 rounding of the largest value.
+        for c in 0..6 {
+            assert!(
+                difference[c] <= 1e-6 * largest[c] + 1e-15,
+                "{dims:?}, column {c}: GPU and CPU differ by {} (largest value {})",
+                difference[c],
+                largest[c]
+            );
+        }
+    }
+}
+
+#[test]
+fn gpu_sampling_in_slabs_equals_one_slab() {
+    let Some(sampler) = sampler() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let machine = embedded::load("vmc-li2015").unwrap();
+    let field = LoadedField::open(&mapped(dir.path(), &machine, [6, 5, 11], [0.0; 6])).unwrap();
+    let positions = positions_within(&field, 3000, &mut Rng(9));
+    let points = query::parse_points(&points_csv(&positions), "p.csv").unwrap();
+    let located: Vec<_> = points
+        .iter()
+        .map(|p| field.cell(&p.command).unwrap().for_gpu())
+        .collect();
+    let dims = field.info.dims;
+    let whole = sampler
+        .sample(dims, field.values(), &located, None)
+        .unwrap();
+    let plane_bytes = (dims[0] * dims[1] * 24) as u64;
+    // 2 planes (1 cell deep per slab), 3 and 4 planes: slab ends fall at different places.
+    for planes in [2, 3, 4] {
+        let slabbed = sampler
+            .sample(dims, field.values(), &located, Some(planes * plane_bytes))
+            .unwrap();
+        assert_eq!(whole, slabbed, "slabs of {planes} planes");
+    }
+    let error = sampler
+        .sample(dims, field.values(), &located, Some(plane_bytes))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("two z planes"), "{error}");
 }

@@ -21,8 +21,17 @@ fn shaders_validate() {
         count += 1;
     }
     assert!(count >= 1, "no shaders found in {}", dir.display());
+    assert!(
+        count >= 2,
+        "chain.wgsl and sample.wgsl expected in {}",
+        dir.display()
+    );
     assert_eq!(
         volmap::gpu::CHAIN_WGSL,
         std::fs::read_to_string(dir.join("chain.wgsl")).unwrap()
+    );
+    assert_eq!(
+        volmap::gpu::SAMPLE_WGSL,
+        std::fs::read_to_string(dir.join("sample.wgsl")).unwrap()
     );
 }

@@ -1,0 +1,150 @@
+//! The GPU twin of trilinear sampling ([`crate::query::LoadedField::sample`]): each position's
+//! grid cell and fractions are found on the host in f64, the field goes to the device in slabs
+//! of whole z planes that fit its binding limit, and `shaders/sample.wgsl` blends the eight
+//! corners of every cell.
+
+use super::device::{self, Gpu, Pass, Readback};
+use super::layout::{SampleParams, SamplePoint};
+use super::GpuError;
+
+/// The sampling kernel's WGSL source.
+pub const SAMPLE_WGSL: &str = include_str!("../../shaders/sample.wgsl");
+/// Invocations per workgroup; keep in sync with `@workgroup_size` in `shaders/sample.wgsl`.
+const WORKGROUP_SIZE: u64 = 64;
+/// Values per grid point and per sample: VE.X VE.Y VE.Z OE.X OE.Y OE.Z.
+pub const SAMPLE_VALUES: usize = 6;
+const SAMPLE_BYTES: u64 = (SAMPLE_VALUES * 4) as u64;
+
+pub struct GpuSampler {
+    gpu: Gpu,
+    kernel: device::Kernel,
+}
+
+impl GpuSampler {
+    /// `Ok(None)` when there is no adapter.
+    pub fn open() -> Result<Option<GpuSampler>, GpuError> {
+        let Some(gpu) = Gpu::open()? else {
+            return Ok(None);
+        };
+        let kernel = gpu.kernel("sample.wgsl sample_main", SAMPLE_WGSL, "sample_main")?;
+        Ok(Some(GpuSampler { gpu, kernel }))
+    }
+
+    pub fn adapter_name(&self) -> &str {
+        self.gpu.adapter_name()
+    }
+
+    /// Whether the adapter is a CPU implementation (lavapipe and the like).
+    pub fn is_software(&self) -> bool {
+        self.gpu.is_software()
+    }
+
+    /// Samples the field of grid `dims` at `points`. `field[p]` holds the six values of grid
+    /// point `p = i + nx·(j + ny·k)`; every point's cell must lie in the grid (the host checks
+    /// positions before it builds them). `max_slab_bytes` caps the field bytes held on the
+    /// device at once, below the device's own limit.
+    pub fn sample(
+        &self,
+        dims: [usize; 3],
+        field: &[[f32; SAMPLE_VALUES]],
+        points: &[SamplePoint],
+        max_slab_bytes: Option<u64>,
+    ) -> Result<Vec<[f32; SAMPLE_VALUES]>, GpuError> {
+        let [nx, ny, nz] = dims.map(|n| n as u64);
+        let error = |message: String| GpuError::Runtime {
+            adapter: self.adapter_name().to_string(),
+            message,
+        };
+        if field.len() as u64 != nx * ny * nz {
+            return Err(error(format!(
+                "the field holds {} grid points, not {nx}×{ny}×{nz}",
+                field.len()
+            )));
+        }
+        let binding = self.gpu.max_storage_binding_bytes();
+        let limit = max_slab_bytes.map_or(binding, |m| m.min(binding));
+        let plane_bytes = nx * ny * SAMPLE_BYTES;
+        let planes = (limit / plane_bytes).min(nz);
+        if planes < nz && planes < 2 {
+            return Err(error(format!(
+                "two z planes of the field ({} bytes) exceed the {limit} bytes one binding holds; \
+                 sample on the CPU (--device cpu)",
+                2 * plane_bytes
+            )));
+        }
+        // Slab s holds planes s·step ..= s·step + step: every cell with its lower corner at
+        // k in s·step .. s·step + step has both its planes there.
+        let step = if planes == nz { nz.max(1) } else { planes - 1 };
+        let slab_of = |p: &SamplePoint| p.cell[2] as u64 / step;
+        let slabs = nz.div_ceil(step).max(1) as usize;
+        let mut by_slab: Vec<Vec<usize>> = vec![Vec::new(); slabs];
+        for (n, p) in points.iter().enumerate() {
+            let slab = slab_of(p) as usize;
+            if slab >= slabs || p.cell[0] as u64 >= nx || p.cell[1] as u64 >= ny {
+                return Err(error(format!("sample point {n} lies outside the grid")));
+            }
+            by_slab[slab].push(n);
+        }
+        let per_dispatch = (self.gpu.max_workgroups_per_dimension() as u64 * WORKGROUP_SIZE)
+            .min(binding / std::mem::size_of::<SamplePoint>() as u64)
+            .min(binding / SAMPLE_BYTES)
+            .max(1) as usize;
+        let mut samples = vec![[0.0f32; SAMPLE_VALUES]; points.len()];
+        for (slab, members) in by_slab.iter().enumerate() {
+            if members.is_empty() {
+                continue;
+            }
+            let first_plane = slab as u64 * step;
+            let last_plane = (first_plane + step).min(nz - 1);
+            let slab_points =
+                &field[(first_plane * nx * ny) as usize..((last_plane + 1) * nx * ny) as usize];
+            let field_buffer = self
+                .gpu
+                .storage("field slab", bytemuck::cast_slice(slab_points));
+            for batch in members.chunks(per_dispatch) {
+                let batch_points: Vec<SamplePoint> = batch.iter().map(|&n| points[n]).collect();
+                let params = SampleParams {
+                    dims: [nx as u32, ny as u32, nz as u32, 0],
+                    range: [first_plane as u32, 0, batch.len() as u32, 0],
+                };
+                let bytes = batch.len() as u64 * SAMPLE_BYTES;
+                let params = self
+                    .gpu
+                    .uniform("sample params", bytemuck::bytes_of(&params));
+                let point_buffer = self
+                    .gpu
+                    .storage("sample points", bytemuck::cast_slice(&batch_points));
+                let output = self.gpu.output("samples", bytes);
+                let staging = self.gpu.staging("samples staging", bytes);
+                let bindings = self.gpu.bind(
+                    &self.kernel,
+                    &[
+                        (0, &params),
+                        (1, &field_buffer),
+                        (2, &point_buffer),
+                        (3, &output),
+                    ],
+                );
+                let submission = self.gpu.submit(
+                    &[Pass {
+                        kernel: &self.kernel,
+                        bindings: &bindings,
+                        workgroups: [(batch.len() as u64).div_ceil(WORKGROUP_SIZE) as u32, 1, 1],
+                    }],
+                    Some(Readback {
+                        from: &output,
+                        to: &staging,
+                        bytes,
+                    }),
+                );
+                self.gpu.read(submission, &staging, bytes, |data| {
+                    let values: &[[f32; SAMPLE_VALUES]] = bytemuck::cast_slice(data);
+                    for (&n, v) in batch.iter().zip(values) {
+                        samples[n] = *v;
+                    }
+                })?;
+            }
+        }
+        Ok(samples)
+    }
+}
