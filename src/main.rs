@@ -9,6 +9,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+mod cli;
+
 use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -48,6 +50,10 @@ enum Command {
     /// Measure every path on this machine (CPU reference, CPU engine, GPU kernel, readback, EXR
     /// writing, whole maps) and print one table.
     Bench(BenchArgs),
+    /// Standard accuracy tests predicted from the machine model (ISO 230-2 positioning, ISO
+    /// 230-6 diagonals, ISO 230-4 circular tests, the R-test), against measured results where
+    /// given.
+    Test(cli::standards::TestArgs),
 }
 
 #[derive(clap::Args)]
@@ -224,6 +230,7 @@ fn main() -> ExitCode {
         Command::Sample(args) => run_sample(args),
         Command::Features(args) => run_features(args),
         Command::Bench(args) => run_bench(args),
+        Command::Test(args) => cli::standards::run_test(args),
     };
     match result {
         Ok(code) => code,

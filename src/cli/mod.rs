@@ -1,0 +1,4 @@
+//! Subcommands with modules of their own.
+
+pub mod plots;
+pub mod standards;
