@@ -31,6 +31,6 @@ pub mod machine;
 pub mod map;
 pub mod mesh;
 pub mod query;
-pub mod standards;
 pub mod reference;
+pub mod standards;
 pub mod tolerance;

@@ -126,7 +126,13 @@ enum TestKind {
 
 pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
     let (common, result) = match args.kind {
-        TestKind::Positioning { axis, targets, runs, at, common } => {
+        TestKind::Positioning {
+            axis,
+            targets,
+            runs,
+            at,
+            common,
+        } => {
             let spec = standards::PositioningSpec {
                 axis,
                 targets,
@@ -140,7 +146,13 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
             let result = standards::positioning(&setup, &spec).map_err(bad_input)?;
             (common, result)
         }
-        TestKind::Diagonal { diagonal, from, to, points, common } => {
+        TestKind::Diagonal {
+            diagonal,
+            from,
+            to,
+            points,
+            common,
+        } => {
             let spec = standards::DiagonalSpec {
                 diagonal,
                 from_mm: from,
@@ -154,7 +166,13 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
             let result = standards::diagonal(&setup, &spec).map_err(bad_input)?;
             (common, result)
         }
-        TestKind::Circular { plane, centre, radius, points, common } => {
+        TestKind::Circular {
+            plane,
+            centre,
+            radius,
+            points,
+            common,
+        } => {
             let spec = standards::CircularSpec {
                 plane,
                 centre_mm: centre,
@@ -168,7 +186,14 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
             let result = standards::circular(&setup, &spec).map_err(bad_input)?;
             (common, result)
         }
-        TestKind::Rtest { axis, sphere, from, to, step, common } => {
+        TestKind::Rtest {
+            axis,
+            sphere,
+            from,
+            to,
+            step,
+            common,
+        } => {
             let spec = standards::RTestSpec {
                 axis,
                 sphere_mm: sphere,
@@ -248,6 +273,9 @@ fn print_result(result: &TestResult) {
         println!("{row}  {}", f.meaning);
     }
     if let Some(d) = standards::largest_difference(result) {
-        println!("\n  largest |measured − predicted|: {:.3} µm", d * UM_PER_MM);
+        println!(
+            "\n  largest |measured − predicted|: {:.3} µm",
+            d * UM_PER_MM
+        );
     }
 }

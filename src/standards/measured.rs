@@ -67,9 +67,12 @@ impl Measured {
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        let (header_line, header) = rows
-            .next()
-            .ok_or_else(|| csv_error(1, format!("empty file; expected a header row: {}", expected())))?;
+        let (header_line, header) = rows.next().ok_or_else(|| {
+            csv_error(
+                1,
+                format!("empty file; expected a header row: {}", expected()),
+            )
+        })?;
         // For each header column: which wanted column it is and the factor to mm.
         let mut source: Vec<(usize, f64)> = Vec::new();
         let mut found = vec![false; wanted.len()];
@@ -91,7 +94,10 @@ impl Measured {
                 ));
             };
             if found[n] {
-                return Err(csv_error(header_line, format!("column `{column}` appears twice")));
+                return Err(csv_error(
+                    header_line,
+                    format!("column `{column}` appears twice"),
+                ));
             }
             found[n] = true;
             source.push((n, factor));
@@ -99,7 +105,11 @@ impl Measured {
         if let Some(n) = found.iter().position(|f| !f) {
             return Err(csv_error(
                 header_line,
-                format!("missing column `{}`; the columns are: {}", wanted[n].0, expected()),
+                format!(
+                    "missing column `{}`; the columns are: {}",
+                    wanted[n].0,
+                    expected()
+                ),
             ));
         }
         let mut measured = Measured {
@@ -122,15 +132,25 @@ impl Measured {
                     measured.columns[n].push(f64::NAN);
                     continue;
                 }
-                let value: f64 = field.parse().ok().filter(|v: &f64| v.is_finite()).ok_or_else(|| {
-                    csv_error(line, format!("`{field}` in column `{}` is not a number", wanted[n].0))
-                })?;
+                let value: f64 = field
+                    .parse()
+                    .ok()
+                    .filter(|v: &f64| v.is_finite())
+                    .ok_or_else(|| {
+                        csv_error(
+                            line,
+                            format!("`{field}` in column `{}` is not a number", wanted[n].0),
+                        )
+                    })?;
                 measured.columns[n].push(value * factor);
             }
             measured.lines.push(line);
         }
         if measured.lines.is_empty() {
-            return Err(csv_error(header_line, "no measurements after the header".into()));
+            return Err(csv_error(
+                header_line,
+                "no measurements after the header".into(),
+            ));
         }
         Ok(measured)
     }

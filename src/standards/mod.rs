@@ -107,7 +107,10 @@ impl<'a> Setup<'a> {
     pub fn travel_box(&self) -> Result<(Vector3<f64>, Vector3<f64>), StandardsError> {
         let mut lo = Vector3::zeros();
         let mut hi = Vector3::zeros();
-        for (d, letter) in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z].into_iter().enumerate() {
+        for (d, letter) in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z]
+            .into_iter()
+            .enumerate()
+        {
             let axis = self.linear_axis(letter)?;
             lo[d] = axis.range[0];
             hi[d] = axis.range[1];
@@ -154,7 +157,9 @@ impl<'a> Setup<'a> {
             at([0.0, 0.0, 1.0]) - base,
         ]);
         let xyz = jacobian.lu().solve(&(tip - base)).ok_or_else(|| {
-            parameter("the machine's linear axes do not span X, Y and Z: no position reaches the tip")
+            parameter(
+                "the machine's linear axes do not span X, Y and Z: no position reaches the tip",
+            )
         })?;
         let mut c = *command;
         c[..3].copy_from_slice(xyz.as_slice());
@@ -249,7 +254,9 @@ fn parse_linear(name: &str) -> Result<AxisLetter, StandardsError> {
         "X" | "x" => Ok(AxisLetter::X),
         "Y" | "y" => Ok(AxisLetter::Y),
         "Z" | "z" => Ok(AxisLetter::Z),
-        other => Err(parameter(format!("`{other}` is not a linear axis (X, Y or Z)"))),
+        other => Err(parameter(format!(
+            "`{other}` is not a linear axis (X, Y or Z)"
+        ))),
     }
 }
 
@@ -326,7 +333,10 @@ fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
             let mut these: Vec<f64> = run.2.iter().map(|&(t, _)| t).collect();
             these.sort_by(f64::total_cmp);
             if these.len() != targets.len()
-                || these.iter().zip(&targets).any(|(a, b)| (a - b).abs() > 1e-9 * (1.0 + b.abs()))
+                || these
+                    .iter()
+                    .zip(&targets)
+                    .any(|(a, b)| (a - b).abs() > 1e-9 * (1.0 + b.abs()))
             {
                 return Err(StandardsError::Csv {
                     path: m.path.clone(),
@@ -374,7 +384,9 @@ pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, 
             if count < 2 {
                 return Err(parameter("a positioning test needs at least 2 targets"));
             }
-            (0..count).map(|i| a + (b - a) * i as f64 / (count - 1) as f64).collect()
+            (0..count)
+                .map(|i| a + (b - a) * i as f64 / (count - 1) as f64)
+                .collect()
         }
     };
     if spec.runs == 0 {
@@ -482,7 +494,11 @@ pub fn diagonal_ends(
         let mut b = mid;
         for d in 0..3 {
             if free[d] {
-                (a[d], b[d]) = if signs[d] { (lo[d], hi[d]) } else { (hi[d], lo[d]) };
+                (a[d], b[d]) = if signs[d] {
+                    (lo[d], hi[d])
+                } else {
+                    (hi[d], lo[d])
+                };
             }
         }
         (a, b)
@@ -567,7 +583,10 @@ pub fn diagonal(setup: &Setup, spec: &DiagonalSpec) -> Result<TestResult, Standa
     }
     let direction = (to - from) / length;
     for (end, what) in [(from, "start"), (to, "end")] {
-        setup.check_travel(&setup.command(end), &format!("diagonal {label}, its {what}"))?;
+        setup.check_travel(
+            &setup.command(end),
+            &format!("diagonal {label}, its {what}"),
+        )?;
     }
     let measured = spec
         .csv
@@ -708,7 +727,9 @@ pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, Standa
         .radius_mm
         .unwrap_or_else(|| 100f64.min(0.4 * (hi[u] - lo[u]).min(hi[v] - lo[v])));
     if radius.is_nan() || radius <= 0.0 {
-        return Err(parameter(format!("radius {radius} mm: it must be positive")));
+        return Err(parameter(format!(
+            "radius {radius} mm: it must be positive"
+        )));
     }
     let measured = spec
         .csv
@@ -745,7 +766,10 @@ pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, Standa
         Ok([range_of(&residuals), max, min])
     };
     let p = figures_of(&predicted)?;
-    let m = measured.as_ref().map(|m| figures_of(&m.columns[1])).transpose()?;
+    let m = measured
+        .as_ref()
+        .map(|m| figures_of(&m.columns[1]))
+        .transpose()?;
     Ok(TestResult {
         title: format!(
             "ISO 230-4 circular test in {plane}: centre ({:.1}, {:.1}, {:.1}) mm, radius {radius} mm",
@@ -813,7 +837,11 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
         "A" | "a" => AxisLetter::A,
         "B" | "b" => AxisLetter::B,
         "C" | "c" => AxisLetter::C,
-        other => return Err(parameter(format!("`{other}` is not a rotary axis (A, B or C)"))),
+        other => {
+            return Err(parameter(format!(
+                "`{other}` is not a rotary axis (A, B or C)"
+            )))
+        }
     };
     let axis = setup.machine.axis(letter).ok_or_else(|| {
         parameter(format!(
@@ -846,7 +874,9 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
                 )));
             }
             let steps = ((to - from) / spec.step_deg + 1e-9).floor() as usize;
-            (0..=steps).map(|i| from + i as f64 * spec.step_deg).collect()
+            (0..=steps)
+                .map(|i| from + i as f64 * spec.step_deg)
+                .collect()
         }
     };
     let mut curves = vec![Vec::with_capacity(angles.len()); 3];
@@ -854,7 +884,10 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
         let mut command = setup.pose;
         command[letter.index()] = angle;
         let command = setup.nominal_command_for_tip(sphere, &command)?;
-        setup.check_travel(&command, &format!("R-test of {letter} at {letter}={angle}°"))?;
+        setup.check_travel(
+            &command,
+            &format!("R-test of {letter} at {letter}={angle}°"),
+        )?;
         let ve = setup.deviation(&command).volumetric_mm;
         let reading = -(setup.ideal_rotation(&command).transpose() * ve);
         for d in 0..3 {
@@ -868,7 +901,10 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
         .map(|(d, name)| {
             figure(
                 &format!("{name} range"),
-                &format!("range of the sphere's displacement along the spindle frame's {}", ['x', 'y', 'z'][d]),
+                &format!(
+                    "range of the sphere's displacement along the spindle frame's {}",
+                    ['x', 'y', 'z'][d]
+                ),
                 range_of(&curves[d]),
                 measured_curves.as_ref().map(|m| range_of(&m[d])),
             )

@@ -13,4 +13,5 @@ mod mesh;
 mod query;
 mod reference;
 mod shaders;
+mod standards;
 mod tolerance;
