@@ -54,6 +54,9 @@ enum Command {
     /// 230-6 diagonals, ISO 230-4 circular tests, the R-test), against measured results where
     /// given.
     Test(cli::standards::TestArgs),
+    /// Estimate location errors (squareness, rotary axis lines) from diagonal, circular, R-test
+    /// or positioning measurements by least squares, with residual and uncertainty.
+    Fit(cli::standards::FitArgs),
 }
 
 #[derive(clap::Args)]
@@ -231,6 +234,7 @@ fn main() -> ExitCode {
         Command::Features(args) => run_features(args),
         Command::Bench(args) => run_bench(args),
         Command::Test(args) => cli::standards::run_test(args),
+        Command::Fit(args) => cli::standards::run_fit(args),
     };
     match result {
         Ok(code) => code,

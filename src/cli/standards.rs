@@ -279,3 +279,59 @@ fn print_result(result: &TestResult) {
         );
     }
 }
+
+#[derive(clap::Args)]
+pub struct FitArgs {
+    /// The machine whose location errors are estimated (embedded name or file); its other
+    /// errors are taken as they are.
+    #[arg(long, default_value = embedded::DEFAULT_MACHINE)]
+    machine: String,
+    /// The measurements file (TOML): `estimate = [...]` and the tests with their CSV files.
+    #[arg(long)]
+    measurements: PathBuf,
+    /// Write the machine file with the estimates in.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Also write the estimates as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+pub fn run_fit(args: FitArgs) -> Result<ExitCode, Failure> {
+    use volmap::standards::fit;
+    let machine = embedded::load(&args.machine).map_err(bad_input)?;
+    let file = fit::FitFile::read(&args.measurements).map_err(bad_input)?;
+    let report = fit::fit(&machine, &file).map_err(bad_input)?;
+    println!(
+        "least-squares fit of {} location error(s) to {} measured points ({} degrees of freedom)",
+        report.estimates.len(),
+        report.points,
+        report.degrees_of_freedom
+    );
+    println!(
+        "  {:<6} {:>14} {:>14} {:>14}  unit",
+        "error", "as given", "estimate", "uncertainty"
+    );
+    for e in &report.estimates {
+        println!(
+            "  {:<6} {:>14.6e} {:>14.6e} {:>14.3e}  {}",
+            e.name, e.initial, e.value, e.uncertainty, e.unit
+        );
+    }
+    println!(
+        "  RMS residual: {:.3} µm with the machine as given, {:.3} µm with the estimates",
+        report.rms_before_mm * UM_PER_MM,
+        report.rms_after_mm * UM_PER_MM
+    );
+    println!("  (uncertainty: one standard uncertainty, from the residuals)");
+    if let Some(path) = &args.out {
+        let text = fit::fitted_machine_toml(&machine, &report.estimates).map_err(bad_input)?;
+        write_atomically(path, |out| out.write_all(text.as_bytes()))?;
+        println!("  machine with the estimates: {}", path.display());
+    }
+    if let Some(path) = &args.json {
+        let text = serde_json::to_string_pretty(&report).context("encoding the report")?;
+        write_atomically(path, |out| writeln!(out, "{text}"))?;
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -5,11 +5,12 @@
 //! Every test commands positions, asks the model for `VE` there (the f64 reference of MODEL.md,
 //! workpiece frame), and turns it into what the test's instrument reads:
 //!
-//! - positioning of axis `k` (laser along `k`): `x = VE · e_k`, the deviation of the actual from
-//!   the target position; the model has no backlash or scatter, so every run and both approach
-//!   directions give the same deviation (`B = R = 0`, `A = E = M`);
-//! - diagonal from `p0` to `p1` (laser along the diagonal `d = (p1 − p0)/|p1 − p0|`): the
-//!   displacement error `VE(p0 + s·d) · d` at distance `s` along it;
+//! - positioning of axis `k` (laser along `k`, zeroed at the first target `t0`):
+//!   `x(t) = VE(t)·e_k − VE(t0)·e_k`, the deviation of the actual from the target position; the
+//!   model has no backlash or scatter, so every run and both approach directions give the same
+//!   deviation (`B = R = 0`, `A = E = M`);
+//! - diagonal from `p0` to `p1` (laser along the diagonal `d = (p1 − p0)/|p1 − p0|`, zeroed at
+//!   `p0`): the displacement error `VE(p0 + s·d)·d − VE(p0)·d` at distance `s` along it;
 //! - circular test about centre `c` with radius `r` in a plane (ballbar between a ball at `c` on
 //!   the table and one at the tool tip): the radial deviation `|p + VE(p) − c| − r` at
 //!   `p = c + r(cos θ e1 + sin θ e2)`, `θ` from the plane's first axis towards its second
@@ -17,7 +18,10 @@
 //! - R-test of rotary axis `k` (a sphere fixed on the workpiece side at `s`, a nest of three
 //!   probes in the spindle, the linear axes commanded to follow the sphere): at each angle the
 //!   linear axes are where the ideal machine puts the tool tip at `s`, and the probes read the
-//!   sphere's displacement relative to the nest in the spindle frame, `−R_idealᵀ · VE`.
+//!   sphere's displacement relative to the nest in the spindle frame, `−R_idealᵀ · VE`, zeroed
+//!   at the first angle.
+//!
+//! Measured curves are compared as they come: zero them where the prediction is zeroed.
 
 pub mod fit;
 pub mod iso230_2;
@@ -400,6 +404,9 @@ pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, 
         setup.check_travel(&command, &format!("positioning of {letter}, target {t}"))?;
         deviations.push(setup.deviation(&command).volumetric_mm[d]);
     }
+    // The laser is zeroed at the first target.
+    let zero = deviations[0];
+    let deviations: Vec<f64> = deviations.iter().map(|x| x - zero).collect();
     let runs = |x: f64| vec![x; spec.runs];
     let predicted = PositioningData {
         targets_mm: targets.clone(),
@@ -614,13 +621,15 @@ pub fn diagonal(setup: &Setup, spec: &DiagonalSpec) -> Result<TestResult, Standa
                 .collect()
         }
     };
-    let predicted: Vec<f64> = positions
-        .iter()
-        .map(|&s| {
-            let command = setup.command(from + s * direction);
-            setup.deviation(&command).volumetric_mm.dot(&direction)
-        })
-        .collect();
+    let along = |s: f64| {
+        setup
+            .deviation(&setup.command(from + s * direction))
+            .volumetric_mm
+            .dot(&direction)
+    };
+    // The laser is zeroed at the start of the diagonal.
+    let zero = along(0.0);
+    let predicted: Vec<f64> = positions.iter().map(|&s| along(s) - zero).collect();
     let measured_values = measured.map(|m| m.columns[1].clone());
     let end = |v: &[f64]| v[v.len() - 1] - v[0];
     Ok(TestResult {
@@ -893,6 +902,11 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
         for d in 0..3 {
             curves[d].push(reading[d]);
         }
+    }
+    // The probes are zeroed at the first angle.
+    for curve in &mut curves {
+        let zero = curve[0];
+        curve.iter_mut().for_each(|v| *v -= zero);
     }
     let measured_curves = measured.map(|m| m.columns[1..].to_vec());
     let figures = ["dX", "dY", "dZ"]

@@ -90,9 +90,9 @@ fn a_scale_error_shows_in_the_diagonal_as_a_straight_line() {
         let (lo, hi) = setup.travel_box().unwrap();
         let (from, to) = standards::diagonal_ends(name, lo, hi).unwrap();
         let direction = (to - from).normalize();
-        // e(s) = k·X(s)·d_x with X(s) = from_x + s·d_x: a straight line in s.
+        // e(s) = k·X(s)·d_x − k·X(0)·d_x with X(s) = from_x + s·d_x: a straight line in s.
         for (s, e) in result.positions.iter().zip(&result.predicted[0]) {
-            let expected = k * (from.x + s * direction.x) * direction.x;
+            let expected = k * s * direction.x * direction.x;
             assert!(
                 (e - expected).abs() < 1e-12,
                 "{name} at {s}: {e} against {expected}"
@@ -121,7 +121,8 @@ fn positioning_reads_the_axis_own_scale_error() {
     let result = standards::positioning(&setup, &spec).unwrap();
     assert_eq!(result.positions.len(), 6);
     for (t, x) in result.positions.iter().zip(&result.predicted[0]) {
-        assert!((x - (0.001 + k * t)).abs() < 1e-12);
+        // Zeroed at the first target, the bottom of the travel.
+        assert!((x - k * (t + 250.0)).abs() < 1e-12, "{t}: {x}");
     }
     let value = |name: &str| {
         result
@@ -222,8 +223,8 @@ fn iso230_2_figures_of_a_worked_example() {
 
 #[test]
 fn r_test_of_an_offset_axis_line() {
-    // EX0C = δ: with the tool branch linear, the probes read −Rot_C(q)ᵀ·(δ, 0, 0):
-    // dX = −δ cos q, dY = δ sin q, dZ = 0.
+    // EX0C = δ: with the tool branch linear, the probes read −Rot_C(q)ᵀ·(δ, 0, 0), zeroed at
+    // q = 0: dX = δ(1 − cos q), dY = δ sin q, dZ = 0.
     let delta = 0.004;
     let mut machine = Machine::nominal(
         "table C",
@@ -256,7 +257,7 @@ fn r_test_of_an_offset_axis_line() {
             result.predicted[1][n],
             result.predicted[2][n],
         ];
-        let expected = [-delta * c, delta * s, 0.0];
+        let expected = [delta * (1.0 - c), delta * s, 0.0];
         for d in 0..3 {
             assert!(
                 (reading[d] - expected[d]).abs() < 1e-12,
@@ -377,4 +378,225 @@ fn bad_measured_data_names_the_file_and_line() {
         setup.travel_box().unwrap().1
     )
     .is_err());
+}
+
+/// Writes a test's predicted curves, with noise, as the measured CSV of its kind.
+fn write_measured(
+    path: &std::path::Path,
+    header: &str,
+    result: &standards::TestResult,
+    noise_mm: f64,
+    rng: &mut super::common::Rng,
+) {
+    let mut text = format!("{header}\n");
+    for (n, position) in result.positions.iter().enumerate() {
+        text += &format!("{position}");
+        for curve in &result.predicted {
+            // Uniform noise with standard deviation `noise_mm`.
+            let e = noise_mm * 3f64.sqrt() * rng.uniform(-1.0, 1.0);
+            text += &format!(",{}", (curve[n] + e) * 1000.0);
+        }
+        text += "\n";
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+const THREE_AXIS_TOML: &str = r#"
+name = "three-axis"
+chain = "FYXFZ"
+[axes.X]
+range = [-400.0, 400.0]
+EXX = { poly = [0.0, 1.0e-5] }
+[axes.Y]
+range = [-300.0, 300.0]
+[axes.Z]
+range = [-250.0, 250.0]
+"#;
+
+#[test]
+fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
+    let dir = tempfile::tempdir().unwrap();
+    let given = Machine::from_toml(THREE_AXIS_TOML, "three-axis.toml", None).unwrap();
+    let truth = [
+        ("EC0Y", Y, 5, 2.0e-5),
+        ("EB0Z", Z, 4, -1.5e-5),
+        ("EA0Z", Z, 3, 1.0e-5),
+    ];
+    let mut machine = given.clone();
+    for &(_, axis, index, value) in &truth {
+        machine.axis_mut(axis).unwrap().location[index] = value;
+    }
+    let setup = Setup::new(&machine, "").unwrap();
+    let mut rng = super::common::Rng(42);
+    let noise = 0.3e-3;
+    let mut fit_toml = String::from("estimate = [\"EC0Y\", \"EB0Z\", \"EA0Z\"]\n");
+    for plane in ["XY", "YZ", "ZX"] {
+        let result = standards::circular(&setup, &circular_spec(plane, 150.0)).unwrap();
+        let name = format!("{plane}.csv");
+        write_measured(
+            &dir.path().join(&name),
+            "angle_deg,deviation_um",
+            &result,
+            noise,
+            &mut rng,
+        );
+        fit_toml += &format!(
+            "[[circular]]\nplane = \"{plane}\"\nradius_mm = 150.0\npoints = 72\ncsv = \"{name}\"\n"
+        );
+    }
+    for diagonal in ["PPP", "NPP", "PNP", "PPN"] {
+        let spec = DiagonalSpec {
+            diagonal: Some(diagonal.into()),
+            from_mm: None,
+            to_mm: None,
+            points: 21,
+            pose: String::new(),
+            csv: None,
+        };
+        let result = standards::diagonal(&setup, &spec).unwrap();
+        let name = format!("{diagonal}.csv");
+        write_measured(
+            &dir.path().join(&name),
+            "position_mm,deviation_um",
+            &result,
+            noise,
+            &mut rng,
+        );
+        fit_toml += &format!("[[diagonal]]\ndiagonal = \"{diagonal}\"\ncsv = \"{name}\"\n");
+    }
+    let fit_path = write(&dir, "fit.toml", &fit_toml);
+    let file = standards::fit::FitFile::read(&fit_path).unwrap();
+    let report = standards::fit::fit(&given, &file).unwrap();
+    assert_eq!(report.points, 3 * 72 + 4 * 21);
+    for (estimate, &(name, _, _, value)) in report.estimates.iter().zip(&truth) {
+        assert_eq!(estimate.name, name);
+        assert_eq!(estimate.initial, 0.0);
+        // Noise of 0.3 µm over arms of 150 mm and more: well below 1 µrad.
+        assert!(
+            estimate.uncertainty > 0.0 && estimate.uncertainty < 1e-6,
+            "{estimate:?}"
+        );
+        assert!(
+            (estimate.value - value).abs() < 4.0 * estimate.uncertainty,
+            "{estimate:?} against {value}"
+        );
+    }
+    // The residual is the noise, no more (uniform noise of σ 0.3 µm).
+    assert!(report.rms_after_mm < 0.4e-3, "{}", report.rms_after_mm);
+    assert!(report.rms_before_mm > 3.0 * report.rms_after_mm);
+    // The machine file with the estimates reads back with them.
+    let text = standards::fit::fitted_machine_toml(&given, &report.estimates).unwrap();
+    let fitted = Machine::from_toml(&text, "fitted.toml", None).unwrap();
+    for (estimate, &(_, axis, index, _)) in report.estimates.iter().zip(&truth) {
+        assert_eq!(fitted.axis(axis).unwrap().location[index], estimate.value);
+    }
+    assert_eq!(
+        fitted.axis(X).unwrap().components,
+        given.axis(X).unwrap().components
+    );
+}
+
+#[test]
+fn fit_recovers_a_rotary_axis_line_from_r_tests() {
+    let dir = tempfile::tempdir().unwrap();
+    let given = Machine::nominal(
+        "table C",
+        "FYXCFZ",
+        &[
+            (X, [-400.0, 400.0]),
+            (Y, [-300.0, 300.0]),
+            (Z, [-250.0, 250.0]),
+            (C, [0.0, 360.0]),
+        ],
+    )
+    .unwrap();
+    let truth = [
+        ("EX0C", 0, 0.006),
+        ("EY0C", 1, -0.004),
+        ("EA0C", 3, 3e-5),
+        ("EB0C", 4, -2e-5),
+    ];
+    let mut machine = given.clone();
+    for &(_, index, value) in &truth {
+        machine.axis_mut(C).unwrap().location[index] = value;
+    }
+    let setup = Setup::new(&machine, "").unwrap();
+    let mut rng = super::common::Rng(7);
+    let mut fit_toml = String::from("estimate = [\"EX0C\", \"EY0C\", \"EA0C\", \"EB0C\"]\n");
+    // Two spheres at different heights separate the tilt of the line from its position.
+    for (n, sphere) in [[150.0, 0.0, 20.0], [150.0, 0.0, 220.0]].iter().enumerate() {
+        let spec = RTestSpec {
+            axis: "C".into(),
+            sphere_mm: Some(*sphere),
+            from_deg: None,
+            to_deg: None,
+            step_deg: 15.0,
+            pose: String::new(),
+            csv: None,
+        };
+        let result = standards::rtest(&setup, &spec).unwrap();
+        let name = format!("r{n}.csv");
+        write_measured(
+            &dir.path().join(&name),
+            "angle_deg,dX_um,dY_um,dZ_um",
+            &result,
+            0.2e-3,
+            &mut rng,
+        );
+        fit_toml += &format!(
+            "[[rtest]]\naxis = \"C\"\nsphere_mm = [{}, {}, {}]\nstep_deg = 15.0\ncsv = \"{name}\"\n",
+            sphere[0], sphere[1], sphere[2]
+        );
+    }
+    let file = standards::fit::FitFile::read(&write(&dir, "fit.toml", &fit_toml)).unwrap();
+    let report = standards::fit::fit(&given, &file).unwrap();
+    for (estimate, &(name, _, value)) in report.estimates.iter().zip(&truth) {
+        assert_eq!(estimate.name, name);
+        assert!(
+            (estimate.value - value).abs() < 4.0 * estimate.uncertainty,
+            "{estimate:?} against {value}"
+        );
+        assert!(estimate.uncertainty < 0.05 * value.abs(), "{estimate:?}");
+    }
+}
+
+#[test]
+fn fit_says_what_the_measurements_cannot_see() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = three_axis();
+    let setup = Setup::new(&machine, "").unwrap();
+    let result = standards::circular(&setup, &circular_spec("XY", 100.0)).unwrap();
+    write_measured(
+        &dir.path().join("xy.csv"),
+        "angle_deg,deviation_um",
+        &result,
+        0.0,
+        &mut super::common::Rng(1),
+    );
+    let file = |estimate: &str| {
+        let text = format!(
+            "estimate = [{estimate}]\n[[circular]]\nplane = \"XY\"\nradius_mm = 100.0\npoints = 72\ncsv = \"xy.csv\"\n"
+        );
+        standards::fit::FitFile::read(&write(&dir, "fit.toml", &text)).unwrap()
+    };
+    let error = standards::fit::fit(&machine, &file("\"EA0Z\""))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("EA0Z does not change"), "{error}");
+    let error = standards::fit::fit(&machine, &file("\"EQ0Z\""))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("not a location error"), "{error}");
+    let error = standards::fit::fit(&machine, &file("\"EC0B\""))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("no B axis"), "{error}");
+    let unknown = write(&dir, "bad.toml", "estimate = []\nwobble = 1\n");
+    let error = standards::fit::FitFile::read(&unknown)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("bad.toml") && error.contains("wobble"),
+        "{error}"
+    );
 }
