@@ -57,6 +57,9 @@ enum Command {
     /// Estimate location errors (squareness, rotary axis lines) from diagonal, circular, R-test
     /// or positioning measurements by least squares, with residual and uncertainty.
     Fit(cli::standards::FitArgs),
+    /// Build a machine file from component errors measured at sparse positions (CSV per axis),
+    /// with linear, quadratic or cubic elements chosen per component.
+    Build(cli::standards::BuildArgs),
 }
 
 #[derive(clap::Args)]
@@ -235,6 +238,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => run_bench(args),
         Command::Test(args) => cli::standards::run_test(args),
         Command::Fit(args) => cli::standards::run_fit(args),
+        Command::Build(args) => cli::standards::run_build(args),
     };
     match result {
         Ok(code) => code,

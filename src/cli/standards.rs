@@ -335,3 +335,91 @@ pub fn run_fit(args: FitArgs) -> Result<ExitCode, Failure> {
     }
     Ok(ExitCode::SUCCESS)
 }
+
+#[derive(clap::Args)]
+pub struct BuildArgs {
+    /// The machine whose chain, travels, offsets and unmeasured errors the new file keeps
+    /// (embedded name or file).
+    #[arg(long)]
+    base: String,
+    /// A measured axis and its CSV, `X=x.csv` (repeat per axis).
+    #[arg(long = "axis", required = true)]
+    axes: Vec<String>,
+    /// Interpolation per component instead of the automatic choice, `EZZ=quadratic,EXX=linear`.
+    #[arg(long, default_value = "")]
+    interp: String,
+    /// The machine file to write.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run_build(args: BuildArgs) -> Result<ExitCode, Failure> {
+    use volmap::machine::AxisLetter;
+    use volmap::standards::build;
+    let base = embedded::load(&args.base).map_err(bad_input)?;
+    let mut axes = Vec::new();
+    for pair in &args.axes {
+        let (letter, path) = pair
+            .split_once('=')
+            .and_then(|(l, p)| {
+                let mut chars = l.trim().chars();
+                let letter = chars.next().and_then(AxisLetter::from_char);
+                (chars.next().is_none())
+                    .then_some(letter)
+                    .flatten()
+                    .map(|l| (l, p))
+            })
+            .ok_or_else(|| {
+                bad_input(anyhow::anyhow!(
+                    "--axis {pair}: expected AXIS=FILE.csv, e.g. X=x.csv"
+                ))
+            })?;
+        axes.push((letter, PathBuf::from(path.trim())));
+    }
+    let asked = build::parse_interp_choices(&args.interp).map_err(bad_input)?;
+    let axes_ref: Vec<_> = axes.iter().map(|(l, p)| (*l, p.as_path())).collect();
+    let (text, built) = build::build(&base, &axes_ref, &asked).map_err(bad_input)?;
+    // The new file must read back as a machine before it replaces anything.
+    let folder = args
+        .out
+        .parent()
+        .map(std::path::Path::to_path_buf)
+        .unwrap_or_default();
+    volmap::machine::Machine::from_toml(&text, &args.out.display().to_string(), Some(&folder))
+        .map_err(bad_input)?;
+    write_atomically(&args.out, |out| out.write_all(text.as_bytes()))?;
+    println!(
+        "{}: {} component table(s) from measurements",
+        args.out.display(),
+        built.len()
+    );
+    println!(
+        "  {:<5} {:>5}  {:<10} {:>32}  why",
+        "error", "nodes", "interp", "leave-one-out RMS (µm or µrad)"
+    );
+    for c in &built {
+        let scores: Vec<String> = c
+            .leave_one_out
+            .iter()
+            .map(|(name, s)| {
+                format!(
+                    "{name} {:.3}",
+                    s * 1e3_f64.powi(if c.index < 3 { 1 } else { 2 })
+                )
+            })
+            .collect();
+        println!(
+            "  {:<5} {:>5}  {:<10} {:>32}  {}",
+            c.name,
+            c.nodes.len(),
+            c.interp,
+            if scores.is_empty() {
+                "-".to_string()
+            } else {
+                scores.join(", ")
+            },
+            c.reason
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}

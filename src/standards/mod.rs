@@ -23,6 +23,7 @@
 //!
 //! Measured curves are compared as they come: zero them where the prediction is zeroed.
 
+pub mod build;
 pub mod fit;
 pub mod iso230_2;
 pub mod measured;

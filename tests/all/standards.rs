@@ -600,3 +600,99 @@ fn fit_says_what_the_measurements_cannot_see() {
         "{error}"
     );
 }
+
+#[test]
+fn build_chooses_elements_per_component_and_writes_a_machine() {
+    use volmap::machine::Interp;
+    use volmap::standards::build;
+    let dir = tempfile::tempdir().unwrap();
+    let base_path = write(&dir, "base.toml", THREE_AXIS_TOML);
+    let base = Machine::from_path(&base_path).unwrap();
+    // X: EXX linear in X (every element predicts it: the simplest wins), EBX a parabola
+    // (quadratic elements are exact, 5 nodes). Z: EZZ a sine over 9 nodes (the spline wins).
+    let mut x_csv = String::from("position_mm,EXX_um,EBX_urad\n");
+    for i in 0..5 {
+        let q = -400.0 + 200.0 * i as f64;
+        x_csv += &format!("{q},{},{}\n", 2.0 + 0.01 * q, 3.0 + 1e-4 * q * q);
+    }
+    let mut z_csv = String::from("position_mm,EZZ_mm\n");
+    for i in 0..9 {
+        let q = -250.0 + 62.5 * i as f64;
+        z_csv += &format!("{q},{}\n", 0.004 * (q / 80.0).sin());
+    }
+    let x_path = write(&dir, "x.csv", &x_csv);
+    let z_path = write(&dir, "z.csv", &z_csv);
+    let (text, built) = build::build(&base, &[(X, &x_path), (Z, &z_path)], &[]).unwrap();
+    let chosen: Vec<(&str, &str)> = built
+        .iter()
+        .map(|c| (c.name.as_str(), c.interp.as_str()))
+        .collect();
+    assert_eq!(
+        chosen,
+        [("EXX", "linear"), ("EBX", "quadratic"), ("EZZ", "cubic")],
+        "{built:?}"
+    );
+    let machine = Machine::from_toml(&text, "built.toml", None).unwrap();
+    let x = machine.axis(X).unwrap();
+    for q in [-400.0, -130.0, 0.0, 77.0, 400.0] {
+        let [exx, _, _, _, ebx, _] = x.component_values(q);
+        assert!((exx - (2.0 + 0.01 * q) * 1e-3).abs() < 1e-15, "EXX at {q}");
+        assert!(
+            (ebx - (3.0 + 1e-4 * q * q) * 1e-6).abs() < 1e-15,
+            "EBX at {q}"
+        );
+    }
+    let z = machine.axis(Z).unwrap();
+    for i in 0..9 {
+        let q = -250.0 + 62.5 * i as f64;
+        assert!((z.component_values(q)[2] - 0.004 * (q / 80.0).sin()).abs() < 1e-15);
+    }
+    // Between nodes the spline follows the sine far closer than straight lines would.
+    let worst = (0..200)
+        .map(|i| -250.0 + 2.5 * i as f64)
+        .map(|q| (z.component_values(q)[2] - 0.004 * (q / 80.0).sin()).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 2e-5, "{worst}");
+    // The base's chain, travels and unmeasured axes stay.
+    assert_eq!(machine.chain, base.chain);
+    assert_eq!(machine.axis(Y), base.axis(Y));
+    // Asked for, an element is used as it is; an even node count cannot be quadratic.
+    let (_, asked) =
+        build::build(&base, &[(Z, &z_path)], &[("EZZ".into(), Interp::Linear)]).unwrap();
+    assert_eq!(
+        (asked[0].interp.as_str(), asked[0].reason.as_str()),
+        ("linear", "asked for")
+    );
+    let even = write(
+        &dir,
+        "even.csv",
+        "position_mm,EZZ_um\n0,1\n10,2\n20,1\n30,0\n",
+    );
+    let error = build::build(&base, &[(Z, &even)], &[("EZZ".into(), Interp::Quadratic)])
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("odd number of nodes"), "{error}");
+}
+
+#[test]
+fn build_rejects_bad_measurement_files() {
+    use volmap::standards::build;
+    let dir = tempfile::tempdir().unwrap();
+    let check = |text: &str, line: usize, words: &str| {
+        let path = write(&dir, "x.csv", text);
+        expect_csv_error(build::read_axis_csv(&path, X), line, words);
+    };
+    check(
+        "position_mm,EXX_um\n0,1\n200,2\n100,3\n",
+        4,
+        "sorted by position",
+    );
+    check("position_mm,EXX_nm\n0,1\n", 1, "unit `nm`");
+    check("position_mm,EYZ_um\n0,1\n", 1, "component error of X");
+    check("position_deg,EXX_um\n0,1\n", 1, "position_mm");
+    check("position_mm,EXX_um\n0,1\n100,x\n", 3, "not a number");
+    check("position_mm,EXX_um\n0,1\n", 1, "at least 2");
+    let missing = dir.path().join("missing.csv");
+    let error = build::read_axis_csv(&missing, X).unwrap_err().to_string();
+    assert!(error.contains("missing.csv"), "{error}");
+}
