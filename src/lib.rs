@@ -30,6 +30,7 @@ pub mod grid;
 pub mod machine;
 pub mod map;
 pub mod mesh;
+pub mod plot;
 pub mod query;
 pub mod reference;
 pub mod standards;

@@ -60,6 +60,8 @@ enum Command {
     /// Build a machine file from component errors measured at sparse positions (CSV per axis),
     /// with linear, quadratic or cubic elements chosen per component.
     Build(cli::standards::BuildArgs),
+    /// Plots: a field slice as a colour map, the deformed workspace grid.
+    Plot(cli::plots::PlotArgs),
 }
 
 #[derive(clap::Args)]
@@ -239,6 +241,7 @@ fn main() -> ExitCode {
         Command::Test(args) => cli::standards::run_test(args),
         Command::Fit(args) => cli::standards::run_fit(args),
         Command::Build(args) => cli::standards::run_build(args),
+        Command::Plot(args) => cli::plots::run_plot(args),
     };
     match result {
         Ok(code) => code,
