@@ -116,14 +116,20 @@ pub fn text_width(text: &str, size: f64) -> f64 {
 }
 
 fn escape(text: &str) -> String {
-    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 fn base64(bytes: &[u8]) -> String {
     const TABLE: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
     for chunk in bytes.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
         let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
         for k in 0..4 {
             if k <= chunk.len() {
@@ -142,7 +148,9 @@ fn image_png(cols: usize, rows: usize, rgb: &[[u8; 3]]) -> Result<Vec<u8>, PlotE
     for (pixel, c) in pixmap.pixels_mut().iter_mut().zip(rgb) {
         *pixel = tiny_skia::ColorU8::from_rgba(c[0], c[1], c[2], 255).premultiply();
     }
-    pixmap.encode_png().map_err(|e| PlotError::Raster(e.to_string()))
+    pixmap
+        .encode_png()
+        .map_err(|e| PlotError::Raster(e.to_string()))
 }
 
 impl Drawing {
@@ -187,9 +195,19 @@ impl Drawing {
         let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
         for shape in &self.shapes {
             match shape {
-                Shape::Polyline { points, color, width, dashed, closed } => {
+                Shape::Polyline {
+                    points,
+                    color,
+                    width,
+                    dashed,
+                    closed,
+                } => {
                     let tag = if *closed { "polygon" } else { "polyline" };
-                    let _ = write!(s, r#"<{tag} fill="none" stroke="{}" stroke-width="{width}""#, color.hex());
+                    let _ = write!(
+                        s,
+                        r#"<{tag} fill="none" stroke="{}" stroke-width="{width}""#,
+                        color.hex()
+                    );
                     if *dashed {
                         s.push_str(r#" stroke-dasharray="6 4""#);
                     }
@@ -199,7 +217,14 @@ impl Drawing {
                     }
                     s.push_str("\"/>\n");
                 }
-                Shape::Rect { x, y, w, h, fill, stroke } => {
+                Shape::Rect {
+                    x,
+                    y,
+                    w,
+                    h,
+                    fill,
+                    stroke,
+                } => {
                     let _ = writeln!(
                         s,
                         r#"<rect x="{x:.2}" y="{y:.2}" width="{w:.2}" height="{h:.2}" fill="{}" stroke="{}"/>"#,
@@ -207,7 +232,15 @@ impl Drawing {
                         stroke.map_or("none".into(), Color::hex)
                     );
                 }
-                Shape::Text { x, y, text, size, anchor, color, vertical } => {
+                Shape::Text {
+                    x,
+                    y,
+                    text,
+                    size,
+                    anchor,
+                    color,
+                    vertical,
+                } => {
                     let anchor = match anchor {
                         Anchor::Start => "start",
                         Anchor::Middle => "middle",
@@ -225,7 +258,15 @@ impl Drawing {
                         escape(text)
                     );
                 }
-                Shape::Image { x, y, w, h, cols, rows, rgb } => {
+                Shape::Image {
+                    x,
+                    y,
+                    w,
+                    h,
+                    cols,
+                    rows,
+                    rgb,
+                } => {
                     let png = image_png(*cols, *rows, rgb)?;
                     let _ = writeln!(
                         s,
@@ -252,7 +293,13 @@ impl Drawing {
         };
         for shape in &self.shapes {
             match shape {
-                Shape::Polyline { points, color, width, dashed, closed } => {
+                Shape::Polyline {
+                    points,
+                    color,
+                    width,
+                    dashed,
+                    closed,
+                } => {
                     let mut pb = PathBuilder::new();
                     for (n, p) in points.iter().enumerate() {
                         if n == 0 {
@@ -268,13 +315,32 @@ impl Drawing {
                     let stroke = Stroke {
                         width: *width as f32,
                         line_join: tiny_skia::LineJoin::Round,
-                        dash: if *dashed { StrokeDash::new(vec![6.0, 4.0], 0.0) } else { None },
+                        dash: if *dashed {
+                            StrokeDash::new(vec![6.0, 4.0], 0.0)
+                        } else {
+                            None
+                        },
                         ..Default::default()
                     };
-                    pixmap.stroke_path(&path, &paint_of(*color), &stroke, Transform::identity(), None);
+                    pixmap.stroke_path(
+                        &path,
+                        &paint_of(*color),
+                        &stroke,
+                        Transform::identity(),
+                        None,
+                    );
                 }
-                Shape::Rect { x, y, w, h, fill, stroke } => {
-                    let Some(rect) = tiny_skia::Rect::from_xywh(*x as f32, *y as f32, *w as f32, *h as f32) else {
+                Shape::Rect {
+                    x,
+                    y,
+                    w,
+                    h,
+                    fill,
+                    stroke,
+                } => {
+                    let Some(rect) =
+                        tiny_skia::Rect::from_xywh(*x as f32, *y as f32, *w as f32, *h as f32)
+                    else {
                         continue;
                     };
                     if let Some(c) = fill {
@@ -282,15 +348,38 @@ impl Drawing {
                     }
                     if let Some(c) = stroke {
                         let path = PathBuilder::from_rect(rect);
-                        pixmap.stroke_path(&path, &paint_of(*c), &Stroke::default(), Transform::identity(), None);
+                        pixmap.stroke_path(
+                            &path,
+                            &paint_of(*c),
+                            &Stroke::default(),
+                            Transform::identity(),
+                            None,
+                        );
                     }
                 }
-                Shape::Text { x, y, text, size, anchor, color, vertical } => {
+                Shape::Text {
+                    x,
+                    y,
+                    text,
+                    size,
+                    anchor,
+                    color,
+                    vertical,
+                } => {
                     draw_text(&mut pixmap, *x, *y, text, *size, *anchor, *color, *vertical);
                 }
-                Shape::Image { x, y, w, h, cols, rows, rgb } => {
+                Shape::Image {
+                    x,
+                    y,
+                    w,
+                    h,
+                    cols,
+                    rows,
+                    rgb,
+                } => {
                     let png = image_png(*cols, *rows, rgb)?;
-                    let image = Pixmap::decode_png(&png).map_err(|e| PlotError::Raster(e.to_string()))?;
+                    let image =
+                        Pixmap::decode_png(&png).map_err(|e| PlotError::Raster(e.to_string()))?;
                     let transform = Transform::from_row(
                         (*w / *cols as f64) as f32,
                         0.0,
@@ -307,27 +396,56 @@ impl Drawing {
                 }
             }
         }
-        pixmap.encode_png().map_err(|e| PlotError::Raster(e.to_string()))
+        pixmap
+            .encode_png()
+            .map_err(|e| PlotError::Raster(e.to_string()))
     }
 
     /// Writes SVG or PNG by the file's extension, through a temporary file renamed into place.
     pub fn write(&self, path: &Path) -> Result<(), PlotError> {
         let name = path.display().to_string();
-        let bytes = match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-            Some("svg") => self.svg()?.into_bytes(),
-            Some("png") => self.png()?,
-            _ => return Err(PlotError::Format { path: name }),
+        let bytes = match format_of(path)? {
+            Format::Svg => self.svg()?.into_bytes(),
+            Format::Png => self.png()?,
         };
         let temp = path.with_file_name(format!(
             ".{}.part",
-            path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+            path.file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
         ));
-        let io = |source| PlotError::Io { path: name.clone(), source };
+        let io = |source| PlotError::Io {
+            path: name.clone(),
+            source,
+        };
         std::fs::write(&temp, bytes).map_err(io)?;
         std::fs::rename(&temp, path).map_err(|e| {
             let _ = std::fs::remove_file(&temp);
             io(e)
         })
+    }
+}
+
+/// The file formats of plots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Svg,
+    Png,
+}
+
+/// The format a plot file's extension asks for (checked before any work is done).
+pub fn format_of(path: &Path) -> Result<Format, PlotError> {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("svg") => Ok(Format::Svg),
+        Some("png") => Ok(Format::Png),
+        _ => Err(PlotError::Format {
+            path: path.display().to_string(),
+        }),
     }
 }
 
@@ -362,7 +480,11 @@ fn draw_text(
                 // Glyph pixel in text space: along the baseline u, above it v.
                 let u = pen + m.xmin as f64 + col as f64;
                 let v = (m.ymin + m.height as i32) as f64 - row as f64 - 1.0;
-                let (px, py) = if vertical { (x - v, y - u) } else { (x + u, y - v) };
+                let (px, py) = if vertical {
+                    (x - v, y - u)
+                } else {
+                    (x + u, y - v)
+                };
                 let (px, py) = (px.round() as i64, py.round() as i64);
                 if px < 0 || py < 0 || px >= pw || py >= ph {
                     continue;
@@ -370,7 +492,8 @@ fn draw_text(
                 let index = (py * pw + px) as usize;
                 let pixels = pixmap.pixels_mut();
                 let under = pixels[index].demultiply();
-                let blend = |over: u8, base: u8| ((over as u32 * a + base as u32 * (255 - a)) / 255) as u8;
+                let blend =
+                    |over: u8, base: u8| ((over as u32 * a + base as u32 * (255 - a)) / 255) as u8;
                 pixels[index] = tiny_skia::ColorU8::from_rgba(
                     blend(color.0, under.red()),
                     blend(color.1, under.green()),
@@ -386,7 +509,10 @@ fn draw_text(
 
 /// Round steps of 1, 2 or 5 × 10ⁿ covering `[lo, hi]` with about `count` ticks.
 pub fn ticks(lo: f64, hi: f64, count: usize) -> Vec<f64> {
-    if !(hi > lo) || !lo.is_finite() || !hi.is_finite() {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater)
+        || !lo.is_finite()
+        || !hi.is_finite()
+    {
         return vec![lo];
     }
     let raw = (hi - lo) / count.max(1) as f64;
@@ -402,9 +528,17 @@ pub fn ticks(lo: f64, hi: f64, count: usize) -> Vec<f64> {
 }
 
 fn tick_label(value: f64, step: f64) -> String {
-    let decimals = if step >= 1.0 { 0 } else { (-step.log10().floor()) as usize };
+    let decimals = if step >= 1.0 {
+        0
+    } else {
+        (-step.log10().floor()) as usize
+    };
     let text = format!("{value:.decimals$}");
-    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+    if text
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
         "0".into()
     } else {
         text
@@ -427,10 +561,12 @@ const MARGIN_TOP: f64 = 50.0;
 const MARGIN_BOTTOM: f64 = 60.0;
 
 fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values.filter(|v| v.is_finite()).fold(None, |acc, v| match acc {
-        None => Some((v, v)),
-        Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
-    })
+    values
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, v| match acc {
+            None => Some((v, v)),
+            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+        })
 }
 
 fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
@@ -446,7 +582,12 @@ fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
 fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) {
     for (n, s) in series.iter().enumerate() {
         let row = y + 18.0 * n as f64;
-        d.line(vec![[x, row - 4.0], [x + 24.0, row - 4.0]], s.color, 2.0, s.dashed);
+        d.line(
+            vec![[x, row - 4.0], [x + 24.0, row - 4.0]],
+            s.color,
+            2.0,
+            s.dashed,
+        );
         d.text(x + 30.0, row, s.name.clone(), 12.0, Anchor::Start);
     }
 }
@@ -477,14 +618,39 @@ pub fn line_chart(
     let step = |t: &[f64]| if t.len() > 1 { t[1] - t[0] } else { 1.0 };
     for &t in &xt {
         d.line(vec![[sx(t), y0], [sx(t), y1]], Color::LIGHT, 1.0, false);
-        d.text(sx(t), y0 + 18.0, tick_label(t, step(&xt)), 11.0, Anchor::Middle);
+        d.text(
+            sx(t),
+            y0 + 18.0,
+            tick_label(t, step(&xt)),
+            11.0,
+            Anchor::Middle,
+        );
     }
     for &t in &yt {
         d.line(vec![[x0, sy(t)], [x1, sy(t)]], Color::LIGHT, 1.0, false);
-        d.text(x0 - 6.0, sy(t) + 4.0, tick_label(t, step(&yt)), 11.0, Anchor::End);
+        d.text(
+            x0 - 6.0,
+            sy(t) + 4.0,
+            tick_label(t, step(&yt)),
+            11.0,
+            Anchor::End,
+        );
     }
-    d.shapes.push(Shape::Rect { x: x0, y: y1, w: x1 - x0, h: y0 - y1, fill: None, stroke: Some(Color::BLACK) });
-    d.text((x0 + x1) / 2.0, height - 18.0, x_label, 13.0, Anchor::Middle);
+    d.shapes.push(Shape::Rect {
+        x: x0,
+        y: y1,
+        w: x1 - x0,
+        h: y0 - y1,
+        fill: None,
+        stroke: Some(Color::BLACK),
+    });
+    d.text(
+        (x0 + x1) / 2.0,
+        height - 18.0,
+        x_label,
+        13.0,
+        Anchor::Middle,
+    );
     d.shapes.push(Shape::Text {
         x: 22.0,
         y: (y0 + y1) / 2.0,
@@ -495,7 +661,11 @@ pub fn line_chart(
         vertical: true,
     });
     for s in series {
-        let points = s.x.iter().zip(&s.y).map(|(&x, &y)| [sx(x), sy(y)]).collect();
+        let points =
+            s.x.iter()
+                .zip(&s.y)
+                .map(|(&x, &y)| [sx(x), sy(y)])
+                .collect();
         d.line(points, s.color, 2.0, s.dashed);
     }
     legend(&mut d, series, x0 + 14.0, y1 + 20.0);
@@ -505,7 +675,11 @@ pub fn line_chart(
 /// A ballbar plot: each curve's radial deviation (`y`, mm) drawn around a circle at its angle
 /// (`x`, degrees from the plane's first axis towards its second, counter-clockwise), magnified
 /// so the band shows; rings mark the scale.
-pub fn polar_chart(title: &str, plane: (&str, &str), series: &[Series]) -> Result<Drawing, PlotError> {
+pub fn polar_chart(
+    title: &str,
+    plane: (&str, &str),
+    series: &[Series],
+) -> Result<Drawing, PlotError> {
     let (width, height) = (720.0, 760.0);
     let (lo, hi) = finite_range(series.iter().flat_map(|s| s.y.iter().copied()))
         .ok_or_else(|| PlotError::Empty(title.into()))?;
@@ -528,9 +702,20 @@ pub fn polar_chart(title: &str, plane: (&str, &str), series: &[Series]) -> Resul
         let dev = inner + k as f64 * step;
         let ring: Vec<[f64; 2]> = (0..=180).map(|a| at(2.0 * a as f64, dev)).collect();
         let nominal = dev.abs() < 1e-9 * step;
-        d.line(ring, if nominal { Color::GREY } else { Color::LIGHT }, if nominal { 1.5 } else { 1.0 }, false);
+        d.line(
+            ring,
+            if nominal { Color::GREY } else { Color::LIGHT },
+            if nominal { 1.5 } else { 1.0 },
+            false,
+        );
         let label = at(84.0, dev);
-        d.text(label[0] + 2.0, label[1] - 3.0, format!("{} µm", tick_label(dev * 1000.0, step * 1000.0)), 10.0, Anchor::Start);
+        d.text(
+            label[0] + 2.0,
+            label[1] - 3.0,
+            format!("{} µm", tick_label(dev * 1000.0, step * 1000.0)),
+            10.0,
+            Anchor::Start,
+        );
     }
     for a in (0..360).step_by(30) {
         let (p, q) = (at(a as f64, inner), at(a as f64, outer));
@@ -538,12 +723,27 @@ pub fn polar_chart(title: &str, plane: (&str, &str), series: &[Series]) -> Resul
     }
     let (first, second) = plane;
     let end = at(0.0, outer);
-    d.text(end[0] + 8.0, end[1] + 4.0, format!("+{first}"), 13.0, Anchor::Start);
+    d.text(
+        end[0] + 8.0,
+        end[1] + 4.0,
+        format!("+{first}"),
+        13.0,
+        Anchor::Start,
+    );
     let top = at(90.0, outer);
-    d.text(top[0], top[1] - 14.0, format!("+{second}"), 13.0, Anchor::Middle);
+    d.text(
+        top[0],
+        top[1] - 14.0,
+        format!("+{second}"),
+        13.0,
+        Anchor::Middle,
+    );
     for s in series {
         let mut points: Vec<[f64; 2]> = s.x.iter().zip(&s.y).map(|(&a, &r)| at(a, r)).collect();
-        let full_turn = s.x.first().zip(s.x.last()).is_some_and(|(a, b)| b - a >= 300.0);
+        let full_turn =
+            s.x.first()
+                .zip(s.x.last())
+                .is_some_and(|(a, b)| b - a >= 300.0);
         if full_turn && !points.is_empty() {
             points.push(points[0]);
         }
@@ -552,11 +752,19 @@ pub fn polar_chart(title: &str, plane: (&str, &str), series: &[Series]) -> Resul
     d.text(
         width / 2.0,
         height - 46.0,
-        format!("radial deviation, rings every {} µm (grey: the nominal circle)", tick_label(step * 1000.0, step * 1000.0)),
+        format!(
+            "radial deviation, rings every {} µm (grey: the nominal circle)",
+            tick_label(step * 1000.0, step * 1000.0)
+        ),
         12.0,
         Anchor::Middle,
     );
-    legend(&mut d, series, 24.0, height - 30.0 - 18.0 * (series.len() as f64 - 1.0));
+    legend(
+        &mut d,
+        series,
+        24.0,
+        height - 30.0 - 18.0 * (series.len() as f64 - 1.0),
+    );
     Ok(d)
 }
 
@@ -573,10 +781,16 @@ pub fn colour(t: f64) -> [u8; 3] {
         [170, 220, 50],
         [253, 231, 37],
     ];
-    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 } * (STOPS.len() - 1) as f64;
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    } * (STOPS.len() - 1) as f64;
     let k = (t.floor() as usize).min(STOPS.len() - 2);
     let f = t - k as f64;
-    std::array::from_fn(|c| (STOPS[k][c] as f64 * (1.0 - f) + STOPS[k + 1][c] as f64 * f).round() as u8)
+    std::array::from_fn(|c| {
+        (STOPS[k][c] as f64 * (1.0 - f) + STOPS[k + 1][c] as f64 * f).round() as u8
+    })
 }
 
 /// A colour map of `values` (`rows × cols`, row 0 at `extent.2`, the low end of the vertical
@@ -590,7 +804,8 @@ pub fn colour_map(
     values: &[f64],
     unit: &str,
 ) -> Result<Drawing, PlotError> {
-    let (lo, hi) = finite_range(values.iter().copied()).ok_or_else(|| PlotError::Empty(title.into()))?;
+    let (lo, hi) =
+        finite_range(values.iter().copied()).ok_or_else(|| PlotError::Empty(title.into()))?;
     let width = 900.0;
     let (x0, y1) = (MARGIN_LEFT, MARGIN_TOP);
     let available = (width - MARGIN_LEFT - 160.0, 540.0);
@@ -609,8 +824,23 @@ pub fn colour_map(
         .collect();
     let mut d = Drawing::new(width, y0 + MARGIN_BOTTOM);
     d.text(width / 2.0, 28.0, title, 15.0, Anchor::Middle);
-    d.shapes.push(Shape::Image { x: x0, y: y1, w, h, cols, rows, rgb });
-    d.shapes.push(Shape::Rect { x: x0, y: y1, w, h, fill: None, stroke: Some(Color::BLACK) });
+    d.shapes.push(Shape::Image {
+        x: x0,
+        y: y1,
+        w,
+        h,
+        cols,
+        rows,
+        rgb,
+    });
+    d.shapes.push(Shape::Rect {
+        x: x0,
+        y: y1,
+        w,
+        h,
+        fill: None,
+        stroke: Some(Color::BLACK),
+    });
     let xt = ticks(extent.0, extent.1, 6);
     let yt = ticks(extent.2, extent.3, 6);
     let step = |t: &[f64]| if t.len() > 1 { t[1] - t[0] } else { 1.0 };
@@ -622,7 +852,13 @@ pub fn colour_map(
     for &t in &yt {
         let y = y0 - (t - extent.2) / (extent.3 - extent.2) * h;
         d.line(vec![[x0 - 5.0, y], [x0, y]], Color::BLACK, 1.0, false);
-        d.text(x0 - 8.0, y + 4.0, tick_label(t, step(&yt)), 11.0, Anchor::End);
+        d.text(
+            x0 - 8.0,
+            y + 4.0,
+            tick_label(t, step(&yt)),
+            11.0,
+            Anchor::End,
+        );
     }
     d.text(x0 + w / 2.0, y0 + 40.0, labels.0, 13.0, Anchor::Middle);
     d.shapes.push(Shape::Text {
@@ -637,13 +873,39 @@ pub fn colour_map(
     // The scale bar: the colour ramp with round values marked.
     let (bx, bw) = (x0 + w + 40.0, 22.0);
     let ramp: Vec<[u8; 3]> = (0..256).rev().map(|k| colour(k as f64 / 255.0)).collect();
-    d.shapes.push(Shape::Image { x: bx, y: y1, w: bw, h, cols: 1, rows: 256, rgb: ramp });
-    d.shapes.push(Shape::Rect { x: bx, y: y1, w: bw, h, fill: None, stroke: Some(Color::BLACK) });
+    d.shapes.push(Shape::Image {
+        x: bx,
+        y: y1,
+        w: bw,
+        h,
+        cols: 1,
+        rows: 256,
+        rgb: ramp,
+    });
+    d.shapes.push(Shape::Rect {
+        x: bx,
+        y: y1,
+        w: bw,
+        h,
+        fill: None,
+        stroke: Some(Color::BLACK),
+    });
     let bt = ticks(lo, hi, 6);
     for &t in &bt {
         let y = y0 - (t - lo) / span * h;
-        d.line(vec![[bx + bw, y], [bx + bw + 5.0, y]], Color::BLACK, 1.0, false);
-        d.text(bx + bw + 8.0, y + 4.0, tick_label(t, step(&bt)), 11.0, Anchor::Start);
+        d.line(
+            vec![[bx + bw, y], [bx + bw + 5.0, y]],
+            Color::BLACK,
+            1.0,
+            false,
+        );
+        d.text(
+            bx + bw + 8.0,
+            y + 4.0,
+            tick_label(t, step(&bt)),
+            11.0,
+            Anchor::Start,
+        );
     }
     d.text(bx, y1 - 10.0, unit, 12.0, Anchor::Start);
     Ok(d)
@@ -662,7 +924,12 @@ pub fn deformed_grid(
     let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
     let project = |p: &[f64; 3]| [(p[0] - p[1]) * c, -(p[0] + p[1]) * s - p[2]];
     let all = nominal.iter().chain(deformed).flatten().map(project);
-    let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
     for [x, y] in all {
         x_lo = x_lo.min(x);
         x_hi = x_hi.max(x);
@@ -672,7 +939,8 @@ pub fn deformed_grid(
     if !x_lo.is_finite() {
         return Err(PlotError::Empty(title.into()));
     }
-    let scale = ((width - 80.0) / (x_hi - x_lo).max(1e-9)).min((height - 140.0) / (y_hi - y_lo).max(1e-9));
+    let scale =
+        ((width - 80.0) / (x_hi - x_lo).max(1e-9)).min((height - 140.0) / (y_hi - y_lo).max(1e-9));
     let ox = (width - scale * (x_hi - x_lo)) / 2.0 - scale * x_lo;
     let oy = 60.0 + (height - 140.0 - scale * (y_hi - y_lo)) / 2.0 - scale * y_lo;
     let to_canvas = |p: &[f64; 3]| {
@@ -685,7 +953,12 @@ pub fn deformed_grid(
         d.line(line.iter().map(to_canvas).collect(), Color::GREY, 1.0, true);
     }
     for line in deformed {
-        d.line(line.iter().map(to_canvas).collect(), Color::BLUE, 1.5, false);
+        d.line(
+            line.iter().map(to_canvas).collect(),
+            Color::BLUE,
+            1.5,
+            false,
+        );
     }
     d.text(width / 2.0, height - 40.0, note, 12.0, Anchor::Middle);
     d.text(width / 2.0, height - 20.0, "grey dashed: nominal grid; blue: the tool tip's actual positions, error magnified (isometric view, z up)", 11.0, Anchor::Middle);

@@ -534,7 +534,12 @@ pub fn field_slice(
                     ['X', 'Y', 'Z'][d]
                 )));
             }
-            if step > 0.0 { ((q - origin) / step).round() as usize } else { 0 }.min(n - 1)
+            if step > 0.0 {
+                ((q - origin) / step).round() as usize
+            } else {
+                0
+            }
+            .min(n - 1)
         }
     };
     let (h, v) = match d {
@@ -583,7 +588,11 @@ pub fn field_slice(
         title: format!(
             "{}: {} at {}={position:.1} mm",
             info.machine_name,
-            if magnitude { format!("|{}|", quantity.trim()) } else { quantity.trim().to_string() },
+            if magnitude {
+                format!("|{}|", quantity.trim())
+            } else {
+                quantity.trim().to_string()
+            },
             axis[d]
         ),
         labels: [format!("{} (mm)", axis[h]), format!("{} (mm)", axis[v])],

@@ -38,7 +38,11 @@ pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> 
                 name: format!("{name}, measured"),
                 x: result.positions.clone(),
                 y: measured[n].iter().map(|v| v * scale).collect(),
-                color: if result.curve_names.len() == 1 { Color::RED } else { colour },
+                color: if result.curve_names.len() == 1 {
+                    Color::RED
+                } else {
+                    colour
+                },
                 dashed: true,
             });
         }
@@ -102,9 +106,22 @@ enum PlotKind {
 }
 
 pub fn run_plot(args: PlotArgs) -> Result<ExitCode, Failure> {
+    let outputs = match &args.kind {
+        PlotKind::Slice { out, .. } | PlotKind::Grid { out, .. } => out,
+    };
+    for path in outputs {
+        plot::format_of(path).map_err(bad_input)?;
+    }
     match args.kind {
-        PlotKind::Slice { field, normal, at, quantity, out } => {
-            let slice = volmap::query::field_slice(&field, &normal, at, &quantity).map_err(bad_input)?;
+        PlotKind::Slice {
+            field,
+            normal,
+            at,
+            quantity,
+            out,
+        } => {
+            let slice =
+                volmap::query::field_slice(&field, &normal, at, &quantity).map_err(bad_input)?;
             let drawing = plot::colour_map(
                 &slice.title,
                 (&slice.labels[0], &slice.labels[1]),
@@ -119,14 +136,23 @@ pub fn run_plot(args: PlotArgs) -> Result<ExitCode, Failure> {
                 write(&drawing, path)?;
             }
         }
-        PlotKind::Grid { machine, grid, pose, scale, out } => {
+        PlotKind::Grid {
+            machine,
+            grid,
+            pose,
+            scale,
+            out,
+        } => {
             let machine = volmap::machine::embedded::load(&machine).map_err(bad_input)?;
             let dims = volmap::grid::parse_dims(&grid).map_err(bad_input)?;
             let pose = volmap::grid::parse_pose(&pose, &machine).map_err(bad_input)?;
             let grid = volmap::grid::Grid::full_travel(&machine, dims, pose).map_err(bad_input)?;
             let deformed = volmap::standards::deformed_grid(&machine, &grid, scale);
             let drawing = plot::deformed_grid(
-                &format!("{}: the workspace deformed by its volumetric error", machine.name),
+                &format!(
+                    "{}: the workspace deformed by its volumetric error",
+                    machine.name
+                ),
                 &format!(
                     "error magnified {:.0}×; largest |VE| {:.1} µm",
                     deformed.scale,

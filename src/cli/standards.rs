@@ -125,6 +125,15 @@ enum TestKind {
 }
 
 pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
+    let plots = match &args.kind {
+        TestKind::Positioning { common, .. }
+        | TestKind::Diagonal { common, .. }
+        | TestKind::Circular { common, .. }
+        | TestKind::Rtest { common, .. } => &common.plot,
+    };
+    for path in plots {
+        volmap::plot::format_of(path).map_err(bad_input)?;
+    }
     let (common, result) = match args.kind {
         TestKind::Positioning {
             axis,

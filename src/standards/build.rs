@@ -41,11 +41,14 @@ fn csv_error(path: &str, line: usize, message: String) -> StandardsError {
     }
 }
 
+/// A measured component: its index among the six and its `(position, value)` nodes.
+pub type MeasuredComponent = (usize, Vec<(f64, f64)>);
+
 /// Reads one axis's CSV: its components as node lists.
 pub fn read_axis_csv(
     path: &Path,
     axis: AxisLetter,
-) -> Result<Vec<(usize, Vec<(f64, f64)>)>, StandardsError> {
+) -> Result<Vec<MeasuredComponent>, StandardsError> {
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|source| StandardsError::Io {
         path: name.clone(),

@@ -159,7 +159,7 @@ enum Test<'a> {
     Positioning(&'a PositioningSpec),
     Diagonal(&'a DiagonalSpec),
     Circular(&'a CircularSpec),
-    RTest(&'a RTestSpec),
+    Rotary(&'a RTestSpec),
 }
 
 impl Test<'_> {
@@ -168,14 +168,14 @@ impl Test<'_> {
             Test::Positioning(s) => &s.pose,
             Test::Diagonal(s) => &s.pose,
             Test::Circular(s) => &s.pose,
-            Test::RTest(s) => &s.pose,
+            Test::Rotary(s) => &s.pose,
         };
         let setup = Setup::new(machine, pose)?;
         match self {
             Test::Positioning(s) => positioning(&setup, s),
             Test::Diagonal(s) => diagonal(&setup, s),
             Test::Circular(s) => circular(&setup, s),
-            Test::RTest(s) => rtest(&setup, s),
+            Test::Rotary(s) => rtest(&setup, s),
         }
     }
 
@@ -229,7 +229,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
     tests.extend(file.positioning.iter().map(Test::Positioning));
     tests.extend(file.diagonal.iter().map(Test::Diagonal));
     tests.extend(file.circular.iter().map(Test::Circular));
-    tests.extend(file.rtest.iter().map(Test::RTest));
+    tests.extend(file.rtest.iter().map(Test::Rotary));
     let missing = |kind: &str, n: usize| {
         StandardsError::Parameter(format!(
             "[[{kind}]] number {}: give the measured results (`csv = \"...\"`)",

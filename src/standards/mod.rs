@@ -280,9 +280,12 @@ pub fn read_positioning(path: &Path) -> Result<PositioningData, StandardsError> 
     positioning_from(&m)
 }
 
+/// One run of a positioning test: its direction (`true`: positive), its label and its
+/// `(target, deviation)` pairs in the order of approach.
+type Run = (bool, String, Vec<(f64, f64)>);
+
 fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
-    // (direction up?, run label) -> [(target, deviation)]
-    let mut groups: Vec<(bool, String, Vec<(f64, f64)>)> = Vec::new();
+    let mut groups: Vec<Run> = Vec::new();
     for row in 0..m.len() {
         let up = match m.text[1][row].as_str() {
             "+" | "up" | "↑" => true,
@@ -321,8 +324,7 @@ fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
     let directions = [true, false];
     let mut per_direction: Vec<Vec<Vec<f64>>> = Vec::new();
     for up in directions {
-        let runs: Vec<&(bool, String, Vec<(f64, f64)>)> =
-            groups.iter().filter(|g| g.0 == up).collect();
+        let runs: Vec<&Run> = groups.iter().filter(|g| g.0 == up).collect();
         if runs.is_empty() {
             return Err(StandardsError::Csv {
                 path: m.path.clone(),
@@ -877,7 +879,7 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
         None => {
             let from = spec.from_deg.unwrap_or(axis.range[0]);
             let to = spec.to_deg.unwrap_or(axis.range[1]);
-            if !(spec.step_deg > 0.0) || to < from {
+            if spec.step_deg.is_nan() || spec.step_deg <= 0.0 || to < from {
                 return Err(parameter(format!(
                     "angles from {from}° to {to}° in steps of {}°: the step must be positive and the end not below the start",
                     spec.step_deg
@@ -889,7 +891,7 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
                 .collect()
         }
     };
-    let mut curves = vec![Vec::with_capacity(angles.len()); 3];
+    let mut curves: Vec<Vec<f64>> = vec![Vec::new(); 3];
     for &angle in &angles {
         let mut command = setup.pose;
         command[letter.index()] = angle;
@@ -967,7 +969,11 @@ pub struct DeformedGrid {
 /// The lines of `grid` along X, Y and Z (each cell cut into 8 so the lines show their bends),
 /// and the tool tip's actual positions `p + scale·VE(p)`. `scale` defaults to drawing the
 /// largest error as 8% of the workspace's diagonal.
-pub fn deformed_grid(machine: &Machine, grid: &crate::grid::Grid, scale: Option<f64>) -> DeformedGrid {
+pub fn deformed_grid(
+    machine: &Machine,
+    grid: &crate::grid::Grid,
+    scale: Option<f64>,
+) -> DeformedGrid {
     const CUTS: usize = 8;
     let ideal = machine.without_errors();
     let position = |d: usize, t: f64| grid.origin_mm[d] + t * grid.spacing_mm[d];
@@ -1015,7 +1021,11 @@ pub fn deformed_grid(machine: &Machine, grid: &crate::grid::Grid, scale: Option<
         .map(|d| ((grid.dims[d].max(1) - 1) as f64 * grid.spacing_mm[d]).powi(2))
         .sum::<f64>()
         .sqrt();
-    let scale = scale.unwrap_or(if largest > 0.0 { 0.08 * diagonal / largest } else { 1.0 });
+    let scale = scale.unwrap_or(if largest > 0.0 {
+        0.08 * diagonal / largest
+    } else {
+        1.0
+    });
     let deformed = nominal
         .iter()
         .zip(&errors)
