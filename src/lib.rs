@@ -16,10 +16,13 @@
 //! - [`query`]: VE and OE at arbitrary positions, from a field or exactly;
 //! - [`features`]: part files, feature errors and machine capability, on [`tolerance`]
 //!   (minimum zones) and [`mesh`] (STL in, PLY out);
+//! - [`standards`]: standard accuracy tests from the model against measured data, `fit` and
+//!   `build`;
+//! - [`plot`]: charts, colour maps and the deformed grid as SVG and PNG;
 //! - [`bench`](mod@bench): `volmap bench`.
 //!
-//! Standard tests and NC compensation build on [`reference`](mod@reference), [`map`] and [`field`] and get
-//! modules of their own beside these.
+//! NC compensation will build on [`reference`](mod@reference) and get a module of its own beside
+//! these.
 
 pub mod bench;
 pub mod cpu;
