@@ -19,10 +19,9 @@
 //! - [`standards`]: standard accuracy tests from the model against measured data, `fit` and
 //!   `build`;
 //! - [`plot`]: charts, colour maps and the deformed grid as SVG and PNG;
+//! - [`nc`]: offline NC program compensation;
 //! - [`bench`](mod@bench): `volmap bench`.
-//!
-//! NC compensation will build on [`reference`](mod@reference) and get a module of its own beside
-//! these.
+
 
 pub mod bench;
 pub mod cpu;
@@ -33,6 +32,7 @@ pub mod grid;
 pub mod machine;
 pub mod map;
 pub mod mesh;
+pub mod nc;
 pub mod plot;
 pub mod query;
 pub mod reference;

@@ -62,6 +62,9 @@ enum Command {
     Build(cli::standards::BuildArgs),
     /// Plots: a field slice as a colour map, the deformed workspace grid.
     Plot(cli::plots::PlotArgs),
+    /// Rewrite an NC program (ISO 6983 / Fanuc) so the real tool tip lands on the programmed
+    /// path: the machine's error compensated offline.
+    Compensate(cli::compensate::CompensateArgs),
 }
 
 #[derive(clap::Args)]
@@ -242,6 +245,7 @@ fn main() -> ExitCode {
         Command::Fit(args) => cli::standards::run_fit(args),
         Command::Build(args) => cli::standards::run_build(args),
         Command::Plot(args) => cli::plots::run_plot(args),
+        Command::Compensate(args) => cli::compensate::run_compensate(args),
     };
     match result {
         Ok(code) => code,

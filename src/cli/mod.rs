@@ -1,4 +1,5 @@
 //! Subcommands with modules of their own.
 
+pub mod compensate;
 pub mod plots;
 pub mod standards;

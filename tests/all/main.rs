@@ -10,6 +10,7 @@ mod golden;
 mod gpu;
 mod machine_file;
 mod mesh;
+mod nc;
 mod plot;
 mod query;
 mod reference;

@@ -1,0 +1,190 @@
+//! Reading ISO 6983 / Fanuc-style blocks into words, keeping where each word's number sits in
+//! the line so the compensated program can change numbers and nothing else.
+
+use super::NcError;
+
+/// A word: its letter (upper case), value, and the byte range of its number in the line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Word {
+    pub letter: char,
+    pub value: f64,
+    /// The number as written.
+    pub text: String,
+    /// Byte range of the letter and of the number within the line.
+    pub letter_at: usize,
+    pub number: std::ops::Range<usize>,
+    /// Whether the letter was written in lower case.
+    pub lower: bool,
+}
+
+/// One line of the program.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Line {
+    /// 1-based line number in the file.
+    pub number: usize,
+    /// The line's text without its line ending.
+    pub text: String,
+    /// `"\n"`, `"\r\n"` or `""` (a last line without one).
+    pub ending: String,
+    pub words: Vec<Word>,
+    /// Whether words are separated by spaces (new words are written the same way).
+    pub spaced: bool,
+}
+
+impl Line {
+    pub fn word(&self, letter: char) -> Option<&Word> {
+        self.words.iter().find(|w| w.letter == letter)
+    }
+
+    pub fn has(&self, letter: char) -> bool {
+        self.words.iter().any(|w| w.letter == letter)
+    }
+}
+
+/// Splits a program into lines of words. A file that is not text (NUL bytes, control
+/// characters, invalid UTF-8) is an error naming the first line that is not.
+pub fn parse_program(bytes: &[u8], path: &str) -> Result<Vec<Line>, NcError> {
+    let text = match std::str::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let line = bytes[..e.valid_up_to()]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count()
+                + 1;
+            return Err(NcError::line(
+                path,
+                line,
+                "not a text file (invalid UTF-8)".into(),
+            ));
+        }
+    };
+    let mut lines = Vec::new();
+    for (n, raw) in text.split_inclusive('\n').enumerate() {
+        let number = n + 1;
+        let (body, ending) = if let Some(b) = raw.strip_suffix("\r\n") {
+            (b, "\r\n")
+        } else if let Some(b) = raw.strip_suffix('\n') {
+            (b, "\n")
+        } else {
+            (raw, "")
+        };
+        if let Some(c) = body
+            .chars()
+            .find(|c| c.is_control() && *c != '\t' && *c != '\x0c')
+        {
+            return Err(NcError::line(
+                path,
+                number,
+                format!("not a text file (control character U+{:04X})", c as u32),
+            ));
+        }
+        lines.push(parse_line(body, ending, number, path)?);
+    }
+    Ok(lines)
+}
+
+fn parse_line(body: &str, ending: &str, number: usize, path: &str) -> Result<Line, NcError> {
+    let mut words = Vec::new();
+    let bytes = body.as_bytes();
+    let mut i = 0;
+    let trimmed = body.trim_start();
+    // `%` delimits the program; `O1234` / `:1234` name it: such lines pass as they are.
+    if trimmed.starts_with('%') {
+        return Ok(Line {
+            number,
+            text: body.into(),
+            ending: ending.into(),
+            words,
+            spaced: false,
+        });
+    }
+    while i < bytes.len() {
+        let c = bytes[i] as char;
+        match c {
+            '(' => match body[i..].find(')') {
+                Some(end) => i += end + 1,
+                None => {
+                    return Err(NcError::line(
+                        path,
+                        number,
+                        "a comment `(` is not closed on its line".into(),
+                    ))
+                }
+            },
+            ';' => break,
+            ' ' | '\t' => i += 1,
+            '/' if words.is_empty() => i += 1,
+            c if c.is_ascii_alphabetic() => {
+                let letter_at = i;
+                i += 1;
+                while i < bytes.len() && (bytes[i] == b' ' || bytes[i] == b'\t') {
+                    i += 1;
+                }
+                let start = i;
+                if i < bytes.len() && (bytes[i] == b'+' || bytes[i] == b'-') {
+                    i += 1;
+                }
+                while i < bytes.len() && (bytes[i].is_ascii_digit() || bytes[i] == b'.') {
+                    i += 1;
+                }
+                let text = &body[start..i];
+                let value: f64 = text
+                    .parse()
+                    .ok()
+                    .filter(|v: &f64| v.is_finite())
+                    .ok_or_else(|| {
+                        NcError::line(
+                            path,
+                            number,
+                            if text.is_empty() {
+                                format!("`{c}` without a number")
+                            } else {
+                                format!("`{c}{text}`: not a number")
+                            },
+                        )
+                    })?;
+                words.push(Word {
+                    letter: c.to_ascii_uppercase(),
+                    value,
+                    text: text.into(),
+                    letter_at,
+                    number: start..i,
+                    lower: c.is_ascii_lowercase(),
+                });
+            }
+            '#' | '[' | '=' => {
+                return Err(NcError::line(
+                    path,
+                    number,
+                    format!("`{c}`: macro variables and expressions are not supported"),
+                ))
+            }
+            other => {
+                return Err(NcError::line(
+                    path,
+                    number,
+                    format!("cannot read `{other}` here"),
+                ));
+            }
+        }
+    }
+    Ok(Line {
+        number,
+        text: body.into(),
+        ending: ending.into(),
+        spaced: spaced_words(body, &words),
+        words,
+    })
+}
+
+/// Whether most gaps between neighbouring words hold a space (`G1 X10. Y5.` against
+/// `g1x10.y5.`): words volmap adds are written the same way.
+fn spaced_words(body: &str, words: &[Word]) -> bool {
+    let gaps = words.windows(2).count();
+    let spaced = words
+        .windows(2)
+        .filter(|pair| body[pair[0].number.end..pair[1].letter_at].contains([' ', '\t']))
+        .count();
+    gaps > 0 && 2 * spaced >= gaps
+}
