@@ -22,7 +22,6 @@
 //! - [`nc`]: offline NC program compensation;
 //! - [`bench`](mod@bench): `volmap bench`.
 
-
 pub mod bench;
 pub mod cpu;
 pub mod features;

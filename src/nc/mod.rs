@@ -204,6 +204,8 @@ const YZ: Plane = Plane {
 
 const AXIS_LETTERS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
 const MM_PER_INCH: f64 = 25.4;
+/// The most pieces one move is split into.
+const MAX_PIECES: usize = 100_000;
 /// G codes that change nothing volmap must follow: cutter compensation off, tool length
 /// compensation, cycle cancel, feed modes, exact stop and cutting modes, cycle return levels.
 const PASSIVE_G: [u32; 9] = [40, 43, 49, 80, 94, 95, 61, 64, 98];
@@ -401,7 +403,7 @@ pub fn compensate(
             options.chord_tolerance_mm
         )));
     }
-    let lines = parse_program(program, path)?;
+    let lines = parse_program(program, path, options.pass_unknown)?;
     let start = starting_position(&lines, machine, path, options)?;
     let mut state = State {
         motion: Motion::Rapid,
@@ -425,10 +427,11 @@ pub fn compensate(
     let mut out = String::with_capacity(program.len() * 2);
     let mut start_compensated = false;
     let mut origins = Vec::with_capacity(lines.len());
-    for line in &lines {
+    for (index, line) in lines.iter().enumerate() {
         let before = out.len();
         let emitted = process_line(
-            line,
+            &lines,
+            index,
             &mut state,
             &mut compensator,
             &mut report,
@@ -472,7 +475,7 @@ pub fn trace(
     path: &str,
     options: &Options,
 ) -> Result<Vec<TracePoint>, NcError> {
-    let lines = parse_program(program, path)?;
+    let lines = parse_program(program, path, options.pass_unknown)?;
     let start = starting_position(&lines, machine, path, options)?;
     let mut state = State {
         motion: Motion::Rapid,
@@ -493,7 +496,7 @@ pub fn trace(
         tools: HashMap::new(),
     };
     let mut points = Vec::new();
-    for line in &lines {
+    for (index, line) in lines.iter().enumerate() {
         if line.words.is_empty() {
             continue;
         }
@@ -507,6 +510,10 @@ pub fn trace(
             }
         }
         apply_modals(line, &mut state, path)?;
+        if is_reference_return(line) {
+            reference_return(&lines, index, &mut state, path)?;
+            continue;
+        }
         if let Some(t) = line.word('T') {
             state.pending_tool = Some(t.value as u32);
         }
@@ -568,7 +575,7 @@ fn starting_position(
             .words
             .iter()
             .any(|w| w.letter == 'G' && w.value as u32 == 4);
-        if dwell || !is_understood(line, options.pass_unknown) {
+        if dwell || is_reference_return(line) || !is_understood(line, options.pass_unknown) {
             continue;
         }
         for w in &line.words {
@@ -611,6 +618,80 @@ fn starting_position(
     Ok(position)
 }
 
+/// G28: to the reference point through the intermediate point its axis words give.
+fn is_reference_return(line: &Line) -> bool {
+    line.words
+        .iter()
+        .any(|w| w.letter == 'G' && w.value == 28.0)
+}
+
+/// Where axis `d` is next set absolutely after line `from` (for an axis the program sent to
+/// its reference point: the machine's reference is not in the program). Modal distance and
+/// units are followed from `state`.
+fn next_absolute(
+    lines: &[Line],
+    from: usize,
+    d: usize,
+    state: &State,
+    path: &str,
+) -> Result<Option<f64>, NcError> {
+    let (mut absolute, mut inch) = (state.absolute, state.inch);
+    for line in &lines[from + 1..] {
+        for w in line.words.iter().filter(|w| w.letter == 'G') {
+            match w.value as u32 {
+                20 => inch = true,
+                21 => inch = false,
+                90 => absolute = true,
+                91 => absolute = false,
+                _ => {}
+            }
+        }
+        let dwell = line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0);
+        if dwell || is_reference_return(line) {
+            continue;
+        }
+        if let Some(w) = line.word(AXIS_LETTERS[d]) {
+            if !absolute {
+                return Err(NcError::line(
+                    path,
+                    line.number,
+                    format!(
+                        "{} moves incrementally after a return to the reference point: where it starts is not known",
+                        AXIS_LETTERS[d]
+                    ),
+                ));
+            }
+            return Ok(Some(if inch && d < 3 {
+                w.value * MM_PER_INCH
+            } else {
+                w.value
+            }));
+        }
+    }
+    Ok(None)
+}
+
+/// A G28 block passes as it is; the axes it names are at the machine's reference afterwards,
+/// which the program does not know: they take the value the program next gives them, and the
+/// output writes them afresh.
+fn reference_return(
+    lines: &[Line],
+    index: usize,
+    state: &mut State,
+    path: &str,
+) -> Result<(), NcError> {
+    let line = &lines[index];
+    for d in 0..6 {
+        if line.has(AXIS_LETTERS[d]) {
+            if let Some(v) = next_absolute(lines, index, d, state, path)? {
+                state.position[d] = v;
+            }
+            state.written[d] = f64::NAN;
+        }
+    }
+    Ok(())
+}
+
 /// Whether every G code of the line is one volmap follows (or the user passes unknown ones).
 fn is_understood(line: &Line, pass_unknown: bool) -> bool {
     pass_unknown || unknown_code(line).is_none()
@@ -622,7 +703,7 @@ fn unknown_code(line: &Line) -> Option<String> {
             'G' => {
                 let g = w.value;
                 let known = g.fract() == 0.0
-                    && matches!(g as u32, 0..=4 | 17..=21 | 90 | 91 | 54..=59)
+                    && matches!(g as u32, 0..=4 | 17..=21 | 28 | 90 | 91 | 54..=59)
                     || PASSIVE_G.contains(&(g as u32)) && g.fract() == 0.0;
                 if !known {
                     return Some(format!("G{}", w.text));
@@ -640,13 +721,15 @@ fn unknown_code(line: &Line) -> Option<String> {
 /// Handles one line; returns the number of output lines written for it (0 when it was passed
 /// through unchanged by a path that writes it itself, which does not happen: 1 or more).
 fn process_line(
-    line: &Line,
+    lines: &[Line],
+    index: usize,
     state: &mut State,
     comp: &mut Compensator,
     report: &mut Report,
     out: &mut String,
     start_compensated: &mut bool,
 ) -> Result<usize, NcError> {
+    let line = &lines[index];
     let path = comp.path;
     let options = comp.options;
     let pass = |out: &mut String| {
@@ -673,6 +756,10 @@ fn process_line(
         return Ok(pass(out));
     }
     apply_modals(line, state, path)?;
+    if is_reference_return(line) {
+        reference_return(lines, index, state, path)?;
+        return Ok(pass(out));
+    }
     if let Some(t) = line.word('T') {
         state.pending_tool = Some(t.value as u32);
     }
@@ -776,7 +863,17 @@ fn process_line(
             let q = command(&p);
             report.largest_error_before_mm = report.largest_error_before_mm.max(kin.miss(&q, &q));
         }
-        let from = state.written;
+        // Where the output has the tool; an axis not written since its reference return is
+        // taken where the program has it.
+        let mut from = state.written;
+        if from.iter().any(|v| v.is_nan()) {
+            let start_comp = compensate_point(&start)?;
+            for d in 0..6 {
+                if from[d].is_nan() {
+                    from[d] = start_comp[d];
+                }
+            }
+        }
         let to = compensate_point(&end)?;
         if let Path::Arc { plane, centre, .. } = intended {
             // Try the arc itself with compensated ends and centre.
@@ -820,7 +917,11 @@ fn process_line(
                 0,
                 &mut pieces,
                 report,
-            )?;
+            )
+            .map_err(|e| match e {
+                NcError::Options(message) => NcError::line(path, line.number, message),
+                other => other,
+            })?;
         }
     }
     report.points += pieces.len();
@@ -862,7 +963,12 @@ fn split(
             )
         })
         .fold(0.0, f64::max);
-    if worst <= tolerance || depth >= 30 {
+    if pieces.len() >= MAX_PIECES {
+        return Err(NcError::Options(format!(
+            "a move needs more than {MAX_PIECES} pieces to stay within the chord tolerance of {tolerance} mm"
+        )));
+    }
+    if worst <= tolerance || depth >= 24 {
         report.largest_error_after_mm = report.largest_error_after_mm.max(worst);
         pieces.push(b);
         return Ok(());
@@ -1261,7 +1367,16 @@ fn write_block(
     }
     out.push_str(&text);
     out.push_str(&line.ending);
-    state.written = first_written;
+    // An axis sent to its reference point stays unwritten until a block names it.
+    let unwritten: [bool; 6] =
+        std::array::from_fn(|d| state.written[d].is_nan() && !line.has(AXIS_LETTERS[d]));
+    state.written = std::array::from_fn(|d| {
+        if unwritten[d] {
+            f64::NAN
+        } else {
+            first_written[d]
+        }
+    });
     state.written_motion = output_motion;
     let ending = if line.ending.is_empty() {
         "\n"
@@ -1292,13 +1407,15 @@ fn write_block(
         }
         out.push_str(&words);
         out.push_str(ending);
-        state.written = piece_written;
+        state.written = std::array::from_fn(|d| {
+            if state.written[d].is_nan() {
+                f64::NAN
+            } else {
+                piece_written[d]
+            }
+        });
         state.written_motion = Motion::Linear;
         count += 1;
-    }
-    // The program's own end of the move, exactly as written there, for the next block.
-    if !split {
-        state.written = first_written;
     }
     Ok(count)
 }

@@ -29,6 +29,8 @@ pub struct Line {
     pub words: Vec<Word>,
     /// Whether words are separated by spaces (new words are written the same way).
     pub spaced: bool,
+    /// Why the line could not be read, where it is passed unread (`--pass-unknown`).
+    pub unread: Option<String>,
 }
 
 impl Line {
@@ -42,8 +44,9 @@ impl Line {
 }
 
 /// Splits a program into lines of words. A file that is not text (NUL bytes, control
-/// characters, invalid UTF-8) is an error naming the first line that is not.
-pub fn parse_program(bytes: &[u8], path: &str) -> Result<Vec<Line>, NcError> {
+/// characters, invalid UTF-8) is an error naming the first line that is not; a line that cannot
+/// be read is one too, unless `pass_unread` keeps it, wordless, to be copied as it is.
+pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<Line>, NcError> {
     let text = match std::str::from_utf8(bytes) {
         Ok(t) => t,
         Err(e) => {
@@ -79,7 +82,18 @@ pub fn parse_program(bytes: &[u8], path: &str) -> Result<Vec<Line>, NcError> {
                 format!("not a text file (control character U+{:04X})", c as u32),
             ));
         }
-        lines.push(parse_line(body, ending, number, path)?);
+        match parse_line(body, ending, number, path) {
+            Ok(line) => lines.push(line),
+            Err(NcError::Line { message, .. }) if pass_unread => lines.push(Line {
+                number,
+                text: body.into(),
+                ending: ending.into(),
+                words: Vec::new(),
+                spaced: false,
+                unread: Some(message),
+            }),
+            Err(e) => return Err(e),
+        }
     }
     Ok(lines)
 }
@@ -97,6 +111,7 @@ fn parse_line(body: &str, ending: &str, number: usize, path: &str) -> Result<Lin
             ending: ending.into(),
             words,
             spaced: false,
+            unread: None,
         });
     }
     while i < bytes.len() {
@@ -174,6 +189,7 @@ fn parse_line(body: &str, ending: &str, number: usize, path: &str) -> Result<Lin
         text: body.into(),
         ending: ending.into(),
         spaced: spaced_words(body, &words),
+        unread: None,
         words,
     })
 }

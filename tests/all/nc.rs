@@ -376,3 +376,42 @@ fn bad_programs_name_the_line() {
     .unwrap();
     assert_eq!(out.text.lines().nth(1).unwrap(), "G65 P9000 (MACRO)");
 }
+
+#[test]
+fn reference_returns_and_unreadable_blocks() {
+    let machine = embedded::load("vmc-li2015").unwrap();
+    // The way Fanuc posts begin and end: G91 G28 Z0 (home Z through the current position).
+    let program = "%\nG91 G28 Z0.\nG90 G54 G0 X100. Y100.\nZ50.\nG1 Z20. F100\nX200.\nG91 G28 Z0.\nG28 X0. Y0.\nM30\n%\n";
+    let options = options(7);
+    let out = nc::compensate(&machine, program.as_bytes(), "fanuc.nc", &options).unwrap();
+    let lines: Vec<&str> = out.text.lines().collect();
+    assert_eq!(lines[1], "G91 G28 Z0.");
+    assert_eq!(lines[lines.len() - 4], "G91 G28 Z0.");
+    assert_eq!(lines[lines.len() - 3], "G28 X0. Y0.");
+    // Z is at its reference until the program names it: the first move does not add a Z word.
+    assert!(!lines[2].contains('Z'), "{}", lines[2]);
+    assert!(largest_landing_error(&machine, program, &out, &options) < 1e-6);
+    // Incremental moves of an axis whose place after G28 is unknown are refused.
+    let error = nc::compensate(
+        &machine,
+        b"G0 X10 Y10 Z10\nG91 G28 Z0\nZ-5\n",
+        "p.nc",
+        &options,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("line 3: Z moves incrementally after a return"),
+        "{error}"
+    );
+    // A line volmap cannot read is an error, or passed unread with --pass-unknown.
+    let unread = b"G0 X10 Y10 Z10\n#100=5\nG1 X20\n";
+    let error = nc::compensate(&machine, unread, "p.nc", &options)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("line 2: `#`"), "{error}");
+    let mut passing = options.clone();
+    passing.pass_unknown = true;
+    let out = nc::compensate(&machine, unread, "p.nc", &passing).unwrap();
+    assert_eq!(out.text.lines().nth(1).unwrap(), "#100=5");
+}
