@@ -681,8 +681,8 @@ fn reference_return(
     path: &str,
 ) -> Result<(), NcError> {
     let line = &lines[index];
-    for d in 0..6 {
-        if line.has(AXIS_LETTERS[d]) {
+    for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
+        if line.has(letter) {
             if let Some(v) = next_absolute(lines, index, d, state, path)? {
                 state.position[d] = v;
             }
