@@ -18,8 +18,10 @@
 //                at each j, Z at each k, a rotary axis at its pose), error tables evaluated here;
 //   line_values  per grid line (j, k) of the chunk, the products before X (Pre) and after X
 //                (Post, with S·Trans(tool)), which are constant along the line;
-//   points       per point, Pre · A_X(i) · Post, with Pre and Post workgroup-uniform (one
-//                workgroup row per line) and A_X(i) a contiguous per-lane load.
+//   points       per point, Pre · A_X(i) · Post, with Pre and Post loaded once per lane for up
+//                to 32 points and X's errors at q evaluated in the pass where they are single
+//                polynomial pieces (params.x_poly), else loaded from x_errors. The pass is
+//                compiled per shape of machine (the override constants below).
 //
 // Host mirrors: src/gpu/layout.rs. Keep in sync with that file.
 
@@ -31,7 +33,9 @@ struct Params {
     tail_offset: vec4<f32>,  // nominal translation of S·Trans(tool)
     tail_delta: vec4<f32>,   // translation deviation of S·Trans(tool)
     tail_m: mat4x4<f32>,     // R_S − I (upper 3×3)
-    options: vec4<u32>,      // x: 1 when a rotary axis stands before X in the product order; y: points per lane; z: lanes per line
+    options: vec4<u32>,      // x: 1 when a rotary axis stands before X in the product order (the pipeline's ROTARY_BEFORE_X); y: points per lane; z: lanes per line; w: bit 0/1: X's translations/rotations from x_poly (X_TRANSLATIONS_INLINE, X_ROTATIONS_INLINE)
+    x_poly: array<vec4<f32>, 6>,       // X's errors EXX..ECX as c0..c3 in s = q − start, where one piece each
+    x_poly_span: array<vec4<f32>, 6>,  // start, lowest, highest position
 }
 
 struct AxisData {
@@ -85,6 +89,15 @@ struct LineData {
 // [nx + i]. What the point pass needs of A_X besides X's constant location, which the line pass
 // folds into Pre.
 @group(0) @binding(8) var<storage, read_write> x_errors: array<vec4<f32>>;
+
+// The shape of the machine, fixed per pipeline so the point pass has no branches on it (a CPU
+// adapter runs both sides of a branch it cannot prove uniform): whether a rotary axis stands
+// before X in the product order, whether the chain has an X axis, and whether X's translations
+// and rotations are single polynomial pieces the pass evaluates itself (params.x_poly).
+override ROTARY_BEFORE_X: bool = false;
+override HAS_X: bool = true;
+override X_TRANSLATIONS_INLINE: bool = false;
+override X_ROTATIONS_INLINE: bool = false;
 
 const NO_FUNCTION: u32 = 0xffffffffu;
 const KIND_LINEAR: u32 = 0u;
@@ -400,6 +413,38 @@ fn point_tile(wid: vec3<u32>, lid: vec3<u32>) -> vec2<u32> {
     return vec2<u32>(local_line, first);
 }
 
+// Three of X's errors (n = 0: EXX EYX EZX, n = 3: EAX EBX ECX) where each is one polynomial
+// piece of degree 3 at most (params.x_poly): coefficients, start and clamp range as columns.
+struct XPoly {
+    c0: vec3<f32>,
+    c1: vec3<f32>,
+    c2: vec3<f32>,
+    c3: vec3<f32>,
+    start: vec3<f32>,
+    lo: vec3<f32>,
+    hi: vec3<f32>,
+}
+
+fn x_poly_group(n: u32) -> XPoly {
+    let a = params.x_poly[n];
+    let b = params.x_poly[n + 1u];
+    let c = params.x_poly[n + 2u];
+    let sa = params.x_poly_span[n];
+    let sb = params.x_poly_span[n + 1u];
+    let sc = params.x_poly_span[n + 2u];
+    return XPoly(
+        vec3<f32>(a.x, b.x, c.x), vec3<f32>(a.y, b.y, c.y), vec3<f32>(a.z, b.z, c.z),
+        vec3<f32>(a.w, b.w, c.w), vec3<f32>(sa.x, sb.x, sc.x), vec3<f32>(sa.y, sb.y, sc.y),
+        vec3<f32>(sa.z, sb.z, sc.z));
+}
+
+// The three errors at position q: the values the axis pass tabulates, from coefficients every
+// lane shares instead of a per-lane gather.
+fn eval_x_poly(p: XPoly, q: f32) -> vec3<f32> {
+    let s = clamp(vec3<f32>(q), p.lo, p.hi) - p.start;
+    return p.c0 + s * (p.c1 + s * (p.c2 + s * p.c3));
+}
+
 // Pre · X(i) · Post, with Pre including X's location and X(i) = Trans(q·u) · E_X(q) =
 // [(I + Mx), q·u + e] (a linear axis has no nominal rotation):
 //   M = Ra·M~·Raᵀ,  M~ = M1~ + Mb + M1~·Mb,  M1~ = Ma~ + Mx + Ma~·Mx
@@ -424,11 +469,16 @@ fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     let ma = columns(line.ma);
     let mb = columns(line.mb);
     let vb = line.vb.xyz;
-    let rotated = params.options.x != 0u;
-    let has_x = params.chunk.z < params.grid.w;
     // X moves along ±x: q·u = (q·direction, 0, 0).
     let direction = axes[min(params.chunk.z, params.grid.w - 1u)].unit.x;
     let base_line = local_line * 6u * nx;
+    // Everything the loop reads of the uniforms, read once: a CPU adapter reloads them per
+    // iteration otherwise.
+    let poly_t = x_poly_group(0u);
+    let poly_a = x_poly_group(3u);
+    let origin_x = params.origin.x;
+    let spacing_x = params.spacing.x;
+    let out_length = arrayLength(&out);
     for (var p = 0u; p < points_per_lane; p = p + 1u) {
         let i = first + p * stride;
         if i >= nx {
@@ -437,22 +487,31 @@ fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
         var mx = ZERO3;
         var tq = 0.0;
         var e = vec3<f32>(0.0);
-        if has_x {
-            e = x_errors[i].xyz;
-            mx = tiny_rot_deviation(x_errors[nx + i].xyz);
-            tq = (params.origin.x + f32(i) * params.spacing.x) * direction;
+        if HAS_X {
+            let q = origin_x + f32(i) * spacing_x;
+            if X_TRANSLATIONS_INLINE {
+                e = eval_x_poly(poly_t, q);
+            } else {
+                e = x_errors[i].xyz;
+            }
+            if X_ROTATIONS_INLINE {
+                mx = tiny_rot_deviation(eval_x_poly(poly_a, q));
+            } else {
+                mx = tiny_rot_deviation(x_errors[nx + i].xyz);
+            }
+            tq = q * direction;
         }
         let m1 = ma + mx + ma * mx;
         var w = e + ma * e + tq * ma[0] + m1 * vb;
         var rv = rotation_vector_of_skew(0.5 * (skew(m1) + skew(mb) + skew_of_product(m1, mb)));
-        if rotated {
+        if ROTARY_BEFORE_X {
             w = ra * w;
             rv = ra * rv;
         }
         let ve = line.c0.xyz + w;
 
         let base = base_line + i;
-        if base + 5u * nx >= arrayLength(&out) {
+        if base + 5u * nx >= out_length {
             return;
         }
         out[base] = rv.x;
@@ -478,13 +537,14 @@ fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocat
         return;
     }
     let base_line = local_line * 6u * nx;
+    let out_length = arrayLength(&out);
     for (var p = 0u; p < points_per_lane; p = p + 1u) {
         let i = first + p * stride;
         if i >= nx {
             break;
         }
         let base = base_line + i;
-        if base + 5u * nx >= arrayLength(&out) {
+        if base + 5u * nx >= out_length {
             return;
         }
         let v = f32(i);

@@ -168,6 +168,17 @@ impl Gpu {
     /// Compiles `wgsl` and builds the compute pipeline of `entry` with the layout the shader
     /// declares.
     pub fn kernel(&self, label: &str, wgsl: &str, entry: &str) -> Result<Kernel, GpuError> {
+        self.kernel_with_constants(label, wgsl, entry, &[])
+    }
+
+    /// [`Gpu::kernel`] with values for the shader's pipeline-overridable constants.
+    pub fn kernel_with_constants(
+        &self,
+        label: &str,
+        wgsl: &str,
+        entry: &str,
+        constants: &[(&str, f64)],
+    ) -> Result<Kernel, GpuError> {
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = self
             .device
@@ -182,7 +193,10 @@ impl Gpu {
                 layout: None,
                 module: &module,
                 entry_point: Some(entry),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    ..Default::default()
+                },
                 cache: None,
             });
         if let Some(error) = pollster::block_on(scope.pop()) {

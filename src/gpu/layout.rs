@@ -37,10 +37,16 @@ pub struct Params {
     /// Rotation deviation `R_S − I` of the spindle error.
     pub tail_m: Mat4,
     /// x: 1 when a rotary axis stands before X in the product order (Pre has a nominal
-    /// rotation); y: points per invocation of the point pass; z, w unused.
+    /// rotation); y: points per invocation of the point pass; z: lanes per line; w: which of X's
+    /// error groups the point pass evaluates itself (see `x_poly`).
     pub options: [u32; 4],
+    /// X's six component errors where each is one polynomial piece of degree 3 at most
+    /// (options.w bit 0: the translations, bit 1: the rotations): `c0..c3` in `s = q − start`.
+    pub x_poly: [[f32; 4]; 6],
+    /// For each of them: start, lowest and highest position (positions clamp), unused.
+    pub x_poly_span: [[f32; 4]; 6],
 }
-const _: () = assert!(std::mem::size_of::<Params>() == 176);
+const _: () = assert!(std::mem::size_of::<Params>() == 176 + 2 * 6 * 16);
 
 /// One axis of the chain, in product order. Keep in sync with `struct AxisData` in
 /// `shaders/chain.wgsl`.

@@ -5,6 +5,9 @@ pub mod device;
 pub mod layout;
 pub mod sample;
 
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
 use nalgebra::{Matrix3, Vector3};
 
 use crate::grid::Grid;
@@ -184,6 +187,35 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
     }
     let coefficients = flat.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
 
+    // X's errors that are one polynomial piece of degree ≤ 3 are evaluated by the point pass
+    // from workgroup-uniform coefficients instead of gathered per point from the x_errors table.
+    let mut x_poly = [[0.0f32; 4]; 6];
+    let mut x_poly_span = [[0.0f32; 4]; 6];
+    let mut inline = [true; 6];
+    if let Some(x) = machine.axis(AxisLetter::X) {
+        for (n, component) in x.components.iter().enumerate() {
+            let Some(f) = component.as_ref().filter(|f| !f.is_zero()) else {
+                continue;
+            };
+            let form = f.pieces();
+            match form.pieces.as_slice() {
+                [piece] if !form.periodic && piece.coefficients.len() <= 4 => {
+                    for (c, &value) in piece.coefficients.iter().enumerate() {
+                        x_poly[n][c] = value as f32;
+                    }
+                    x_poly_span[n] = [
+                        piece.start as f32,
+                        finite_or_unbounded(form.lo),
+                        finite_or_unbounded(form.hi),
+                        0.0,
+                    ];
+                }
+                _ => inline[n] = false,
+            }
+        }
+    }
+    let x_inline =
+        inline[..3].iter().all(|&b| b) as u32 | (inline[3..].iter().all(|&b| b) as u32) << 1;
     // S · Trans(tool) = [(I + M_S), tool + e_S + M_S·tool].
     let [exs, eys, ezs, eas, ebs] = machine.spindle;
     let spindle_m = rot_deviation(eas, ebs, 0.0);
@@ -202,7 +234,9 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
         tail_offset: vec4_of(machine.tool_offset_mm),
         tail_delta: vec4_of(tail_delta.into()),
         tail_m: mat4_of(&spindle_m),
-        options: [rotary_before_x as u32, 0, 0, 0],
+        options: [rotary_before_x as u32, 0, 0, x_inline],
+        x_poly,
+        x_poly_span,
     };
     Packed {
         params,
@@ -218,8 +252,39 @@ pub struct GpuMapper {
     gpu: Gpu,
     axis_values: device::Kernel,
     line_values: device::Kernel,
-    points: device::Kernel,
+    /// The point pass per shape of machine (its override constants), compiled when first used.
+    points: Mutex<HashMap<PointVariant, Arc<device::Kernel>>>,
     write_only: device::Kernel,
+}
+
+/// The pipeline-overridable constants of the point pass (see `shaders/chain.wgsl`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+struct PointVariant {
+    rotary_before_x: bool,
+    has_x: bool,
+    x_translations_inline: bool,
+    x_rotations_inline: bool,
+}
+
+impl PointVariant {
+    fn of(params: &Params) -> PointVariant {
+        PointVariant {
+            rotary_before_x: params.options[0] != 0,
+            has_x: params.chunk[2] < params.grid[3],
+            x_translations_inline: params.options[3] & 1 != 0,
+            x_rotations_inline: params.options[3] & 2 != 0,
+        }
+    }
+
+    fn constants(&self) -> [(&'static str, f64); 4] {
+        let value = |b: bool| if b { 1.0 } else { 0.0 };
+        [
+            ("ROTARY_BEFORE_X", value(self.rotary_before_x)),
+            ("HAS_X", value(self.has_x)),
+            ("X_TRANSLATIONS_INLINE", value(self.x_translations_inline)),
+            ("X_ROTATIONS_INLINE", value(self.x_rotations_inline)),
+        ]
+    }
 }
 
 /// Which per-chunk work [`GpuMapper::time_kernel`] measures.
@@ -249,6 +314,7 @@ struct Prepared {
     lines_per_group: u64,
     chunks: Vec<(u64, u64)>,
     slots: Vec<Slot>,
+    points: Arc<device::Kernel>,
 }
 
 impl GpuMapper {
@@ -260,19 +326,34 @@ impl GpuMapper {
         let kernel = |entry: &str| gpu.kernel(&format!("chain.wgsl {entry}"), CHAIN_WGSL, entry);
         let axis_values = kernel("axis_values_main")?;
         let line_values = kernel("line_values_main")?;
-        let points = kernel("points_main")?;
         let write_only = kernel("write_only_main")?;
         Ok(Some(GpuMapper {
             gpu,
             axis_values,
             line_values,
-            points,
+            points: Mutex::new(HashMap::new()),
             write_only,
         }))
     }
 
     pub fn adapter_name(&self) -> &str {
         self.gpu.adapter_name()
+    }
+
+    /// The point pass for this shape of machine, compiled the first time it is asked for.
+    fn points_kernel(&self, variant: PointVariant) -> Result<Arc<device::Kernel>, GpuError> {
+        let mut cache = self.points.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(kernel) = cache.get(&variant) {
+            return Ok(kernel.clone());
+        }
+        let kernel = Arc::new(self.gpu.kernel_with_constants(
+            &format!("chain.wgsl points_main {variant:?}"),
+            CHAIN_WGSL,
+            "points_main",
+            &variant.constants(),
+        )?);
+        cache.insert(variant, kernel.clone());
+        Ok(kernel)
     }
 
     /// The most points one chunk may hold on this device.
@@ -363,6 +444,7 @@ impl GpuMapper {
             None,
         );
 
+        let points = self.points_kernel(PointVariant::of(&packed.params))?;
         let slots = (0..2.min(chunks.len()))
             .map(|_| {
                 let params = gpu.uniform("chunk params", bytemuck::bytes_of(&packed.params));
@@ -377,7 +459,7 @@ impl GpuMapper {
                     &[(0, &params), (1, &axes), (5, &axis_values), (6, &lines)],
                 );
                 let point_bindings = gpu.bind(
-                    &self.points,
+                    &points,
                     &[
                         (0, &params),
                         (1, &axes),
@@ -401,6 +483,7 @@ impl GpuMapper {
         params.options[1] = nx.div_ceil(lanes_per_line * x_groups) as u32;
         params.options[2] = lanes_per_line as u32;
         Ok(Prepared {
+            points,
             params,
             nx,
             x_groups: x_groups as u32,
@@ -437,7 +520,7 @@ impl GpuMapper {
                 workgroups: [lines.div_ceil(WORKGROUP_SIZE) as u32, 1, 1],
             },
             Pass {
-                kernel: &self.points,
+                kernel: &prepared.points,
                 bindings: &slot.point_bindings,
                 workgroups: point_grid,
             },
@@ -499,10 +582,46 @@ impl GpuMapper {
         })?
     }
 
-    /// Seconds the per-chunk kernels take over the whole grid, without any copy to the host,
-    /// best of `runs`: measured by timestamp queries around each chunk's compute pass where the
-    /// adapter has them (`true` in the answer), otherwise by the wall clock from the first
-    /// submission to the end of the last.
+    /// The seconds one pass over the whole grid takes on the device (best of `runs`) for each
+    /// kernel of `choices`, and whether timestamp queries timed them. The kernels take turns, run
+    /// after run, so a ceiling and the kernel it bounds are measured under the same conditions.
+    pub fn time_kernels(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        choices: &[KernelChoice],
+        runs: usize,
+    ) -> Result<(Vec<f64>, bool), GpuError> {
+        let prepared = self.prepare(machine, grid, None)?;
+        // Let the axis pass and any lazy driver work finish before the clock starts.
+        for &choice in choices {
+            let warm_up = self.submit_chunk(&prepared, 0, choice, false, None);
+            self.gpu.wait(warm_up)?;
+        }
+        let timer = self.gpu.timer(prepared.chunks.len());
+        let mut best = vec![f64::INFINITY; choices.len()];
+        for _ in 0..runs.max(1) {
+            for (k, &choice) in choices.iter().enumerate() {
+                let start = std::time::Instant::now();
+                let mut last = None;
+                for n in 0..prepared.chunks.len() {
+                    let timed = timer.as_ref().map(|t| (t, n as u32));
+                    last = Some(self.submit_chunk(&prepared, n, choice, false, timed));
+                }
+                if let Some(last) = last {
+                    self.gpu.wait(last)?;
+                }
+                let seconds = match &timer {
+                    Some(t) => self.gpu.timed_seconds(t, prepared.chunks.len() as u32)?,
+                    None => start.elapsed().as_secs_f64(),
+                };
+                best[k] = best[k].min(seconds);
+            }
+        }
+        Ok((best, timer.is_some()))
+    }
+
+    /// [`GpuMapper::time_kernels`] for one kernel.
     pub fn time_kernel(
         &self,
         machine: &Machine,
@@ -510,28 +629,7 @@ impl GpuMapper {
         choice: KernelChoice,
         runs: usize,
     ) -> Result<(f64, bool), GpuError> {
-        let prepared = self.prepare(machine, grid, None)?;
-        // Let the axis pass and any lazy driver work finish before the clock starts.
-        let warm_up = self.submit_chunk(&prepared, 0, choice, false, None);
-        self.gpu.wait(warm_up)?;
-        let timer = self.gpu.timer(prepared.chunks.len());
-        let mut best = f64::INFINITY;
-        for _ in 0..runs.max(1) {
-            let start = std::time::Instant::now();
-            let mut last = None;
-            for n in 0..prepared.chunks.len() {
-                let timed = timer.as_ref().map(|t| (t, n as u32));
-                last = Some(self.submit_chunk(&prepared, n, choice, false, timed));
-            }
-            if let Some(last) = last {
-                self.gpu.wait(last)?;
-            }
-            let seconds = match &timer {
-                Some(t) => self.gpu.timed_seconds(t, prepared.chunks.len() as u32)?,
-                None => start.elapsed().as_secs_f64(),
-            };
-            best = best.min(seconds);
-        }
-        Ok((best, timer.is_some()))
+        let (seconds, timestamps) = self.time_kernels(machine, grid, &[choice], runs)?;
+        Ok((seconds[0], timestamps))
     }
 }

@@ -241,3 +241,87 @@ fn error_angles_beyond_the_kernels_range_are_refused() {
         "{error}"
     );
 }
+
+#[test]
+fn every_shape_of_the_point_pass_matches_the_reference() {
+    // The point pass is compiled per shape of machine: X's translations and rotations evaluated
+    // in the pass (one polynomial piece each) or gathered from the axis pass's table (several
+    // pieces), a rotary axis before X or not, and no X axis at all.
+    use volmap::machine::{ErrorFunction, Interp, Table};
+    let one_piece =
+        |scale: f64| ErrorFunction::Poly(vec![scale, scale / 700.0, -scale / 4.9e5, scale / 3.4e8]);
+    let three_node = |scale: f64| {
+        ErrorFunction::Table(
+            Table::new(
+                vec![(0.0, 0.0), (350.0, scale), (700.0, -scale / 2.0)],
+                Interp::Quadratic,
+                false,
+            )
+            .unwrap(),
+        )
+    };
+    let pieces = |scale: f64| {
+        ErrorFunction::Table(
+            Table::new(
+                (0..6)
+                    .map(|k| (140.0 * k as f64, scale * ((k * 7 % 5) as f64 - 2.0)))
+                    .collect(),
+                Interp::Cubic,
+                false,
+            )
+            .unwrap(),
+        )
+    };
+    for chain in ["FYXFZ", "FCYXFZ", "FYXCFZ", "FYFZ"] {
+        for (translations_inline, rotations_inline) in
+            [(true, true), (true, false), (false, true), (false, false)]
+        {
+            let letters: Vec<AxisLetter> = volmap::machine::Chain::parse(chain)
+                .unwrap()
+                .axes()
+                .collect();
+            let travels: Vec<(AxisLetter, [f64; 2])> = letters
+                .iter()
+                .map(|&l| {
+                    (
+                        l,
+                        if l.is_linear() {
+                            [0.0, 700.0]
+                        } else {
+                            [0.0, 360.0]
+                        },
+                    )
+                })
+                .collect();
+            let mut machine = Machine::nominal("shape", chain, &travels).unwrap();
+            machine.tool_offset_mm = [0.0, 0.0, -120.0];
+            if let Some(x) = machine.axis_mut(X) {
+                for n in 0..3 {
+                    x.components[n] = Some(if translations_inline {
+                        if n == 0 {
+                            one_piece(0.01)
+                        } else {
+                            three_node(0.008)
+                        }
+                    } else {
+                        pieces(0.006)
+                    });
+                    x.components[3 + n] = Some(if rotations_inline {
+                        one_piece(3e-5)
+                    } else {
+                        pieces(2e-5)
+                    });
+                }
+            }
+            if let Some(y) = machine.axis_mut(Y) {
+                y.components[1] = Some(pieces(0.004));
+                y.location[5] = 1.5e-5;
+            }
+            let pose = [0.0, 0.0, 0.0, 0.0, 0.0, 30.0];
+            // Without X the grid is one point deep along it.
+            let nx = if machine.axis(X).is_some() { 23 } else { 1 };
+            let grid = Grid::full_travel(&machine, [nx, 7, 5], pose).unwrap();
+            assert_matches_reference(&machine, &grid);
+        }
+    }
+}
