@@ -150,9 +150,7 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 pose: common.pose.clone(),
                 csv: common.measured.clone(),
             };
-            let machine = embedded::load(&common.machine).map_err(bad_input)?;
-            let setup = Setup::new(&machine, &spec.pose).map_err(bad_input)?;
-            let result = standards::positioning(&setup, &spec).map_err(bad_input)?;
+            let result = run_on_machine(&common, |setup| standards::positioning(setup, &spec))?;
             (common, result)
         }
         TestKind::Diagonal {
@@ -170,9 +168,7 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 pose: common.pose.clone(),
                 csv: common.measured.clone(),
             };
-            let machine = embedded::load(&common.machine).map_err(bad_input)?;
-            let setup = Setup::new(&machine, &spec.pose).map_err(bad_input)?;
-            let result = standards::diagonal(&setup, &spec).map_err(bad_input)?;
+            let result = run_on_machine(&common, |setup| standards::diagonal(setup, &spec))?;
             (common, result)
         }
         TestKind::Circular {
@@ -190,9 +186,7 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 pose: common.pose.clone(),
                 csv: common.measured.clone(),
             };
-            let machine = embedded::load(&common.machine).map_err(bad_input)?;
-            let setup = Setup::new(&machine, &spec.pose).map_err(bad_input)?;
-            let result = standards::circular(&setup, &spec).map_err(bad_input)?;
+            let result = run_on_machine(&common, |setup| standards::circular(setup, &spec))?;
             (common, result)
         }
         TestKind::Rtest {
@@ -212,9 +206,7 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 pose: common.pose.clone(),
                 csv: common.measured.clone(),
             };
-            let machine = embedded::load(&common.machine).map_err(bad_input)?;
-            let setup = Setup::new(&machine, &spec.pose).map_err(bad_input)?;
-            let result = standards::rtest(&setup, &spec).map_err(bad_input)?;
+            let result = run_on_machine(&common, |setup| standards::rtest(setup, &spec))?;
             (common, result)
         }
     };
@@ -227,6 +219,16 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
         write_atomically(path, |out| writeln!(out, "{text}"))?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Runs a test on the machine `common` names, with the rotary axes at its pose.
+fn run_on_machine(
+    common: &Common,
+    test: impl FnOnce(&Setup) -> Result<TestResult, standards::StandardsError>,
+) -> Result<TestResult, Failure> {
+    let machine = embedded::load(&common.machine).map_err(bad_input)?;
+    let setup = Setup::new(&machine, &common.pose).map_err(bad_input)?;
+    test(&setup).map_err(bad_input)
 }
 
 const UM_PER_MM: f64 = 1000.0;

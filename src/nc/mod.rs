@@ -362,6 +362,36 @@ impl Kinematics {
     }
 }
 
+/// The program's lines, its state before the first, and the machine per tool.
+fn begin<'a>(
+    machine: &'a Machine,
+    program: &[u8],
+    path: &'a str,
+    options: &'a Options,
+) -> Result<(Vec<Line>, State, Compensator<'a>), NcError> {
+    let lines = parse_program(program, path, options.pass_unknown)?;
+    let start = starting_position(&lines, machine, path, options)?;
+    let state = State {
+        motion: Motion::Rapid,
+        plane: XY,
+        absolute: true,
+        inch: false,
+        offset: 54,
+        tool: None,
+        pending_tool: None,
+        position: start,
+        written: start,
+        written_motion: Motion::Rapid,
+    };
+    let compensator = Compensator {
+        path,
+        options,
+        base: machine,
+        tools: HashMap::new(),
+    };
+    Ok((lines, state, compensator))
+}
+
 /// A program's modal state.
 #[derive(Debug, Clone)]
 struct State {
@@ -403,26 +433,7 @@ pub fn compensate(
             options.chord_tolerance_mm
         )));
     }
-    let lines = parse_program(program, path, options.pass_unknown)?;
-    let start = starting_position(&lines, machine, path, options)?;
-    let mut state = State {
-        motion: Motion::Rapid,
-        plane: XY,
-        absolute: true,
-        inch: false,
-        offset: 54,
-        tool: None,
-        pending_tool: None,
-        position: start,
-        written: start,
-        written_motion: Motion::Rapid,
-    };
-    let mut compensator = Compensator {
-        path,
-        options,
-        base: machine,
-        tools: HashMap::new(),
-    };
+    let (lines, mut state, mut compensator) = begin(machine, program, path, options)?;
     let mut report = Report::default();
     let mut out = String::with_capacity(program.len() * 2);
     let mut start_compensated = false;
@@ -475,63 +486,14 @@ pub fn trace(
     path: &str,
     options: &Options,
 ) -> Result<Vec<TracePoint>, NcError> {
-    let lines = parse_program(program, path, options.pass_unknown)?;
-    let start = starting_position(&lines, machine, path, options)?;
-    let mut state = State {
-        motion: Motion::Rapid,
-        plane: XY,
-        absolute: true,
-        inch: false,
-        offset: 54,
-        tool: None,
-        pending_tool: None,
-        position: start,
-        written: start,
-        written_motion: Motion::Rapid,
-    };
-    let mut compensator = Compensator {
-        path,
-        options,
-        base: machine,
-        tools: HashMap::new(),
-    };
+    let (lines, mut state, mut compensator) = begin(machine, program, path, options)?;
     let mut points = Vec::new();
     for (index, line) in lines.iter().enumerate() {
-        if line.words.is_empty() {
-            continue;
-        }
-        if let Some(code) = unknown_code(line) {
-            if !options.pass_unknown {
-                return Err(NcError::line(
-                    path,
-                    line.number,
-                    format!("{code} is not supported"),
-                ));
-            }
-        }
-        apply_modals(line, &mut state, path)?;
-        if is_reference_return(line) {
-            reference_return(&lines, index, &mut state, path)?;
-            continue;
-        }
-        if let Some(t) = line.word('T') {
-            state.pending_tool = Some(t.value as u32);
-        }
-        if line.words.iter().any(|w| w.letter == 'M' && w.value == 6.0) {
-            state.tool = state.pending_tool;
-        }
-        let dwell = line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0);
-        let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter));
-        let has_centre = line
-            .words
-            .iter()
-            .any(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R'));
-        let arc = matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise);
-        if dwell || !(has_axis || (arc && has_centre)) {
+        if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {
             continue;
         }
         let end = end_position(line, &state);
-        if arc {
+        if matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) {
             arc_path(line, &state, state.position, end, path)?;
         }
         let offset = *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]);
@@ -562,20 +524,9 @@ fn starting_position(
     let mut absolute = true;
     let mut inch = false;
     for line in lines {
-        for w in line.words.iter().filter(|w| w.letter == 'G') {
-            match w.value as u32 {
-                20 => inch = true,
-                21 => inch = false,
-                90 => absolute = true,
-                91 => absolute = false,
-                _ => {}
-            }
-        }
-        let dwell = line
-            .words
-            .iter()
-            .any(|w| w.letter == 'G' && w.value as u32 == 4);
-        if dwell || is_reference_return(line) || !is_understood(line, options.pass_unknown) {
+        distance_and_units(line, &mut absolute, &mut inch);
+        if is_dwell(line) || is_reference_return(line) || !is_understood(line, options.pass_unknown)
+        {
             continue;
         }
         for w in &line.words {
@@ -618,6 +569,25 @@ fn starting_position(
     Ok(position)
 }
 
+/// The distance mode (G90/G91) and units (G20/G21) a line sets, for the scans ahead of the
+/// program's run.
+fn distance_and_units(line: &Line, absolute: &mut bool, inch: &mut bool) {
+    for w in line.words.iter().filter(|w| w.letter == 'G') {
+        match w.value as u32 {
+            20 => *inch = true,
+            21 => *inch = false,
+            90 => *absolute = true,
+            91 => *absolute = false,
+            _ => {}
+        }
+    }
+}
+
+/// G4: a dwell, whose X or P is a time.
+fn is_dwell(line: &Line) -> bool {
+    line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0)
+}
+
 /// G28: to the reference point through the intermediate point its axis words give.
 fn is_reference_return(line: &Line) -> bool {
     line.words
@@ -637,17 +607,8 @@ fn next_absolute(
 ) -> Result<Option<f64>, NcError> {
     let (mut absolute, mut inch) = (state.absolute, state.inch);
     for line in &lines[from + 1..] {
-        for w in line.words.iter().filter(|w| w.letter == 'G') {
-            match w.value as u32 {
-                20 => inch = true,
-                21 => inch = false,
-                90 => absolute = true,
-                91 => absolute = false,
-                _ => {}
-            }
-        }
-        let dwell = line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0);
-        if dwell || is_reference_return(line) {
+        distance_and_units(line, &mut absolute, &mut inch);
+        if is_dwell(line) || is_reference_return(line) {
             continue;
         }
         if let Some(w) = line.word(AXIS_LETTERS[d]) {
@@ -718,6 +679,75 @@ fn unknown_code(line: &Line) -> Option<String> {
     None
 }
 
+/// What a line does once its modal words are taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Step {
+    /// It moves no axis volmap follows: it is copied as it is.
+    Pass,
+    /// It moves the tool to a programmed point.
+    Move,
+}
+
+/// Takes a line's modal words (motion, plane, distance, units, work offset, tool), and says
+/// whether it moves. Lines with codes volmap does not follow are errors, or with `pass_unknown`
+/// passed, their axis words moving the program's tool as straight moves would.
+fn take_line(
+    lines: &[Line],
+    index: usize,
+    state: &mut State,
+    path: &str,
+    pass_unknown: bool,
+) -> Result<Step, NcError> {
+    let line = &lines[index];
+    if line.words.is_empty() {
+        return Ok(Step::Pass);
+    }
+    if let Some(code) = unknown_code(line) {
+        if !pass_unknown {
+            return Err(NcError::line(
+                path,
+                line.number,
+                format!("{code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G49 G54–G59 G61 G64 G80 G90 G91 G94 G95 G98); --pass-unknown passes such blocks unchanged"),
+            ));
+        }
+        apply_modals(line, state, path)?;
+        let end = end_position(line, state);
+        state.position = end;
+        state.written = end;
+        return Ok(Step::Pass);
+    }
+    apply_modals(line, state, path)?;
+    if is_reference_return(line) {
+        reference_return(lines, index, state, path)?;
+        return Ok(Step::Pass);
+    }
+    if let Some(t) = line.word('T') {
+        state.pending_tool = Some(t.value as u32);
+    }
+    if line.words.iter().any(|w| w.letter == 'M' && w.value == 6.0) {
+        state.tool = state.pending_tool;
+    }
+    let dwell = is_dwell(line);
+    let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter));
+    let has_centre = line
+        .words
+        .iter()
+        .any(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R'));
+    let arc = matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise);
+    if dwell || !(has_axis || (arc && has_centre)) {
+        // The output reads this line as it is: a motion code in it sets its mode too.
+        if line
+            .words
+            .iter()
+            .any(|w| w.letter == 'G' && (w.value as u32) < 4 && w.value.fract() == 0.0)
+        {
+            state.written_motion = state.motion;
+        }
+        return Ok(Step::Pass);
+    }
+    Ok(Step::Move)
+}
+
 /// Handles one line; returns the number of output lines written for it (0 when it was passed
 /// through unchanged by a path that writes it itself, which does not happen: 1 or more).
 fn process_line(
@@ -737,51 +767,7 @@ fn process_line(
         out.push_str(&line.ending);
         1
     };
-    if line.words.is_empty() {
-        return Ok(pass(out));
-    }
-    if let Some(code) = unknown_code(line) {
-        if !options.pass_unknown {
-            return Err(NcError::line(
-                path,
-                line.number,
-                format!("{code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G40 G43 G49 G54–G59 G61 G64 G80 G90 G91 G94 G95 G98); --pass-unknown passes such blocks unchanged"),
-            ));
-        }
-        // Passed unchanged; its axis words still move the program's tool.
-        apply_modals(line, state, path)?;
-        let end = end_position(line, state);
-        state.position = end;
-        state.written = end;
-        return Ok(pass(out));
-    }
-    apply_modals(line, state, path)?;
-    if is_reference_return(line) {
-        reference_return(lines, index, state, path)?;
-        return Ok(pass(out));
-    }
-    if let Some(t) = line.word('T') {
-        state.pending_tool = Some(t.value as u32);
-    }
-    if line.words.iter().any(|w| w.letter == 'M' && w.value == 6.0) {
-        state.tool = state.pending_tool;
-    }
-    let dwell = line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0);
-    let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter));
-    let has_centre = line
-        .words
-        .iter()
-        .any(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R'));
-    let arc = matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise);
-    if dwell || !(has_axis || (arc && has_centre)) {
-        // The output reads this line as it is: a motion code in it sets its mode too.
-        if line
-            .words
-            .iter()
-            .any(|w| w.letter == 'G' && (w.value as u32) < 4 && w.value.fract() == 0.0)
-        {
-            state.written_motion = state.motion;
-        }
+    if take_line(lines, index, state, path, options.pass_unknown)? == Step::Pass {
         return Ok(pass(out));
     }
     let offset = *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]);
