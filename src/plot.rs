@@ -743,7 +743,7 @@ pub fn polar_chart(
         let full_turn =
             s.x.first()
                 .zip(s.x.last())
-                .is_some_and(|(a, b)| b - a >= 300.0);
+                .is_some_and(|(a, b)| (b - a).abs() >= 300.0);
         if full_turn && !points.is_empty() {
             points.push(points[0]);
         }

@@ -97,6 +97,12 @@ enum TestKind {
         /// Points around the circle.
         #[arg(long, default_value_t = 360)]
         points: usize,
+        /// Feed direction: ccw (G3) or cw (G2).
+        #[arg(long, default_value = "ccw")]
+        direction: String,
+        /// Where the run starts, degrees from the plane's first axis.
+        #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+        start: f64,
         #[command(flatten)]
         common: Common,
     },
@@ -176,6 +182,8 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
             centre,
             radius,
             points,
+            direction,
+            start,
             common,
         } => {
             let spec = standards::CircularSpec {
@@ -183,6 +191,8 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 centre_mm: centre,
                 radius_mm: radius,
                 points,
+                direction,
+                start_deg: start,
                 pose: common.pose.clone(),
                 csv: common.measured.clone(),
             };

@@ -175,12 +175,25 @@ impl Measured {
     /// Checks that column `n` rises strictly from row to row (positions and angles must come in
     /// the order they were measured along the path).
     pub fn require_increasing(&self, n: usize, what: &str) -> Result<(), StandardsError> {
+        self.require_monotonic(n, what, true)
+    }
+
+    /// Checks that column `n` rises (or falls) strictly from row to row.
+    pub fn require_monotonic(
+        &self,
+        n: usize,
+        what: &str,
+        rising: bool,
+    ) -> Result<(), StandardsError> {
         for row in 1..self.len() {
             let (before, value) = (self.columns[n][row - 1], self.columns[n][row]);
-            if value <= before {
+            if (rising && value <= before) || (!rising && value >= before) {
+                let order = if rising { "rising" } else { "falling" };
                 return Err(self.error(
                     row,
-                    format!("{what} {value} after {before}: rows must be sorted by {what}, rising"),
+                    format!(
+                        "{what} {value} after {before}: rows must be sorted by {what}, {order}"
+                    ),
                 ));
             }
         }

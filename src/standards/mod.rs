@@ -679,10 +679,21 @@ pub struct CircularSpec {
     /// Points around the circle.
     #[serde(default = "default_circle_points")]
     pub points: usize,
+    /// The feed direction: `ccw` (angles rising, G3) or `cw` (falling, G2).
+    #[serde(default = "default_direction")]
+    pub direction: String,
+    /// Where the run starts, degrees from the plane's first axis.
+    #[serde(default)]
+    pub start_deg: f64,
     #[serde(default = "default_pose")]
     pub pose: String,
-    /// Measured results: columns `angle_deg, deviation_mm` (radial deviation, angles rising).
+    /// Measured results: columns `angle_deg, deviation_mm` (radial deviation, angles in the
+    /// order of the run: rising counter-clockwise, falling clockwise).
     pub csv: Option<PathBuf>,
+}
+
+fn default_direction() -> String {
+    "ccw".into()
 }
 
 fn default_circle_points() -> usize {
@@ -743,10 +754,23 @@ pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, Standa
             "radius {radius} mm: it must be positive"
         )));
     }
+    let sense = match spec.direction.trim().to_ascii_lowercase().as_str() {
+        "ccw" => 1.0,
+        "cw" => -1.0,
+        other => {
+            return Err(parameter(format!(
+                "direction `{other}`: ccw (counter-clockwise, G3) or cw (clockwise, G2)"
+            )))
+        }
+    };
     let measured = spec
         .csv
         .as_deref()
-        .map(|p| read_profile(p, ("angle", Unit::Angle), &["deviation"]))
+        .map(|p| {
+            let m = Measured::read(p, &[("angle", Unit::Angle), ("deviation", Unit::Length)])?;
+            m.require_monotonic(0, "angle", sense > 0.0)?;
+            Ok::<_, StandardsError>(m)
+        })
         .transpose()?;
     let angles: Vec<f64> = match &measured {
         Some(m) => m.columns[0].clone(),
@@ -755,7 +779,7 @@ pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, Standa
                 return Err(parameter("a circle needs at least 3 points"));
             }
             (0..spec.points)
-                .map(|i| 360.0 * i as f64 / spec.points as f64)
+                .map(|i| spec.start_deg + sense * 360.0 * i as f64 / spec.points as f64)
                 .collect()
         }
     };
@@ -784,7 +808,8 @@ pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, Standa
         .transpose()?;
     Ok(TestResult {
         title: format!(
-            "ISO 230-4 circular test in {plane}: centre ({:.1}, {:.1}, {:.1}) mm, radius {radius} mm",
+            "ISO 230-4 circular test in {plane}, {}: centre ({:.1}, {:.1}, {:.1}) mm, radius {radius} mm",
+            if sense > 0.0 { "counter-clockwise" } else { "clockwise" },
             centre.x, centre.y, centre.z
         ),
         position_label: "angle (deg)".into(),

@@ -29,6 +29,8 @@ fn circular_spec(plane: &str, radius: f64) -> CircularSpec {
         centre_mm: None,
         radius_mm: Some(radius),
         points: 72,
+        direction: "ccw".into(),
+        start_deg: 0.0,
         pose: String::new(),
         csv: None,
     }
@@ -60,6 +62,34 @@ fn a_squareness_alone_draws_the_known_ellipse() {
         "G = {}",
         g.predicted_mm
     );
+    // Clockwise from 90°, the same circle in the other order: the model has no reversal error.
+    let cw = CircularSpec {
+        direction: "cw".into(),
+        start_deg: 90.0,
+        ..circular_spec("XY", r)
+    };
+    let clockwise = standards::circular(&setup, &cw).unwrap();
+    assert_eq!(clockwise.positions[..3], [90.0, 85.0, 80.0]);
+    for (t, dr) in clockwise.positions.iter().zip(&clockwise.predicted[0]) {
+        let k = result
+            .positions
+            .iter()
+            .position(|a| (a - t.rem_euclid(360.0)).abs() < 1e-9)
+            .unwrap();
+        assert!((dr - result.predicted[0][k]).abs() < 1e-12);
+    }
+    assert!((clockwise.figures[0].predicted_mm - g.predicted_mm).abs() < 1e-12);
+    // A clockwise measurement comes with falling angles.
+    let dir = tempfile::tempdir().unwrap();
+    let rising = CircularSpec {
+        csv: Some(write(
+            &dir,
+            "cw.csv",
+            "angle_deg,deviation_um\n0,1\n10,2\n20,3\n",
+        )),
+        ..cw
+    };
+    expect_csv_error(standards::circular(&setup, &rising), 3, "falling");
     // The other planes see nothing of an XY squareness but a shift of the centre.
     for plane in ["YZ", "ZX"] {
         let other = standards::circular(&setup, &circular_spec(plane, r)).unwrap();
