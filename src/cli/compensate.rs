@@ -92,13 +92,27 @@ pub fn run_compensate(args: CompensateArgs) -> Result<ExitCode, Failure> {
     let program = std::fs::read(&args.program)
         .with_context(|| format!("reading {}", args.program.display()))
         .map_err(bad_input)?;
-    let compensated = nc::compensate(
+    let bar =
+        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} compensating [{bar:40}] {percent:>3}% {human_pos}/{human_len} lines, {eta} left",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    let compensated = nc::compensate_with_progress(
         &machine,
         &program,
         &args.program.display().to_string(),
         &options,
-    )
-    .map_err(bad_input)?;
+        |done, lines| {
+            bar.set_length(lines as u64);
+            bar.set_position(done as u64);
+        },
+    );
+    bar.finish_and_clear();
+    let compensated = compensated.map_err(bad_input)?;
     let (text, report) = (compensated.text, compensated.report);
     write_atomically(&args.out, |out| out.write_all(text.as_bytes()))?;
     println!("{}: compensated for {}", args.out.display(), machine.name);

@@ -427,6 +427,17 @@ pub fn compensate(
     path: &str,
     options: &Options,
 ) -> Result<Compensated, NcError> {
+    compensate_with_progress(machine, program, path, options, |_, _| {})
+}
+
+/// [`compensate`], telling `on_progress(lines done, lines)` as it goes.
+pub fn compensate_with_progress(
+    machine: &Machine,
+    program: &[u8],
+    path: &str,
+    options: &Options,
+    mut on_progress: impl FnMut(usize, usize),
+) -> Result<Compensated, NcError> {
     if options.chord_tolerance_mm.is_nan() || options.chord_tolerance_mm <= 0.0 {
         return Err(NcError::Options(format!(
             "--chord-tolerance {}: it must be positive",
@@ -439,6 +450,9 @@ pub fn compensate(
     let mut start_compensated = false;
     let mut origins = Vec::with_capacity(lines.len());
     for (index, line) in lines.iter().enumerate() {
+        if index % 1024 == 0 {
+            on_progress(index, lines.len());
+        }
         let before = out.len();
         let emitted = process_line(
             &lines,
