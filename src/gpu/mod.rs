@@ -27,9 +27,13 @@ pub const WORKGROUP_SIZE: u64 = 64;
 pub const MAX_POINTS_PER_LANE: u64 = 32;
 /// Bytes of output per grid point: six f32 channels.
 pub const BYTES_PER_POINT: u64 = (CHANNELS.len() * 4) as u64;
-/// The default upper bound of points per chunk: two chunks in flight hold about 100 MB (measured
-/// on lavapipe, larger chunks are no faster).
+/// The default upper bound of points per chunk on a CPU adapter: two chunks in flight hold about
+/// 100 MB (measured on lavapipe, larger chunks are no faster).
 pub const DEFAULT_CHUNK_POINTS: u64 = 1 << 20;
+/// The same on a hardware GPU, where a chunk of 1 Mi points takes well under a millisecond and the
+/// host's work per chunk would cap the rate: two chunks in flight hold about 800 MB (output and
+/// staging), still bounded whatever the grid.
+pub const DEFAULT_CHUNK_POINTS_HARDWARE: u64 = 1 << 23;
 
 /// The machine and grid as the shader's buffers. Built on the host in f64, stored in f32.
 #[derive(Debug, Clone)]
@@ -358,7 +362,12 @@ impl GpuMapper {
 
     /// The most points one chunk may hold on this device.
     pub fn max_chunk_points(&self) -> u64 {
-        (self.gpu.max_storage_binding_bytes() / BYTES_PER_POINT).min(DEFAULT_CHUNK_POINTS)
+        let default = if self.gpu.is_software() {
+            DEFAULT_CHUNK_POINTS
+        } else {
+            DEFAULT_CHUNK_POINTS_HARDWARE
+        };
+        (self.gpu.max_storage_binding_bytes() / BYTES_PER_POINT).min(default)
     }
 
     /// The most lines one chunk may hold: one workgroup row per line.
