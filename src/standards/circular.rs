@@ -1,0 +1,184 @@
+//! ISO 230-4 circular tests (ballbar) in the XY, YZ and ZX planes.
+
+use std::path::PathBuf;
+
+use nalgebra::{Matrix3, Vector3};
+use serde::Deserialize;
+
+use super::measured::{Measured, Unit};
+use super::{default_pose, figure, parameter, range_of, Setup, StandardsError, TestResult};
+
+/// ISO 230-4 circular test (ballbar) in one plane.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CircularSpec {
+    /// XY, YZ or ZX.
+    pub plane: String,
+    /// Default: the middle of the travels.
+    pub centre_mm: Option<[f64; 3]>,
+    /// Default: 100 mm, or less where the travel is shorter (40% of the shorter travel).
+    pub radius_mm: Option<f64>,
+    /// Points around the circle.
+    #[serde(default = "default_circle_points")]
+    pub points: usize,
+    /// The feed direction: `ccw` (angles rising, G3) or `cw` (falling, G2).
+    #[serde(default = "default_direction")]
+    pub direction: String,
+    /// Where the run starts, degrees from the plane's first axis.
+    #[serde(default)]
+    pub start_deg: f64,
+    #[serde(default = "default_pose")]
+    pub pose: String,
+    /// Measured results: columns `angle_deg, deviation_mm` (radial deviation, angles in the
+    /// order of the run: rising counter-clockwise, falling clockwise).
+    pub csv: Option<PathBuf>,
+}
+
+fn default_direction() -> String {
+    "ccw".into()
+}
+
+fn default_circle_points() -> usize {
+    360
+}
+
+/// The plane's two axes (indices into X Y Z), first to second in the sense of rising angles.
+pub fn plane_axes(plane: &str) -> Result<(usize, usize), StandardsError> {
+    match plane.trim().to_ascii_uppercase().as_str() {
+        "XY" => Ok((0, 1)),
+        "YZ" => Ok((1, 2)),
+        "ZX" => Ok((2, 0)),
+        other => Err(parameter(format!("plane `{other}`: XY, YZ or ZX"))),
+    }
+}
+
+/// Least-squares circle of radial deviations `dr(θ)` (linearised: deviations far below the
+/// radius): `dr ≈ ρ + a cos θ + b sin θ`, with `(a, b)` the centre's offset and `ρ` the radius
+/// deviation. Returns `(ρ, a, b)` and the residuals.
+pub fn least_squares_circle(
+    angles_deg: &[f64],
+    radial: &[f64],
+) -> Result<([f64; 3], Vec<f64>), StandardsError> {
+    let mut normal = Matrix3::zeros();
+    let mut rhs = Vector3::zeros();
+    for (&t, &r) in angles_deg.iter().zip(radial) {
+        let (s, c) = t.to_radians().sin_cos();
+        let row = Vector3::new(1.0, c, s);
+        normal += row * row.transpose();
+        rhs += row * r;
+    }
+    let solution = normal
+        .cholesky()
+        .map(|c| c.solve(&rhs))
+        .filter(|x| x.iter().all(|v| v.is_finite()))
+        .ok_or_else(|| parameter("the angles do not determine a circle (at least 3 distinct angles spread around it)"))?;
+    let residuals = angles_deg
+        .iter()
+        .zip(radial)
+        .map(|(&t, &r)| {
+            let (s, c) = t.to_radians().sin_cos();
+            r - (solution[0] + solution[1] * c + solution[2] * s)
+        })
+        .collect();
+    Ok(([solution[0], solution[1], solution[2]], residuals))
+}
+
+pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, StandardsError> {
+    let (u, v) = plane_axes(&spec.plane)?;
+    let plane = spec.plane.trim().to_ascii_uppercase();
+    let (lo, hi) = setup.travel_box()?;
+    let centre = spec.centre_mm.map_or((lo + hi) / 2.0, Vector3::from);
+    let radius = spec
+        .radius_mm
+        .unwrap_or_else(|| 100f64.min(0.4 * (hi[u] - lo[u]).min(hi[v] - lo[v])));
+    if radius.is_nan() || radius <= 0.0 {
+        return Err(parameter(format!(
+            "radius {radius} mm: it must be positive"
+        )));
+    }
+    let sense = match spec.direction.trim().to_ascii_lowercase().as_str() {
+        "ccw" => 1.0,
+        "cw" => -1.0,
+        other => {
+            return Err(parameter(format!(
+                "direction `{other}`: ccw (counter-clockwise, G3) or cw (clockwise, G2)"
+            )))
+        }
+    };
+    let measured = spec
+        .csv
+        .as_deref()
+        .map(|p| {
+            let m = Measured::read(p, &[("angle", Unit::Angle), ("deviation", Unit::Length)])?;
+            m.require_monotonic(0, "angle", sense > 0.0)?;
+            Ok::<_, StandardsError>(m)
+        })
+        .transpose()?;
+    let angles: Vec<f64> = match &measured {
+        Some(m) => m.columns[0].clone(),
+        None => {
+            if spec.points < 3 {
+                return Err(parameter("a circle needs at least 3 points"));
+            }
+            (0..spec.points)
+                .map(|i| spec.start_deg + sense * 360.0 * i as f64 / spec.points as f64)
+                .collect()
+        }
+    };
+    let (mut e1, mut e2) = (Vector3::zeros(), Vector3::zeros());
+    e1[u] = 1.0;
+    e2[v] = 1.0;
+    let mut predicted = Vec::with_capacity(angles.len());
+    for &t in &angles {
+        let (s, c) = t.to_radians().sin_cos();
+        let p = centre + radius * (c * e1 + s * e2);
+        let command = setup.command(p);
+        setup.check_travel(&command, &format!("circle in {plane} at {t}°"))?;
+        let ve = setup.deviation(&command).volumetric_mm;
+        predicted.push((p + ve - centre).norm() - radius);
+    }
+    let figures_of = |radial: &[f64]| -> Result<[f64; 3], StandardsError> {
+        let (_, residuals) = least_squares_circle(&angles, radial)?;
+        let max = radial.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let min = radial.iter().copied().fold(f64::INFINITY, f64::min);
+        Ok([range_of(&residuals), max, min])
+    };
+    let p = figures_of(&predicted)?;
+    let m = measured
+        .as_ref()
+        .map(|m| figures_of(&m.columns[1]))
+        .transpose()?;
+    Ok(TestResult {
+        title: format!(
+            "ISO 230-4 circular test in {plane}, {}: centre ({:.1}, {:.1}, {:.1}) mm, radius {radius} mm",
+            if sense > 0.0 { "counter-clockwise" } else { "clockwise" },
+            centre.x, centre.y, centre.z
+        ),
+        position_label: "angle (deg)".into(),
+        positions: angles,
+        curve_names: vec!["radial deviation".into()],
+        predicted: vec![predicted],
+        measured: measured.map(|m| vec![m.columns[1].clone()]),
+        figures: vec![
+            figure(
+                "G",
+                "circular deviation (about the least-squares centre)",
+                p[0],
+                m.map(|m| m[0]),
+            ),
+            figure(
+                "F max",
+                "largest radial deviation from the nominal circle",
+                p[1],
+                m.map(|m| m[1]),
+            ),
+            figure(
+                "F min",
+                "smallest radial deviation from the nominal circle",
+                p[2],
+                m.map(|m| m[2]),
+            ),
+        ],
+        polar: Some([['X', 'Y', 'Z'][u], ['X', 'Y', 'Z'][v]]),
+    })
+}

@@ -1,0 +1,90 @@
+//! The workspace grid displaced by its magnified volumetric error (Hwang et al., Fig. 9).
+
+use crate::grid::Grid;
+use crate::machine::Machine;
+use crate::reference;
+
+/// The grid lines of a workspace, nominal and with the magnified error added.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DeformedGrid {
+    pub nominal: Vec<Vec<[f64; 3]>>,
+    pub deformed: Vec<Vec<[f64; 3]>>,
+    /// The magnification of the error.
+    pub scale: f64,
+    /// The largest |VE| on the lines, mm.
+    pub largest_mm: f64,
+}
+
+/// The lines of `grid` along X, Y and Z (each cell cut into 8 so the lines show their bends),
+/// and the tool tip's actual positions `p + scale·VE(p)`. `scale` defaults to drawing the
+/// largest error as 8% of the workspace's diagonal.
+pub fn deformed_grid(machine: &Machine, grid: &Grid, scale: Option<f64>) -> DeformedGrid {
+    const CUTS: usize = 8;
+    let ideal = machine.without_errors();
+    let position = |d: usize, t: f64| grid.origin_mm[d] + t * grid.spacing_mm[d];
+    let mut nominal = Vec::new();
+    for along in 0..3 {
+        let (a, b) = ((along + 1) % 3, (along + 2) % 3);
+        let n = grid.dims[along];
+        if n < 2 {
+            continue;
+        }
+        for ia in 0..grid.dims[a] {
+            for ib in 0..grid.dims[b] {
+                let line = (0..=(n - 1) * CUTS)
+                    .map(|s| {
+                        let mut p = [0.0; 3];
+                        p[along] = position(along, s as f64 / CUTS as f64);
+                        p[a] = position(a, ia as f64);
+                        p[b] = position(b, ib as f64);
+                        p
+                    })
+                    .collect();
+                nominal.push(line);
+            }
+        }
+    }
+    let errors: Vec<Vec<[f64; 3]>> = nominal
+        .iter()
+        .map(|line: &Vec<[f64; 3]>| {
+            line.iter()
+                .map(|p| {
+                    let mut command = grid.pose;
+                    command[..3].copy_from_slice(p);
+                    let ve = reference::deviation_against(machine, &ideal, &command).volumetric_mm;
+                    [ve.x, ve.y, ve.z]
+                })
+                .collect()
+        })
+        .collect();
+    let largest = errors
+        .iter()
+        .flatten()
+        .map(|e| (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt())
+        .fold(0.0, f64::max);
+    let diagonal = (0..3)
+        .map(|d| ((grid.dims[d].max(1) - 1) as f64 * grid.spacing_mm[d]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let scale = scale.unwrap_or(if largest > 0.0 {
+        0.08 * diagonal / largest
+    } else {
+        1.0
+    });
+    let deformed = nominal
+        .iter()
+        .zip(&errors)
+        .map(|(line, e)| {
+            line.iter()
+                .zip(e)
+                .map(|(p, e)| std::array::from_fn(|d| p[d] + scale * e[d]))
+                .collect()
+        })
+        .collect();
+    DeformedGrid {
+        nominal,
+        deformed,
+        scale,
+        largest_mm: largest,
+    }
+}

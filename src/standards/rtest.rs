@@ -1,0 +1,136 @@
+//! The R-test of a rotary axis (Hwang et al., seed 001, Figs. 14–15).
+
+use std::path::PathBuf;
+
+use nalgebra::Vector3;
+use serde::Deserialize;
+
+use super::measured::Unit;
+use super::{
+    default_pose, figure, parameter, range_of, read_profile, Setup, StandardsError, TestResult,
+};
+use crate::machine::AxisLetter;
+use crate::reference;
+
+/// The R-test of a rotary axis.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RTestSpec {
+    /// The rotary axis under test: A, B or C.
+    pub axis: String,
+    /// The sphere's centre in the workpiece frame (commanded coordinates at the pose); default:
+    /// where the tool tip is at the middle of the linear travels.
+    pub sphere_mm: Option<[f64; 3]>,
+    /// Angles from, to and step (degrees); default: the axis's travel in 10° steps.
+    pub from_deg: Option<f64>,
+    pub to_deg: Option<f64>,
+    #[serde(default = "default_step")]
+    pub step_deg: f64,
+    /// The other rotary axes' positions, `B=-30`.
+    #[serde(default = "default_pose")]
+    pub pose: String,
+    /// Measured results: columns `angle_deg, dX_mm, dY_mm, dZ_mm` (angles rising).
+    pub csv: Option<PathBuf>,
+}
+
+fn default_step() -> f64 {
+    10.0
+}
+
+pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsError> {
+    let letter = match spec.axis.trim() {
+        "A" | "a" => AxisLetter::A,
+        "B" | "b" => AxisLetter::B,
+        "C" | "c" => AxisLetter::C,
+        other => {
+            return Err(parameter(format!(
+                "`{other}` is not a rotary axis (A, B or C)"
+            )))
+        }
+    };
+    let axis = setup.machine.axis(letter).ok_or_else(|| {
+        parameter(format!(
+            "the machine (chain {}) has no {letter} axis",
+            setup.machine.chain.hwang_notation()
+        ))
+    })?;
+    let (lo, hi) = setup.travel_box()?;
+    let sphere = match spec.sphere_mm {
+        Some(s) => Vector3::from(s),
+        None => {
+            let mid = setup.command((lo + hi) / 2.0);
+            reference::tool_pose(&setup.ideal, &mid).0
+        }
+    };
+    let measured = spec
+        .csv
+        .as_deref()
+        .map(|p| read_profile(p, ("angle", Unit::Angle), &["dX", "dY", "dZ"]))
+        .transpose()?;
+    let angles: Vec<f64> = match &measured {
+        Some(m) => m.columns[0].clone(),
+        None => {
+            let from = spec.from_deg.unwrap_or(axis.range[0]);
+            let to = spec.to_deg.unwrap_or(axis.range[1]);
+            if spec.step_deg.is_nan() || spec.step_deg <= 0.0 || to < from {
+                return Err(parameter(format!(
+                    "angles from {from}° to {to}° in steps of {}°: the step must be positive and the end not below the start",
+                    spec.step_deg
+                )));
+            }
+            let steps = ((to - from) / spec.step_deg + 1e-9).floor() as usize;
+            (0..=steps)
+                .map(|i| from + i as f64 * spec.step_deg)
+                .collect()
+        }
+    };
+    let mut curves: Vec<Vec<f64>> = vec![Vec::new(); 3];
+    for &angle in &angles {
+        let mut command = setup.pose;
+        command[letter.index()] = angle;
+        let command = setup.nominal_command_for_tip(sphere, &command)?;
+        setup.check_travel(
+            &command,
+            &format!("R-test of {letter} at {letter}={angle}°"),
+        )?;
+        let ve = setup.deviation(&command).volumetric_mm;
+        let reading = -(setup.ideal_rotation(&command).transpose() * ve);
+        for d in 0..3 {
+            curves[d].push(reading[d]);
+        }
+    }
+    // The probes are zeroed at the first angle.
+    for curve in &mut curves {
+        let zero = curve[0];
+        curve.iter_mut().for_each(|v| *v -= zero);
+    }
+    let measured_curves = measured.map(|m| m.columns[1..].to_vec());
+    let figures = ["dX", "dY", "dZ"]
+        .iter()
+        .enumerate()
+        .map(|(d, name)| {
+            figure(
+                &format!("{name} range"),
+                &format!(
+                    "range of the sphere's displacement along the spindle frame's {}",
+                    ['x', 'y', 'z'][d]
+                ),
+                range_of(&curves[d]),
+                measured_curves.as_ref().map(|m| range_of(&m[d])),
+            )
+        })
+        .collect();
+    Ok(TestResult {
+        title: format!(
+            "R-test of {letter}: sphere at ({:.1}, {:.1}, {:.1}) mm (workpiece frame)",
+            sphere.x, sphere.y, sphere.z
+        ),
+        position_label: format!("{letter} (deg)"),
+        positions: angles,
+        curve_names: vec!["dX".into(), "dY".into(), "dZ".into()],
+        predicted: curves,
+        measured: measured_curves,
+        figures,
+        polar: None,
+    })
+}
