@@ -1,0 +1,371 @@
+//! Reading a program as the control does: modal state (motion, plane, distance, units, work
+//! offset, tool), which codes volmap follows, where each block ends.
+
+use super::parse::Line;
+use super::{NcError, Options};
+use crate::machine::{AxisLetter, Machine};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Motion {
+    Rapid,
+    Linear,
+    Clockwise,
+    CounterClockwise,
+}
+
+impl Motion {
+    pub(super) fn code(self) -> u32 {
+        match self {
+            Motion::Rapid => 0,
+            Motion::Linear => 1,
+            Motion::Clockwise => 2,
+            Motion::CounterClockwise => 3,
+        }
+    }
+}
+
+/// The arc plane: the program axes (indices into X Y Z) of its first and second coordinates and
+/// of the helix, and the letters of the centre offsets along the first and second.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Plane {
+    pub(super) u: usize,
+    pub(super) v: usize,
+    pub(super) w: usize,
+    pub(super) centre: [char; 2],
+}
+
+pub(super) const XY: Plane = Plane {
+    u: 0,
+    v: 1,
+    w: 2,
+    centre: ['I', 'J'],
+};
+
+pub(super) const ZX: Plane = Plane {
+    u: 2,
+    v: 0,
+    w: 1,
+    centre: ['K', 'I'],
+};
+
+pub(super) const YZ: Plane = Plane {
+    u: 1,
+    v: 2,
+    w: 0,
+    centre: ['J', 'K'],
+};
+
+pub(super) const AXIS_LETTERS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
+
+pub(super) const MM_PER_INCH: f64 = 25.4;
+
+/// G codes that change nothing volmap must follow: cutter compensation off, tool length
+/// compensation, cycle cancel, feed modes, exact stop and cutting modes, cycle return levels.
+pub(super) const PASSIVE_G: [u32; 9] = [40, 43, 49, 80, 94, 95, 61, 64, 98];
+
+/// A program's modal state.
+#[derive(Debug, Clone)]
+pub(super) struct State {
+    pub(super) motion: Motion,
+    pub(super) plane: Plane,
+    pub(super) absolute: bool,
+    pub(super) inch: bool,
+    pub(super) offset: u32,
+    pub(super) tool: Option<u32>,
+    pub(super) pending_tool: Option<u32>,
+    /// Where the program has the tool (program coordinates, mm and degrees).
+    pub(super) position: [f64; 6],
+    /// Where the output program has the tool, as written (mm and degrees).
+    pub(super) written: [f64; 6],
+    /// The motion mode the output program is in.
+    pub(super) written_motion: Motion,
+}
+
+/// Where each axis is before the program moves it: the first absolute value the program gives
+/// it (rotary axes the program never names: 0). An axis first moved incrementally, or a linear
+/// axis never set, has no known start.
+pub(super) fn starting_position(
+    lines: &[Line],
+    machine: &Machine,
+    path: &str,
+    options: &Options,
+) -> Result<[f64; 6], NcError> {
+    let mut start: [Option<f64>; 6] = [None; 6];
+    let mut absolute = true;
+    let mut inch = false;
+    for line in lines {
+        distance_and_units(line, &mut absolute, &mut inch);
+        if is_dwell(line) || is_reference_return(line) || !is_understood(line, options.pass_unknown)
+        {
+            continue;
+        }
+        for w in &line.words {
+            if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {
+                if start[d].is_none() {
+                    if !absolute {
+                        return Err(NcError::line(
+                            path,
+                            line.number,
+                            format!("{} moves incrementally before the program has set it: its start is not known", w.letter),
+                        ));
+                    }
+                    start[d] = Some(if inch && d < 3 {
+                        w.value * MM_PER_INCH
+                    } else {
+                        w.value
+                    });
+                }
+            }
+        }
+    }
+    let mut position = [0.0; 6];
+    for d in 0..6 {
+        position[d] = match start[d] {
+            Some(v) => v,
+            None if d >= 3 => 0.0,
+            None if machine.axis(AxisLetter::ALL[d]).is_none() => 0.0,
+            None => {
+                return Err(NcError::line(
+                    path,
+                    1,
+                    format!(
+                        "the program never sets {}: its height is not known",
+                        AXIS_LETTERS[d]
+                    ),
+                ))
+            }
+        };
+    }
+    Ok(position)
+}
+
+/// The distance mode (G90/G91) and units (G20/G21) a line sets, for the scans ahead of the
+/// program's run.
+pub(super) fn distance_and_units(line: &Line, absolute: &mut bool, inch: &mut bool) {
+    for w in line.words.iter().filter(|w| w.letter == 'G') {
+        match w.value as u32 {
+            20 => *inch = true,
+            21 => *inch = false,
+            90 => *absolute = true,
+            91 => *absolute = false,
+            _ => {}
+        }
+    }
+}
+
+/// G4: a dwell, whose X or P is a time.
+pub(super) fn is_dwell(line: &Line) -> bool {
+    line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0)
+}
+
+/// G28: to the reference point through the intermediate point its axis words give.
+pub(super) fn is_reference_return(line: &Line) -> bool {
+    line.words
+        .iter()
+        .any(|w| w.letter == 'G' && w.value == 28.0)
+}
+
+/// Where axis `d` is next set absolutely after line `from` (for an axis the program sent to
+/// its reference point: the machine's reference is not in the program). Modal distance and
+/// units are followed from `state`.
+pub(super) fn next_absolute(
+    lines: &[Line],
+    from: usize,
+    d: usize,
+    state: &State,
+    path: &str,
+) -> Result<Option<f64>, NcError> {
+    let (mut absolute, mut inch) = (state.absolute, state.inch);
+    for line in &lines[from + 1..] {
+        distance_and_units(line, &mut absolute, &mut inch);
+        if is_dwell(line) || is_reference_return(line) {
+            continue;
+        }
+        if let Some(w) = line.word(AXIS_LETTERS[d]) {
+            if !absolute {
+                return Err(NcError::line(
+                    path,
+                    line.number,
+                    format!(
+                        "{} moves incrementally after a return to the reference point: where it starts is not known",
+                        AXIS_LETTERS[d]
+                    ),
+                ));
+            }
+            return Ok(Some(if inch && d < 3 {
+                w.value * MM_PER_INCH
+            } else {
+                w.value
+            }));
+        }
+    }
+    Ok(None)
+}
+
+/// A G28 block passes as it is; the axes it names are at the machine's reference afterwards,
+/// which the program does not know: they take the value the program next gives them, and the
+/// output writes them afresh.
+pub(super) fn reference_return(
+    lines: &[Line],
+    index: usize,
+    state: &mut State,
+    path: &str,
+) -> Result<(), NcError> {
+    let line = &lines[index];
+    for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
+        if line.has(letter) {
+            if let Some(v) = next_absolute(lines, index, d, state, path)? {
+                state.position[d] = v;
+            }
+            state.written[d] = f64::NAN;
+        }
+    }
+    Ok(())
+}
+
+/// Whether every G code of the line is one volmap follows (or the user passes unknown ones).
+pub(super) fn is_understood(line: &Line, pass_unknown: bool) -> bool {
+    pass_unknown || unknown_code(line).is_none()
+}
+
+pub(super) fn unknown_code(line: &Line) -> Option<String> {
+    for w in &line.words {
+        match w.letter {
+            'G' => {
+                let g = w.value;
+                let known = g.fract() == 0.0
+                    && matches!(g as u32, 0..=4 | 17..=21 | 28 | 90 | 91 | 54..=59)
+                    || PASSIVE_G.contains(&(g as u32)) && g.fract() == 0.0;
+                if !known {
+                    return Some(format!("G{}", w.text));
+                }
+            }
+            'U' | 'V' | 'W' | 'Q' | 'L' | 'E' => return Some(format!("{}{}", w.letter, w.text)),
+            // Subprogram calls and returns: their moves are elsewhere.
+            'M' if w.value == 98.0 || w.value == 99.0 => return Some(format!("M{}", w.text)),
+            _ => {}
+        }
+    }
+    None
+}
+
+/// What a line does once its modal words are taken.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Step {
+    /// It moves no axis volmap follows: it is copied as it is.
+    Pass,
+    /// It moves the tool to a programmed point.
+    Move,
+}
+
+/// Takes a line's modal words (motion, plane, distance, units, work offset, tool), and says
+/// whether it moves. Lines with codes volmap does not follow are errors, or with `pass_unknown`
+/// passed, their axis words moving the program's tool as straight moves would.
+pub(super) fn take_line(
+    lines: &[Line],
+    index: usize,
+    state: &mut State,
+    path: &str,
+    pass_unknown: bool,
+) -> Result<Step, NcError> {
+    let line = &lines[index];
+    if line.words.is_empty() {
+        return Ok(Step::Pass);
+    }
+    if let Some(code) = unknown_code(line) {
+        if !pass_unknown {
+            return Err(NcError::line(
+                path,
+                line.number,
+                format!("{code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G49 G54–G59 G61 G64 G80 G90 G91 G94 G95 G98); --pass-unknown passes such blocks unchanged"),
+            ));
+        }
+        apply_modals(line, state, path)?;
+        let end = end_position(line, state);
+        state.position = end;
+        state.written = end;
+        return Ok(Step::Pass);
+    }
+    apply_modals(line, state, path)?;
+    if is_reference_return(line) {
+        reference_return(lines, index, state, path)?;
+        return Ok(Step::Pass);
+    }
+    if let Some(t) = line.word('T') {
+        state.pending_tool = Some(t.value as u32);
+    }
+    if line.words.iter().any(|w| w.letter == 'M' && w.value == 6.0) {
+        state.tool = state.pending_tool;
+    }
+    let dwell = is_dwell(line);
+    let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter));
+    let has_centre = line
+        .words
+        .iter()
+        .any(|w| matches!(w.letter, 'I' | 'J' | 'K' | 'R'));
+    let arc = matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise);
+    if dwell || !(has_axis || (arc && has_centre)) {
+        // The output reads this line as it is: a motion code in it sets its mode too.
+        if line
+            .words
+            .iter()
+            .any(|w| w.letter == 'G' && (w.value as u32) < 4 && w.value.fract() == 0.0)
+        {
+            state.written_motion = state.motion;
+        }
+        return Ok(Step::Pass);
+    }
+    Ok(Step::Move)
+}
+
+pub(super) fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcError> {
+    let mut motions = 0;
+    for w in line.words.iter().filter(|w| w.letter == 'G') {
+        match w.value as u32 {
+            0 => state.motion = Motion::Rapid,
+            1 => state.motion = Motion::Linear,
+            2 => state.motion = Motion::Clockwise,
+            3 => state.motion = Motion::CounterClockwise,
+            17 => state.plane = XY,
+            18 => state.plane = ZX,
+            19 => state.plane = YZ,
+            20 => state.inch = true,
+            21 => state.inch = false,
+            90 => state.absolute = true,
+            91 => state.absolute = false,
+            g @ 54..=59 => state.offset = g,
+            _ => {}
+        }
+        if (w.value as u32) < 4 {
+            motions += 1;
+        }
+    }
+    if motions > 1 {
+        return Err(NcError::line(
+            path,
+            line.number,
+            "two motion codes (G0 G1 G2 G3) in one block".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The block's end point in program coordinates (mm, degrees).
+pub(super) fn end_position(line: &Line, state: &State) -> [f64; 6] {
+    let mut end = state.position;
+    for w in &line.words {
+        if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {
+            let value = if state.inch && d < 3 {
+                w.value * MM_PER_INCH
+            } else {
+                w.value
+            };
+            end[d] = if state.absolute {
+                value
+            } else {
+                end[d] + value
+            };
+        }
+    }
+    end
+}
