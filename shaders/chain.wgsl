@@ -33,7 +33,7 @@ struct Params {
     tail_offset: vec4<f32>,  // nominal translation of S·Trans(tool)
     tail_delta: vec4<f32>,   // translation deviation of S·Trans(tool)
     tail_m: mat4x4<f32>,     // R_S − I (upper 3×3)
-    options: vec4<u32>,      // x: 1 when a rotary axis stands before X in the product order (the pipeline's ROTARY_BEFORE_X); y: points per lane; z: lanes per line; w: bit 0/1: X's translations/rotations from x_poly (X_TRANSLATIONS_INLINE, X_ROTATIONS_INLINE)
+    options: vec4<u32>,      // x: -; y: points per lane; z: lanes per line; w: - (the machine's shape is in the override constants)
     x_poly: array<vec4<f32>, 6>,       // X's errors EXX..ECX as c0..c3 in s = q − start, where one piece each
     x_poly_span: array<vec4<f32>, 6>,  // start, lowest, highest position
 }
@@ -451,8 +451,10 @@ fn eval_x_poly(p: XPoly, q: f32) -> vec3<f32> {
 //   d = c0 + Ra·(e + Ma~·(q·u + e) + M1~·vb)
 // so VE = d and OE = Ra · rotation_vector(M~), which needs only the skew part of M~. Each
 // invocation computes several points of one line (see `point_tile`): the line's values are loaded
-// once and used for all of them, and each point loads only X's six component errors. Ra is the
-// identity unless a rotary axis stands before X in the product order (params.options.x).
+// once and used for all of them, and each point needs only X's six component errors at its q,
+// evaluated here where they are single polynomial pieces (X_TRANSLATIONS_INLINE,
+// X_ROTATIONS_INLINE) and loaded from x_errors otherwise. Ra is the identity unless a rotary axis
+// stands before X in the product order (ROTARY_BEFORE_X).
 @compute @workgroup_size(64)
 fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;

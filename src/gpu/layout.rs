@@ -36,12 +36,11 @@ pub struct Params {
     pub tail_delta: [f32; 4],
     /// Rotation deviation `R_S − I` of the spindle error.
     pub tail_m: Mat4,
-    /// x: 1 when a rotary axis stands before X in the product order (Pre has a nominal
-    /// rotation); y: points per invocation of the point pass; z: lanes per line; w: which of X's
-    /// error groups the point pass evaluates itself (see `x_poly`).
+    /// x: unused; y: points per invocation of the point pass; z: lanes per line; w: unused.
+    /// (The machine's shape is compiled into the point pass: `gpu::PointVariant`.)
     pub options: [u32; 4],
-    /// X's six component errors where each is one polynomial piece of degree 3 at most
-    /// (options.w bit 0: the translations, bit 1: the rotations): `c0..c3` in `s = q − start`.
+    /// X's six component errors where each is one polynomial piece of degree 3 at most (the
+    /// groups `PointVariant` marks inline): `c0..c3` in `s = q − start`.
     pub x_poly: [[f32; 4]; 6],
     /// For each of them: start, lowest and highest position (positions clamp), unused.
     pub x_poly_span: [[f32; 4]; 6],

@@ -44,6 +44,8 @@ pub struct Packed {
     pub pieces: Vec<Piece>,
     /// Flat coefficients, padded to whole vec4s.
     pub coefficients: Vec<[f32; 4]>,
+    /// The shape of the machine the point pass is compiled for.
+    pub variant: PointVariant,
 }
 
 fn mat4_of(m: &Matrix3<f64>) -> Mat4 {
@@ -218,8 +220,6 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
             }
         }
     }
-    let x_inline =
-        inline[..3].iter().all(|&b| b) as u32 | (inline[3..].iter().all(|&b| b) as u32) << 1;
     // S · Trans(tool) = [(I + M_S), tool + e_S + M_S·tool].
     let [exs, eys, ezs, eas, ebs] = machine.spindle;
     let spindle_m = rot_deviation(eas, ebs, 0.0);
@@ -238,9 +238,15 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
         tail_offset: vec4_of(machine.tool_offset_mm),
         tail_delta: vec4_of(tail_delta.into()),
         tail_m: mat4_of(&spindle_m),
-        options: [rotary_before_x as u32, 0, 0, x_inline],
+        options: [0; 4],
         x_poly,
         x_poly_span,
+    };
+    let variant = PointVariant {
+        rotary_before_x,
+        has_x: x_position.is_some(),
+        x_translations_inline: inline[..3].iter().all(|&b| b),
+        x_rotations_inline: inline[3..].iter().all(|&b| b),
     };
     Packed {
         params,
@@ -248,6 +254,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
         functions,
         pieces,
         coefficients,
+        variant,
     }
 }
 
@@ -261,25 +268,21 @@ pub struct GpuMapper {
     write_only: device::Kernel,
 }
 
-/// The pipeline-overridable constants of the point pass (see `shaders/chain.wgsl`).
+/// The shape of a machine as the point pass sees it: its pipeline-overridable constants (see
+/// `shaders/chain.wgsl`), one compiled pipeline per shape.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-struct PointVariant {
-    rotary_before_x: bool,
-    has_x: bool,
-    x_translations_inline: bool,
-    x_rotations_inline: bool,
+pub struct PointVariant {
+    /// A rotary axis stands before X in the product order (Pre has a nominal rotation).
+    pub rotary_before_x: bool,
+    /// The chain has an X axis.
+    pub has_x: bool,
+    /// X's translations (EXX EYX EZX) are single polynomial pieces, in `Params::x_poly`.
+    pub x_translations_inline: bool,
+    /// X's rotations (EAX EBX ECX) are single polynomial pieces, in `Params::x_poly`.
+    pub x_rotations_inline: bool,
 }
 
 impl PointVariant {
-    fn of(params: &Params) -> PointVariant {
-        PointVariant {
-            rotary_before_x: params.options[0] != 0,
-            has_x: params.chunk[2] < params.grid[3],
-            x_translations_inline: params.options[3] & 1 != 0,
-            x_rotations_inline: params.options[3] & 2 != 0,
-        }
-    }
-
     fn constants(&self) -> [(&'static str, f64); 4] {
         let value = |b: bool| if b { 1.0 } else { 0.0 };
         [
@@ -453,7 +456,7 @@ impl GpuMapper {
             None,
         );
 
-        let points = self.points_kernel(PointVariant::of(&packed.params))?;
+        let points = self.points_kernel(packed.variant)?;
         let slots = (0..2.min(chunks.len()))
             .map(|_| {
                 let params = gpu.uniform("chunk params", bytemuck::bytes_of(&packed.params));
