@@ -29,8 +29,6 @@ pub struct Line {
     pub words: Vec<Word>,
     /// Whether words are separated by spaces (new words are written the same way).
     pub spaced: bool,
-    /// Why the line could not be read, where it is passed unread (`--pass-unknown`).
-    pub unread: Option<String>,
 }
 
 impl Line {
@@ -84,13 +82,12 @@ pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<
         }
         match parse_line(body, ending, number, path) {
             Ok(line) => lines.push(line),
-            Err(NcError::Line { message, .. }) if pass_unread => lines.push(Line {
+            Err(NcError::Line { .. }) if pass_unread => lines.push(Line {
                 number,
                 text: body.into(),
                 ending: ending.into(),
                 words: Vec::new(),
                 spaced: false,
-                unread: Some(message),
             }),
             Err(e) => return Err(e),
         }
@@ -111,7 +108,6 @@ fn parse_line(body: &str, ending: &str, number: usize, path: &str) -> Result<Lin
             ending: ending.into(),
             words,
             spaced: false,
-            unread: None,
         });
     }
     while i < bytes.len() {
@@ -189,7 +185,6 @@ fn parse_line(body: &str, ending: &str, number: usize, path: &str) -> Result<Lin
         text: body.into(),
         ending: ending.into(),
         spaced: spaced_words(body, &words),
-        unread: None,
         words,
     })
 }
