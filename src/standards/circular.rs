@@ -84,6 +84,39 @@ pub fn least_squares_circle(
 }
 
 pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, StandardsError> {
+    circular_with(setup, spec, read_circular(spec)?.as_ref())
+}
+
+/// +1 counter-clockwise, −1 clockwise.
+fn sense_of(spec: &CircularSpec) -> Result<f64, StandardsError> {
+    match spec.direction.trim().to_ascii_lowercase().as_str() {
+        "ccw" => Ok(1.0),
+        "cw" => Ok(-1.0),
+        other => Err(parameter(format!(
+            "direction `{other}`: ccw (counter-clockwise, G3) or cw (clockwise, G2)"
+        ))),
+    }
+}
+
+/// A circle's measured results, where the spec names a file: angles in the order of the run.
+pub(super) fn read_circular(spec: &CircularSpec) -> Result<Option<Measured>, StandardsError> {
+    let sense = sense_of(spec)?;
+    spec.csv
+        .as_deref()
+        .map(|p| {
+            let m = Measured::read(p, &[("angle", Unit::Angle), ("deviation", Unit::Length)])?;
+            m.require_monotonic(0, "angle", sense > 0.0)?;
+            Ok(m)
+        })
+        .transpose()
+}
+
+/// [`circular`] with the measured results already read (a fit runs the test many times).
+pub(super) fn circular_with(
+    setup: &Setup,
+    spec: &CircularSpec,
+    measured: Option<&Measured>,
+) -> Result<TestResult, StandardsError> {
     let (u, v) = plane_axes(&spec.plane)?;
     let plane = spec.plane.trim().to_ascii_uppercase();
     let (lo, hi) = setup.travel_box()?;
@@ -96,25 +129,8 @@ pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, Standa
             "radius {radius} mm: it must be positive"
         )));
     }
-    let sense = match spec.direction.trim().to_ascii_lowercase().as_str() {
-        "ccw" => 1.0,
-        "cw" => -1.0,
-        other => {
-            return Err(parameter(format!(
-                "direction `{other}`: ccw (counter-clockwise, G3) or cw (clockwise, G2)"
-            )))
-        }
-    };
-    let measured = spec
-        .csv
-        .as_deref()
-        .map(|p| {
-            let m = Measured::read(p, &[("angle", Unit::Angle), ("deviation", Unit::Length)])?;
-            m.require_monotonic(0, "angle", sense > 0.0)?;
-            Ok::<_, StandardsError>(m)
-        })
-        .transpose()?;
-    let angles: Vec<f64> = match &measured {
+    let sense = sense_of(spec)?;
+    let angles: Vec<f64> = match measured {
         Some(m) => m.columns[0].clone(),
         None => {
             if spec.points < 3 {
@@ -144,10 +160,7 @@ pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, Standa
         Ok([range_of(&residuals), max, min])
     };
     let p = figures_of(&predicted)?;
-    let m = measured
-        .as_ref()
-        .map(|m| figures_of(&m.columns[1]))
-        .transpose()?;
+    let m = measured.map(|m| figures_of(&m.columns[1])).transpose()?;
     Ok(TestResult {
         title: format!(
             "ISO 230-4 circular test in {plane}, {}: centre ({:.1}, {:.1}, {:.1}) mm, radius {radius} mm",

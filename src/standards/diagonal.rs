@@ -110,6 +110,23 @@ pub fn read_profile(
 }
 
 pub fn diagonal(setup: &Setup, spec: &DiagonalSpec) -> Result<TestResult, StandardsError> {
+    diagonal_with(setup, spec, read_diagonal(spec)?.as_ref())
+}
+
+/// A diagonal's measured results, where the spec names a file.
+pub(super) fn read_diagonal(spec: &DiagonalSpec) -> Result<Option<Measured>, StandardsError> {
+    spec.csv
+        .as_deref()
+        .map(|p| read_profile(p, ("position", Unit::Length), &["deviation"]))
+        .transpose()
+}
+
+/// [`diagonal`] with the measured results already read (a fit runs the test many times).
+pub(super) fn diagonal_with(
+    setup: &Setup,
+    spec: &DiagonalSpec,
+    measured: Option<&Measured>,
+) -> Result<TestResult, StandardsError> {
     let (lo, hi) = setup.travel_box()?;
     let (from, to, label) = match (&spec.diagonal, spec.from_mm, spec.to_mm) {
         (name, Some(a), Some(b)) => (
@@ -138,12 +155,7 @@ pub fn diagonal(setup: &Setup, spec: &DiagonalSpec) -> Result<TestResult, Standa
             &format!("diagonal {label}, its {what}"),
         )?;
     }
-    let measured = spec
-        .csv
-        .as_deref()
-        .map(|p| read_profile(p, ("position", Unit::Length), &["deviation"]))
-        .transpose()?;
-    let positions: Vec<f64> = match &measured {
+    let positions: Vec<f64> = match measured {
         Some(m) => {
             for (row, &s) in m.columns[0].iter().enumerate() {
                 if s < -1e-9 || s > length + 1e-9 {

@@ -16,9 +16,15 @@ use std::path::{Path, PathBuf};
 use nalgebra::{DMatrix, DVector};
 use serde::Deserialize;
 
+use super::circular::{circular_with, read_circular};
+use super::diagonal::{diagonal_with, read_diagonal};
+use super::iso230_2::PositioningData;
+use super::measured::Measured;
+use super::positioning::positioning_with;
+use super::rtest::{read_rtest, rtest_with};
 use super::{
-    circular, diagonal, least_squares_circle, positioning, rtest, CircularSpec, DiagonalSpec,
-    PositioningSpec, RTestSpec, Setup, StandardsError, TestResult,
+    least_squares_circle, read_positioning, CircularSpec, DiagonalSpec, PositioningSpec, RTestSpec,
+    Setup, StandardsError, TestResult,
 };
 use crate::machine::{AxisLetter, Machine, COMPONENT_NAMES};
 
@@ -154,35 +160,36 @@ pub struct FitReport {
     pub machine: Machine,
 }
 
-/// One test of the file, ready to run on any version of the machine.
+/// One test of the file with its measured results, read once, ready to run on any version of
+/// the machine.
 enum Test<'a> {
-    Positioning(&'a PositioningSpec),
-    Diagonal(&'a DiagonalSpec),
-    Circular(&'a CircularSpec),
-    Rotary(&'a RTestSpec),
+    Positioning(&'a PositioningSpec, PositioningData),
+    Diagonal(&'a DiagonalSpec, Measured),
+    Circular(&'a CircularSpec, Measured),
+    Rotary(&'a RTestSpec, Measured),
 }
 
 impl Test<'_> {
     fn run(&self, machine: &Machine) -> Result<TestResult, StandardsError> {
         let pose = match self {
-            Test::Positioning(s) => &s.pose,
-            Test::Diagonal(s) => &s.pose,
-            Test::Circular(s) => &s.pose,
-            Test::Rotary(s) => &s.pose,
+            Test::Positioning(s, _) => &s.pose,
+            Test::Diagonal(s, _) => &s.pose,
+            Test::Circular(s, _) => &s.pose,
+            Test::Rotary(s, _) => &s.pose,
         };
         let setup = Setup::new(machine, pose)?;
         match self {
-            Test::Positioning(s) => positioning(&setup, s),
-            Test::Diagonal(s) => diagonal(&setup, s),
-            Test::Circular(s) => circular(&setup, s),
-            Test::Rotary(s) => rtest(&setup, s),
+            Test::Positioning(s, m) => positioning_with(&setup, s, Some(m)),
+            Test::Diagonal(s, m) => diagonal_with(&setup, s, Some(m)),
+            Test::Circular(s, m) => circular_with(&setup, s, Some(m)),
+            Test::Rotary(s, m) => rtest_with(&setup, s, Some(m)),
         }
     }
 
     /// The nuisance parameters taken out of each curve: 3 for a circle, else 1.
     fn nuisance_per_curve(&self) -> usize {
         match self {
-            Test::Circular(_) => 3,
+            Test::Circular(..) => 3,
             _ => 1,
         }
     }
@@ -225,28 +232,28 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
             "`estimate` names no location error".into(),
         ));
     }
-    let mut tests: Vec<Test> = Vec::new();
-    tests.extend(file.positioning.iter().map(Test::Positioning));
-    tests.extend(file.diagonal.iter().map(Test::Diagonal));
-    tests.extend(file.circular.iter().map(Test::Circular));
-    tests.extend(file.rtest.iter().map(Test::Rotary));
     let missing = |kind: &str, n: usize| {
         StandardsError::Parameter(format!(
             "[[{kind}]] number {}: give the measured results (`csv = \"...\"`)",
             n + 1
         ))
     };
+    let mut tests: Vec<Test> = Vec::new();
     for (n, s) in file.positioning.iter().enumerate() {
-        s.csv.as_ref().ok_or_else(|| missing("positioning", n))?;
+        let csv = s.csv.as_deref().ok_or_else(|| missing("positioning", n))?;
+        tests.push(Test::Positioning(s, read_positioning(csv)?));
     }
     for (n, s) in file.diagonal.iter().enumerate() {
-        s.csv.as_ref().ok_or_else(|| missing("diagonal", n))?;
+        let m = read_diagonal(s)?.ok_or_else(|| missing("diagonal", n))?;
+        tests.push(Test::Diagonal(s, m));
     }
     for (n, s) in file.circular.iter().enumerate() {
-        s.csv.as_ref().ok_or_else(|| missing("circular", n))?;
+        let m = read_circular(s)?.ok_or_else(|| missing("circular", n))?;
+        tests.push(Test::Circular(s, m));
     }
     for (n, s) in file.rtest.iter().enumerate() {
-        s.csv.as_ref().ok_or_else(|| missing("rtest", n))?;
+        let m = read_rtest(s)?.ok_or_else(|| missing("rtest", n))?;
+        tests.push(Test::Rotary(s, m));
     }
     if tests.is_empty() {
         return Err(StandardsError::Parameter(

@@ -158,13 +158,22 @@ fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
 }
 
 pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, StandardsError> {
+    let measured = spec.csv.as_deref().map(read_positioning).transpose()?;
+    positioning_with(setup, spec, measured.as_ref())
+}
+
+/// [`positioning`] with the measured runs already read (a fit runs the test many times).
+pub(super) fn positioning_with(
+    setup: &Setup,
+    spec: &PositioningSpec,
+    measured: Option<&PositioningData>,
+) -> Result<TestResult, StandardsError> {
     let letter = parse_linear(&spec.axis)?;
     let axis = setup.linear_axis(letter)?;
     let d = letter.direction_index();
     let (lo, hi) = setup.travel_box()?;
     let at = spec.at_mm.map_or((lo + hi) / 2.0, Vector3::from);
-    let measured = spec.csv.as_deref().map(read_positioning).transpose()?;
-    let targets: Vec<f64> = match &measured {
+    let targets: Vec<f64> = match measured {
         Some(data) => data.targets_mm.clone(),
         None => {
             let [a, b] = axis.range;
@@ -200,7 +209,7 @@ pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, 
         down: deviations.iter().map(|&x| runs(x)).collect(),
     };
     let predicted_figures = predicted.figures();
-    let measured_figures = measured.as_ref().map(PositioningData::figures);
+    let measured_figures = measured.map(PositioningData::figures);
     let meanings = [
         "accuracy, bidirectional",
         "accuracy, ↑",
@@ -233,7 +242,7 @@ pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, 
         title: format!(
             "ISO 230-2 positioning of {letter} ({} targets, {} runs each way)",
             targets.len(),
-            measured.as_ref().map_or(spec.runs, |m| m.up[0].len())
+            measured.map_or(spec.runs, |m| m.up[0].len())
         ),
         position_label: format!("target {letter} (mm)"),
         positions: targets,

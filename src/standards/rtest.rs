@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use nalgebra::Vector3;
 use serde::Deserialize;
 
-use super::measured::Unit;
+use super::measured::{Measured, Unit};
 use super::{
     default_pose, figure, parameter, range_of, read_profile, Setup, StandardsError, TestResult,
 };
@@ -38,6 +38,23 @@ fn default_step() -> f64 {
 }
 
 pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsError> {
+    rtest_with(setup, spec, read_rtest(spec)?.as_ref())
+}
+
+/// An R-test's measured results, where the spec names a file.
+pub(super) fn read_rtest(spec: &RTestSpec) -> Result<Option<Measured>, StandardsError> {
+    spec.csv
+        .as_deref()
+        .map(|p| read_profile(p, ("angle", Unit::Angle), &["dX", "dY", "dZ"]))
+        .transpose()
+}
+
+/// [`rtest`] with the measured results already read (a fit runs the test many times).
+pub(super) fn rtest_with(
+    setup: &Setup,
+    spec: &RTestSpec,
+    measured: Option<&Measured>,
+) -> Result<TestResult, StandardsError> {
     let letter = match spec.axis.trim() {
         "A" | "a" => AxisLetter::A,
         "B" | "b" => AxisLetter::B,
@@ -62,12 +79,7 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
             reference::tool_pose(&setup.ideal, &mid).0
         }
     };
-    let measured = spec
-        .csv
-        .as_deref()
-        .map(|p| read_profile(p, ("angle", Unit::Angle), &["dX", "dY", "dZ"]))
-        .transpose()?;
-    let angles: Vec<f64> = match &measured {
+    let angles: Vec<f64> = match measured {
         Some(m) => m.columns[0].clone(),
         None => {
             let from = spec.from_deg.unwrap_or(axis.range[0]);
