@@ -75,6 +75,19 @@ pub fn tool_pose(machine: &Machine, command: &Command) -> (Vector3<f64>, Matrix3
     )
 }
 
+/// The derivative of the tool tip (workpiece frame) in the commanded X, Y, Z at `command`, from
+/// unit steps: exact for a machine without errors, whose nominal linear axes are translations,
+/// so that its tip is affine in X, Y, Z at fixed rotary positions.
+pub fn tip_jacobian(machine: &Machine, command: &Command) -> Matrix3<f64> {
+    let base = tool_pose(machine, command).0;
+    let column = |d: usize| {
+        let mut stepped = *command;
+        stepped[d] += 1.0;
+        tool_pose(machine, &stepped).0 - base
+    };
+    Matrix3::from_columns(&[column(0), column(1), column(2)])
+}
+
 /// The machine's error at one commanded position.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Deviation {

@@ -167,6 +167,9 @@ const MAX_PIECES: usize = 100_000;
 struct Kinematics {
     real: Machine,
     ideal: Machine,
+    /// The inverse of the ideal tip's Jacobian in X, Y, Z at the last rotary positions it was
+    /// asked for: the same for every point until the rotary axes move.
+    inverse: std::cell::RefCell<Option<([f64; 3], Matrix3<f64>)>>,
 }
 
 struct Compensator<'a> {
@@ -203,7 +206,14 @@ impl Compensator<'_> {
                 real.tool_offset_mm = [0.0, 0.0, -l];
             }
             let ideal = real.without_errors();
-            self.tools.insert(tool, Kinematics { real, ideal });
+            self.tools.insert(
+                tool,
+                Kinematics {
+                    real,
+                    ideal,
+                    inverse: Default::default(),
+                },
+            );
         }
         Ok(&self.tools[&tool])
     }
@@ -214,21 +224,25 @@ impl Kinematics {
         reference::tool_pose(machine, q).0
     }
 
-    /// The ideal tip's derivative in X, Y, Z (constant at fixed rotary positions).
-    fn jacobian(&self, q: &Command) -> Matrix3<f64> {
-        let base = Self::tip(&self.ideal, q);
-        let column = |d: usize| {
-            let mut p = *q;
-            p[d] += 1.0;
-            Self::tip(&self.ideal, &p) - base
-        };
-        Matrix3::from_columns(&[column(0), column(1), column(2)])
+    /// The inverse of the ideal tip's derivative in X, Y, Z at `q` (constant at fixed rotary
+    /// positions, so kept until they change); `None` where the linear axes do not span X, Y, Z.
+    fn inverse_jacobian(&self, q: &Command) -> Option<Matrix3<f64>> {
+        let rotary = [q[3], q[4], q[5]];
+        let mut cache = self.inverse.borrow_mut();
+        match *cache {
+            Some((at, inverse)) if at == rotary => Some(inverse),
+            _ => {
+                let inverse = reference::tip_jacobian(&self.ideal, q).try_inverse()?;
+                *cache = Some((rotary, inverse));
+                Some(inverse)
+            }
+        }
     }
 
     /// The command whose real tip lands on the ideal tip of `q`.
     fn compensate(&self, q: &Command) -> Option<Command> {
         let target = Self::tip(&self.ideal, q);
-        let inverse = self.jacobian(q).try_inverse()?;
+        let inverse = self.inverse_jacobian(q)?;
         let mut c = *q;
         for _ in 0..50 {
             let r = Self::tip(&self.real, &c) - target;

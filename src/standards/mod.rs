@@ -149,29 +149,23 @@ impl<'a> Setup<'a> {
     }
 
     /// The commanded X Y Z at which the ideal machine puts the tool tip at `tip` (workpiece
-    /// frame), rotary axes as in `command`. Nominal linear axes are translations, so the tip is
-    /// affine in X, Y, Z at fixed rotary positions and three probes give the exact solve.
+    /// frame), rotary axes as in `command`: one exact step with the ideal machine's
+    /// [`reference::tip_jacobian`].
     pub fn nominal_command_for_tip(
         &self,
         tip: Vector3<f64>,
         command: &Command,
     ) -> Result<Command, StandardsError> {
-        let at = |xyz: [f64; 3]| {
-            let mut c = *command;
-            c[..3].copy_from_slice(&xyz);
-            reference::tool_pose(&self.ideal, &c).0
-        };
-        let base = at([0.0; 3]);
-        let jacobian = Matrix3::from_columns(&[
-            at([1.0, 0.0, 0.0]) - base,
-            at([0.0, 1.0, 0.0]) - base,
-            at([0.0, 0.0, 1.0]) - base,
-        ]);
-        let xyz = jacobian.lu().solve(&(tip - base)).ok_or_else(|| {
-            parameter(
-                "the machine's linear axes do not span X, Y and Z: no position reaches the tip",
-            )
-        })?;
+        let base = reference::tool_pose(&self.ideal, command).0;
+        let step = reference::tip_jacobian(&self.ideal, command)
+            .lu()
+            .solve(&(tip - base))
+            .ok_or_else(|| {
+                parameter(
+                    "the machine's linear axes do not span X, Y and Z: no position reaches the tip",
+                )
+            })?;
+        let xyz = Vector3::new(command[0], command[1], command[2]) + step;
         let mut c = *command;
         c[..3].copy_from_slice(xyz.as_slice());
         Ok(c)
