@@ -146,13 +146,19 @@ fn base64(bytes: &[u8]) -> String {
     out
 }
 
-fn image_png(cols: usize, rows: usize, rgb: &[[u8; 3]]) -> Result<Vec<u8>, PlotError> {
+/// An image shape's pixels as a pixmap.
+fn image_pixmap(cols: usize, rows: usize, rgb: &[[u8; 3]]) -> Result<tiny_skia::Pixmap, PlotError> {
     let mut pixmap = tiny_skia::Pixmap::new(cols as u32, rows as u32)
         .ok_or_else(|| PlotError::Raster(format!("an image of {cols}×{rows} pixels")))?;
     for (pixel, c) in pixmap.pixels_mut().iter_mut().zip(rgb) {
         *pixel = tiny_skia::ColorU8::from_rgba(c[0], c[1], c[2], 255).premultiply();
     }
-    pixmap
+    Ok(pixmap)
+}
+
+/// An image shape as PNG bytes, for embedding in SVG.
+fn image_png(cols: usize, rows: usize, rgb: &[[u8; 3]]) -> Result<Vec<u8>, PlotError> {
+    image_pixmap(cols, rows, rgb)?
         .encode_png()
         .map_err(|e| PlotError::Raster(e.to_string()))
 }
@@ -381,9 +387,7 @@ impl Drawing {
                     rows,
                     rgb,
                 } => {
-                    let png = image_png(*cols, *rows, rgb)?;
-                    let image =
-                        Pixmap::decode_png(&png).map_err(|e| PlotError::Raster(e.to_string()))?;
+                    let image = image_pixmap(*cols, *rows, rgb)?;
                     let transform = Transform::from_row(
                         (*w / *cols as f64) as f32,
                         0.0,
