@@ -14,6 +14,7 @@
 
 use std::path::Path;
 
+use super::measured::{csv_fields, csv_lines, csv_number, read_text};
 use super::StandardsError;
 use crate::machine::{AxisLetter, Interp, Machine, Table, COMPONENT_NAMES};
 
@@ -49,16 +50,8 @@ pub fn read_axis_csv(
     path: &Path,
     axis: AxisLetter,
 ) -> Result<Vec<MeasuredComponent>, StandardsError> {
-    let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| StandardsError::Io {
-        path: name.clone(),
-        source,
-    })?;
-    let mut rows = text
-        .lines()
-        .enumerate()
-        .map(|(n, l)| (n + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let (name, text) = read_text(path)?;
+    let mut rows = csv_lines(&text);
     let (header_line, header) = rows
         .next()
         .ok_or_else(|| csv_error(&name, 1, "empty file; expected a header row".into()))?;
@@ -135,27 +128,9 @@ pub fn read_axis_csv(
     let mut nodes: Vec<Vec<(f64, f64)>> = vec![Vec::new(); components.len()];
     let mut previous: Option<f64> = None;
     for (line, row) in rows {
-        let fields: Vec<&str> = row.split(',').map(str::trim).collect();
-        if fields.len() != columns.len() {
-            return Err(csv_error(
-                &name,
-                line,
-                format!("{} fields, the header has {}", fields.len(), columns.len()),
-            ));
-        }
-        let number = |n: usize| -> Result<f64, StandardsError> {
-            fields[n]
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    csv_error(
-                        &name,
-                        line,
-                        format!("`{}` in column `{}` is not a number", fields[n], columns[n]),
-                    )
-                })
-        };
+        let fields = csv_fields(row, columns.len()).map_err(|m| csv_error(&name, line, m))?;
+        let number =
+            |n: usize| csv_number(fields[n], columns[n]).map_err(|m| csv_error(&name, line, m));
         let q = number(0)?;
         if let Some(p) = previous {
             if q <= p {

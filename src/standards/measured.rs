@@ -29,15 +29,48 @@ pub struct Measured {
     pub text: Vec<Vec<String>>,
 }
 
+/// A measurement file's name (for errors) and text.
+pub(super) fn read_text(path: &Path) -> Result<(String, String), StandardsError> {
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| StandardsError::Io {
+        path: name.clone(),
+        source,
+    })?;
+    Ok((name, text))
+}
+
+/// The lines of a measurement CSV that hold its header and rows: 1-based line numbers, trimmed;
+/// blank lines and `#` comments skipped.
+pub(super) fn csv_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
+        .enumerate()
+        .map(|(n, l)| (n + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+}
+
+/// A row's fields, as many as the header has columns (else the message why not).
+pub(super) fn csv_fields(row: &str, columns: usize) -> Result<Vec<&str>, String> {
+    let fields: Vec<&str> = row.split(',').map(str::trim).collect();
+    if fields.len() != columns {
+        return Err(format!("{} fields, the header has {columns}", fields.len()));
+    }
+    Ok(fields)
+}
+
+/// A finite number from a field of `column` (else the message why not).
+pub(super) fn csv_number(field: &str, column: &str) -> Result<f64, String> {
+    field
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("`{field}` in column `{column}` is not a number"))
+}
+
 impl Measured {
     /// Reads `path` and picks the columns `wanted` (`(name, unit)`), each required. Columns not
     /// asked for are an error, so a misspelt name does not pass silently.
     pub fn read(path: &Path, wanted: &[(&str, Unit)]) -> Result<Measured, StandardsError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| StandardsError::Io {
-            path: name.clone(),
-            source,
-        })?;
+        let (name, text) = read_text(path)?;
         Self::parse(&text, &name, wanted)
     }
 
@@ -51,11 +84,7 @@ impl Measured {
             line,
             message,
         };
-        let mut rows = text
-            .lines()
-            .enumerate()
-            .map(|(n, l)| (n + 1, l.trim()))
-            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+        let mut rows = csv_lines(text);
         let expected = || {
             wanted
                 .iter()
@@ -119,29 +148,14 @@ impl Measured {
             text: vec![Vec::new(); wanted.len()],
         };
         for (line, row) in rows {
-            let fields: Vec<&str> = row.split(',').map(str::trim).collect();
-            if fields.len() != source.len() {
-                return Err(csv_error(
-                    line,
-                    format!("{} fields, the header has {}", fields.len(), source.len()),
-                ));
-            }
+            let fields = csv_fields(row, source.len()).map_err(|m| csv_error(line, m))?;
             for (field, &(n, factor)) in fields.iter().zip(&source) {
                 if wanted[n].1 == Unit::None {
                     measured.text[n].push(field.to_string());
                     measured.columns[n].push(f64::NAN);
                     continue;
                 }
-                let value: f64 = field
-                    .parse()
-                    .ok()
-                    .filter(|v: &f64| v.is_finite())
-                    .ok_or_else(|| {
-                        csv_error(
-                            line,
-                            format!("`{field}` in column `{}` is not a number", wanted[n].0),
-                        )
-                    })?;
+                let value = csv_number(field, wanted[n].0).map_err(|m| csv_error(line, m))?;
                 measured.columns[n].push(value * factor);
             }
             measured.lines.push(line);
