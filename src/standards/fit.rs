@@ -195,9 +195,11 @@ impl Test<'_> {
     }
 }
 
-/// Measured minus predicted, with each curve's zero (or circle) taken out.
-fn residuals(tests: &[Test], machine: &Machine) -> Result<Vec<f64>, StandardsError> {
+/// Measured minus predicted, with each curve's zero (or circle) taken out, and the number of
+/// parameters so taken out.
+fn residuals(tests: &[Test], machine: &Machine) -> Result<(Vec<f64>, usize), StandardsError> {
     let mut all = Vec::new();
+    let mut nuisance = 0;
     for test in tests {
         let result = test.run(machine)?;
         let measured = result
@@ -205,6 +207,7 @@ fn residuals(tests: &[Test], machine: &Machine) -> Result<Vec<f64>, StandardsErr
             .as_ref()
             .expect("fit tests carry measurements");
         for (m, p) in measured.iter().zip(&result.predicted) {
+            nuisance += test.nuisance_per_curve();
             let difference: Vec<f64> = m.iter().zip(p).map(|(a, b)| a - b).collect();
             if test.nuisance_per_curve() == 3 {
                 all.extend(least_squares_circle(&result.positions, &difference)?.1);
@@ -214,7 +217,7 @@ fn residuals(tests: &[Test], machine: &Machine) -> Result<Vec<f64>, StandardsErr
             }
         }
     }
-    Ok(all)
+    Ok((all, nuisance))
 }
 
 fn rms(values: &[f64]) -> f64 {
@@ -261,13 +264,9 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
                 .into(),
         ));
     }
-    let mut nuisance = 0;
-    for test in &tests {
-        nuisance += test.run(machine)?.predicted.len() * test.nuisance_per_curve();
-    }
 
     let mut current = machine.clone();
-    let before = residuals(&tests, &current)?;
+    let (before, nuisance) = residuals(&tests, &current)?;
     let points = before.len();
     let k = unknowns.len();
     let dof = points.checked_sub(k + nuisance).filter(|&d| d > 0).ok_or_else(|| {
@@ -283,7 +282,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
             u.set(&mut plus, value + h);
             let mut minus = m.clone();
             u.set(&mut minus, value - h);
-            let (rp, rm) = (residuals(&tests, &plus)?, residuals(&tests, &minus)?);
+            let (rp, rm) = (residuals(&tests, &plus)?.0, residuals(&tests, &minus)?.0);
             for r in 0..points {
                 // r = measured − predicted, so ∂predicted/∂p = −∂r/∂p.
                 j[(r, c)] = -(rp[r] - rm[r]) / (2.0 * h);
@@ -304,7 +303,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
             let value = u.get(&current);
             u.set(&mut current, value + step[c]);
         }
-        r = DVector::from_vec(residuals(&tests, &current)?);
+        r = DVector::from_vec(residuals(&tests, &current)?.0);
         j = jacobian_at(&current)?;
         let small = unknowns
             .iter()
