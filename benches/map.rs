@@ -1,7 +1,7 @@
 //! Criterion benchmarks of every map path, in grid points per second, for the 3-axis and the
 //! 5-axis embedded machines: the f64 reference (one thread), the CPU engine (all threads), the
-//! GPU kernel alone and with readback, and writing the EXR field. `cargo bench`; the fixed seed is
-//! the grid itself. Without an adapter the GPU benchmarks are left out, with a line saying so.
+//! GPU kernel alone and with readback, the write-only ceiling at each tiling it is measured with,
+//! and writing the EXR field. `cargo bench`; the fixed seed is the grid itself. Without an adapter the GPU benchmarks are left out, with a line saying so.
 //! `volmap bench` prints the same figures as one table.
 
 use std::hint::black_box;
@@ -11,7 +11,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use volmap::cpu::{self, CpuPlan};
 use volmap::field::FieldWriter;
 use volmap::gpu::layout::CHANNELS;
-use volmap::gpu::{GpuError, GpuMapper, KernelChoice};
+use volmap::gpu::{GpuError, GpuMapper, KernelChoice, TimedKernel};
 use volmap::grid::Grid;
 use volmap::machine::embedded;
 use volmap::map;
@@ -67,43 +67,38 @@ fn bench_maps(c: &mut Criterion) {
         });
 
         if let Some(gpu) = &gpu {
-            group.bench_function("GPU kernel", |b| {
-                b.iter_custom(|iterations| {
-                    (0..iterations)
-                        .map(|_| {
-                            Duration::from_secs_f64(
-                                gpu.time_kernel(&machine, &grid, KernelChoice::Chain, 1)
-                                    .unwrap()
-                                    .0,
-                            )
-                        })
-                        .sum()
-                })
-            });
-            group.bench_function("GPU write-only ceiling", |b| {
-                b.iter_custom(|iterations| {
-                    (0..iterations)
-                        .map(|_| {
-                            Duration::from_secs_f64(
-                                gpu.time_kernel(&machine, &grid, KernelChoice::WriteOnly, 1)
-                                    .unwrap()
-                                    .0,
-                            )
-                        })
-                        .sum()
-                })
-            });
+            let (machine, grid) = (&machine, &grid);
+            let timed = |choice, tiling| {
+                let kernel = TimedKernel { choice, tiling };
+                move |b: &mut criterion::Bencher| {
+                    b.iter_custom(|iterations| {
+                        (0..iterations)
+                            .map(|_| {
+                                Duration::from_secs_f64(
+                                    gpu.time_kernels(machine, grid, &[kernel], 1).unwrap().0[0],
+                                )
+                            })
+                            .sum()
+                    })
+                }
+            };
+            group.bench_function("GPU kernel", timed(KernelChoice::Chain, gpu.tiling()));
+            // The ceiling is the fastest of these (see `volmap bench`).
+            for tiling in gpu.ceiling_tilings() {
+                group.bench_function(
+                    format!(
+                        "GPU write-only ceiling, {}",
+                        volmap::bench::describe_tiling(tiling)
+                    ),
+                    timed(KernelChoice::WriteOnly, tiling),
+                );
+            }
             group.bench_function("GPU kernel + readback", |b| {
                 b.iter(|| {
-                    gpu.run(
-                        &machine,
-                        &grid,
-                        None,
-                        |_, _, data| -> Result<(), GpuError> {
-                            black_box(data);
-                            Ok(())
-                        },
-                    )
+                    gpu.run(machine, grid, None, |_, _, data| -> Result<(), GpuError> {
+                        black_box(data);
+                        Ok(())
+                    })
                     .unwrap()
                 })
             });

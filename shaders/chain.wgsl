@@ -13,15 +13,28 @@
 // volumetric error VE = d and the orientation error is the rotation vector of I + M, both in the
 // workpiece frame, never formed as a difference of large numbers.
 //
-// Three passes share the work so that each point costs two small products:
-//   axis_values  every axis transform A_k(q) once per grid value of its coordinate (X at each i, Y
-//                at each j, Z at each k, a rotary axis at its pose), error tables evaluated here;
-//   line_values  per grid line (j, k) of the chunk, the products before X (Pre) and after X
-//                (Post, with S·Trans(tool)), which are constant along the line;
-//   points       per point, Pre · A_X(i) · Post, with Pre and Post loaded once per lane for up
-//                to 32 points and X's errors at q evaluated in the pass where they are single
-//                polynomial pieces (params.x_poly), else loaded from x_errors. The pass is
-//                compiled per shape of machine (the override constants below).
+// The product is split at X, the axis the grid's lines run along: E_rel = Pre · X(i) · Post, where
+// Pre (the axes before X, then X's location L_X) and Post (the axes after X, then S·Trans(tool))
+// are constant along a line (j, k). Three passes share the work:
+//   axis_values  once per map: every axis at every grid value of its coordinate, the transform
+//                A_k(q) of Y at each j, Z at each k, a rotary axis at its pose, and X's six
+//                component errors at each i; the machine's error tables are evaluated here;
+//   groups       once per map: each side folded into at most two tables, Pre = PA · PB and
+//                Post = QA · QB, each one entry (constant factors) or one entry per j or per k
+//                (the Y or Z axis with the constant factors around it);
+//   points       per chunk: each invocation takes up to LINES_PER_LANE lines and a run of points
+//                along them. Per line it composes Pre and Post from the group tables and derives
+//                the line terms below; per point it forms X's errors (e, Mx) once, from their
+//                polynomials or the axis pass's table, and evaluates each of its lines:
+//
+//   VE = c + P·(e + Mx·vb) + tq·t                 OE = rotvec(s),  s = s0 + J0·Mx[0] + J1·Mx[1] + J2·Mx[2]
+//
+// with Pre = [(I + Mp)·Ra, tp + dp], Post = [(I + Mb)·Rb, tb + db], Ma = Raᵀ·Mp·Ra, vb = tb + db,
+// P = Ra·(I + Ma), c = dp + Ra·(db + Ma·vb), t = Ra·Ma·x̂ and tq = q·(X's sense) for X's nominal
+// motion, and the half skew part of Ra·(I + Ma)(I + Mx)(I + Mb)·Raᵀ split into its constant part
+// s0 = ½Ra·skew(Ma + Mb + Ma·Mb) and its part linear in Mx: column a of J_b is ½Ra·(q_b × p_a),
+// p_a the columns of I + Ma and q_b the rows of I + Mb. Nothing here drops a term: it is the exact
+// product, rearranged so that a point costs a few small products and its six stores.
 //
 // Host mirrors: src/gpu/layout.rs. Keep in sync with that file.
 
@@ -29,13 +42,12 @@ struct Params {
     origin: vec4<f32>,       // commanded X, Y, Z of grid point (0, 0, 0), mm
     spacing: vec4<f32>,      // grid step along X, Y, Z, mm
     grid: vec4<u32>,         // nx, ny, nz, number of axes
-    chunk: vec4<u32>,        // first line of the chunk, lines in the chunk, position of X in the product order (axes count: none), axis-value entries
-    tail_offset: vec4<f32>,  // nominal translation of S·Trans(tool)
-    tail_delta: vec4<f32>,   // translation deviation of S·Trans(tool)
-    tail_m: mat4x4<f32>,     // R_S − I (upper 3×3)
-    options: vec4<u32>,      // x: -; y: points per lane; z: lanes per line; w: - (the machine's shape is in the override constants)
-    x_poly: array<vec4<f32>, 6>,       // X's errors EXX..ECX as c0..c3 in s = q − start, where one piece each
-    x_poly_span: array<vec4<f32>, 6>,  // start, lowest, highest position
+    counts: vec4<u32>,       // axis-value entries, group entries, -, -
+    chunk: vec4<u32>,        // first line of the chunk, lines in the chunk, points per lane, lanes per line group
+    slots: vec4<u32>,        // first group entry of PA, PB, QA, QB
+    x_motion: vec4<f32>,     // tq at the centre index, tq per index step, centre index (t = i − centre), -
+    x_translation: array<vec4<f32>, 4>,  // EXX EYX EZX as polynomials in t: c0..c3 (xyz)
+    x_rotation: array<vec4<f32>, 4>,     // EAX EBX ECX likewise
 }
 
 struct AxisData {
@@ -67,14 +79,18 @@ struct DevData {
     m_d: array<vec4<f32>, 3>,
 }
 
-// What a grid line contributes to each of its points (see `points`): the nominal rotation Ra of
-// Pre, Ma~ = Raᵀ·M_Pre·Ra, M_Post, c0 = d_Pre + Ra·d_Post, vb = t0_Post + d_Post.
-struct LineData {
-    ra: array<vec4<f32>, 3>,
-    ma: array<vec4<f32>, 3>,
-    mb: array<vec4<f32>, 3>,
-    c0: vec4<f32>,
-    vb: vec4<f32>,
+// One factor of a group: an axis-value entry (source 0: the axis's first entry, plus j or k
+// when the axis runs along the group's dimension) or the constant transform it carries (source
+// 1: X's location, S·Trans(tool)).
+struct Factor {
+    info: vec4<u32>,  // source, first axis-value entry, dimension (0 fixed, 1 j, 2 k), -
+    value: DevData,
+}
+
+// One of PA, PB, QA, QB: the product of factors [first, first + count), tabulated over its
+// dimension (0: one entry, 1: each j, 2: each k) from group entry `info.w` on.
+struct Group {
+    info: vec4<u32>,  // first factor, factor count, dimension, first group entry
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -83,25 +99,40 @@ struct LineData {
 @group(0) @binding(3) var<storage, read> pieces: array<Piece>;
 @group(0) @binding(4) var<storage, read> coefficients: array<vec4<f32>>;
 @group(0) @binding(5) var<storage, read_write> axis_values: array<DevData>;
-@group(0) @binding(6) var<storage, read_write> line_values: array<LineData>;
+@group(0) @binding(6) var<storage, read_write> group_values: array<DevData>;
 @group(0) @binding(7) var<storage, read_write> out: array<f32>;
-// The component errors of X at each i: (EXX, EYX, EZX, -) at [i] and (EAX, EBX, ECX, -) at
-// [nx + i]. What the point pass needs of A_X besides X's constant location, which the line pass
-// folds into Pre.
+// X's component errors at each i: (EXX, EYX, EZX, -) at [i] and (EAX, EBX, ECX, -) at [nx + i],
+// for the point pass where they are not single polynomial pieces.
 @group(0) @binding(8) var<storage, read_write> x_errors: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> groups: array<Group>;
+@group(0) @binding(10) var<storage, read> factors: array<Factor>;
 
-// The shape of the machine, fixed per pipeline so the point pass has no branches on it (a CPU
-// adapter runs both sides of a branch it cannot prove uniform): whether a rotary axis stands
-// before X in the product order, whether the chain has an X axis, and whether X's translations
-// and rotations are single polynomial pieces the pass evaluates itself (params.x_poly).
-override ROTARY_BEFORE_X: bool = false;
-override HAS_X: bool = true;
-override X_TRANSLATIONS_INLINE: bool = false;
-override X_ROTATIONS_INLINE: bool = false;
+// The point pass is compiled per tiling and per shape of machine, so that its loop has no
+// branches on either (a CPU adapter runs both sides of a branch it cannot prove uniform):
+// lines per invocation (1, 2 or 4), where each of PA, PB, QA, QB comes from (SLOT_*), whether Pre
+// changes from line to line, and whether X's translations and rotations come from the axis
+// pass's table instead of their polynomials in Params.
+override LINES_PER_LANE: u32 = 1u;
+override PRE_A: u32 = 0u;
+override PRE_B: u32 = 3u;
+override POST_A: u32 = 0u;
+override POST_B: u32 = 3u;
+override PRE_VARIES: bool = false;
+override X_TRANSLATION_TABLE: bool = false;
+override X_ROTATION_TABLE: bool = false;
 
 const NO_FUNCTION: u32 = 0xffffffffu;
 const KIND_LINEAR: u32 = 0u;
 const SOURCE_FIXED: u32 = 3u;
+const SOURCE_CONSTANT: u32 = 1u;
+const DIM_J: u32 = 1u;
+const DIM_K: u32 = 2u;
+// Where a group slot's entry comes from (PRE_A ...): its one entry, the entry of the line's j or
+// k, or nowhere (the slot is the identity).
+const SLOT_ONE: u32 = 0u;
+const SLOT_J: u32 = 1u;
+const SLOT_K: u32 = 2u;
+const SLOT_ABSENT: u32 = 3u;
 const WORKGROUP: u32 = 64u;
 const PERIOD_DEG: f32 = 360.0;
 const HALF_PI_HI: f32 = 1.5707963705062866;     // f32(π/2)
@@ -272,35 +303,16 @@ fn skew(m: mat3x3<f32>) -> vec3<f32> {
     return vec3<f32>(m[1].z - m[2].y, m[2].x - m[0].z, m[0].y - m[1].x);
 }
 
-// skew(a·b) from the six entries of a·b it needs.
-fn skew_of_product(a: mat3x3<f32>, b: mat3x3<f32>) -> vec3<f32> {
-    let a0 = vec3<f32>(a[0].x, a[1].x, a[2].x);
-    let a1 = vec3<f32>(a[0].y, a[1].y, a[2].y);
-    let a2 = vec3<f32>(a[0].z, a[1].z, a[2].z);
-    return vec3<f32>(
-        dot(a2, b[1]) - dot(a1, b[2]),
-        dot(a0, b[2]) - dot(a2, b[0]),
-        dot(a1, b[0]) - dot(a0, b[1]));
-}
-
-// The rotation vector of a small rotation R = I + m (|θ| < 0.1 rad) from s, the axial vector of
-// its skew part: |s| = sin θ, and θ/sin θ = asin(|s|)/|s| as a series in |s|², so neither sqrt nor
-// atan2 (whose WGSL accuracy is loose) enters.
-fn rotation_vector_of_skew(s: vec3<f32>) -> vec3<f32> {
+// The rotation vector of a small rotation from s, the axial vector of the half skew part of its
+// matrix (|s| = sin θ, θ < 0.1 rad): θ/sin θ = asin(|s|)/|s| as a series in |s|², so neither sqrt
+// nor atan2 (whose WGSL accuracy is loose) enters.
+fn rotation_vector_of_half_skew(s: vec3<f32>) -> vec3<f32> {
     let s2 = dot(s, s);
     let factor = 1.0 + s2 * (1.0 / 6.0 + s2 * (3.0 / 40.0 + s2 * (5.0 / 112.0 + s2 * (35.0 / 1152.0))));
     return s * factor;
 }
 
-fn store_dev(index: u32, t: Dev) {
-    axis_values[index].r0_t0 = array<vec4<f32>, 3>(
-        vec4<f32>(t.r0[0], t.t0.x), vec4<f32>(t.r0[1], t.t0.y), vec4<f32>(t.r0[2], t.t0.z));
-    axis_values[index].m_d = array<vec4<f32>, 3>(
-        vec4<f32>(t.m[0], t.d.x), vec4<f32>(t.m[1], t.d.y), vec4<f32>(t.m[2], t.d.z));
-}
-
-fn load_dev(index: u32) -> Dev {
-    let v = axis_values[index];
+fn dev_of(v: DevData) -> Dev {
     return Dev(
         mat3x3<f32>(v.r0_t0[0].xyz, v.r0_t0[1].xyz, v.r0_t0[2].xyz),
         vec3<f32>(v.r0_t0[0].w, v.r0_t0[1].w, v.r0_t0[2].w),
@@ -308,13 +320,13 @@ fn load_dev(index: u32) -> Dev {
         vec3<f32>(v.m_d[0].w, v.m_d[1].w, v.m_d[2].w));
 }
 
-fn columns(c: array<vec4<f32>, 3>) -> mat3x3<f32> {
-    return mat3x3<f32>(c[0].xyz, c[1].xyz, c[2].xyz);
+fn data_of(t: Dev) -> DevData {
+    return DevData(
+        array<vec4<f32>, 3>(vec4<f32>(t.r0[0], t.t0.x), vec4<f32>(t.r0[1], t.t0.y), vec4<f32>(t.r0[2], t.t0.z)),
+        array<vec4<f32>, 3>(vec4<f32>(t.m[0], t.d.x), vec4<f32>(t.m[1], t.d.y), vec4<f32>(t.m[2], t.d.z)));
 }
 
-fn as_columns(m: mat3x3<f32>) -> array<vec4<f32>, 3> {
-    return array<vec4<f32>, 3>(vec4<f32>(m[0], 0.0), vec4<f32>(m[1], 0.0), vec4<f32>(m[2], 0.0));
-}
+// ---- axis pass (once per map) ----
 
 // Axis-value entries are laid out axis after axis in product order: an axis driven by grid
 // dimension d has one entry per grid value along d, a fixed axis one entry.
@@ -328,7 +340,7 @@ fn entry_count(a: AxisData) -> u32 {
 @compute @workgroup_size(64)
 fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let entry = gid.x;
-    if entry >= params.chunk.w {
+    if entry >= params.counts.x {
         return;
     }
     for (var n = 0u; n < params.grid.w; n = n + 1u) {
@@ -339,8 +351,9 @@ fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if a.info.y != SOURCE_FIXED {
                 q = params.origin[a.info.y] + f32(entry - first) * params.spacing[a.info.y];
             }
-            store_dev(entry, axis_transform(a, q));
             if a.info.y == 0u {
+                // X enters the point pass as its errors (its location is a factor of Pre); its
+                // entries of axis_values stay unused.
                 let i = entry - first;
                 x_errors[i] = vec4<f32>(
                     eval_function(a.functions_a.x, q), eval_function(a.functions_a.y, q),
@@ -348,213 +361,301 @@ fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 x_errors[params.grid.x + i] = vec4<f32>(
                     eval_function(a.functions_a.w, q), eval_function(a.functions_b.x, q),
                     eval_function(a.functions_b.y, q), 0.0);
+            } else {
+                axis_values[entry] = data_of(axis_transform(a, q));
             }
             return;
         }
     }
 }
 
-// The entry of axis n at grid line (j, k).
-fn line_entry(n: u32, j: u32, k: u32) -> Dev {
-    let a = axes[n];
-    var index = a.info.w;
-    if a.info.y == 1u {
-        index = index + j;
-    } else if a.info.y == 2u {
-        index = index + k;
+// ---- group pass (once per map) ----
+
+fn group_entries(g: Group) -> u32 {
+    if g.info.y == 0u {
+        return 0u;
     }
-    return load_dev(index);
+    if g.info.z == 0u {
+        return 1u;
+    }
+    return params.grid[g.info.z];
+}
+
+fn factor_at(f: Factor, index: u32) -> Dev {
+    if f.info.x == SOURCE_CONSTANT {
+        return dev_of(f.value);
+    }
+    var entry = f.info.y;
+    if f.info.z != 0u {
+        entry = entry + index;
+    }
+    return dev_of(axis_values[entry]);
 }
 
 @compute @workgroup_size(64)
-fn line_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let local_line = gid.x;
-    if local_line >= params.chunk.y || local_line >= arrayLength(&line_values) {
+fn groups_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let entry = gid.x;
+    if entry >= params.counts.y {
         return;
     }
-    let line = params.chunk.x + local_line;
-    let j = line % params.grid.y;
-    let k = line / params.grid.y;
-    let x_position = params.chunk.z;
-    var pre = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
-    var post = pre;
-    for (var n = 0u; n < params.grid.w; n = n + 1u) {
-        if n < x_position {
-            pre = compose(pre, line_entry(n, j, k));
-        } else if n > x_position {
-            post = compose(post, line_entry(n, j, k));
+    for (var s = 0u; s < 4u; s = s + 1u) {
+        let g = groups[s];
+        let first = g.info.w;
+        if entry >= first && entry < first + group_entries(g) {
+            var product = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
+            for (var f = g.info.x; f < g.info.x + g.info.y; f = f + 1u) {
+                product = compose(product, factor_at(factors[f], entry - first));
+            }
+            group_values[entry] = data_of(product);
+            return;
         }
     }
-    if x_position < params.grid.w {
-        // A_X = L_X · [Trans(q·u) · E_X(q)]: the constant L_X joins Pre.
-        let x = axes[x_position];
-        let location_m = mat3x3<f32>(x.location_m[0].xyz, x.location_m[1].xyz, x.location_m[2].xyz);
-        pre = compose(pre, Dev(IDENTITY3, x.offset.xyz, location_m, x.location_delta.xyz));
+}
+
+// ---- point pass (per chunk) ----
+
+// Group slot `slot` (0 PA, 1 PB, 2 QA, 3 QB) at line (j, k), from where `source` says.
+fn slot_value(slot: u32, source: u32, j: u32, k: u32) -> Dev {
+    var entry = params.slots[slot];
+    if source == SLOT_J {
+        entry = entry + j;
+    } else if source == SLOT_K {
+        entry = entry + k;
     }
-    let tail_m = mat3x3<f32>(params.tail_m[0].xyz, params.tail_m[1].xyz, params.tail_m[2].xyz);
-    post = compose(post, Dev(IDENTITY3, params.tail_offset.xyz, tail_m, params.tail_delta.xyz));
+    return dev_of(group_values[entry]);
+}
+
+fn pre_at(j: u32, k: u32) -> Dev {
+    var pre = slot_value(0u, PRE_A, j, k);
+    if PRE_B != SLOT_ABSENT {
+        pre = compose(pre, slot_value(1u, PRE_B, j, k));
+    }
+    return pre;
+}
+
+fn post_at(j: u32, k: u32) -> Dev {
+    var post = slot_value(2u, POST_A, j, k);
+    if POST_B != SLOT_ABSENT {
+        post = compose(post, slot_value(3u, POST_B, j, k));
+    }
+    return post;
+}
+
+// What a line contributes to each of its points (see the top of this file).
+struct LineTerms {
+    p: mat3x3<f32>,
+    c: vec3<f32>,
+    t: vec3<f32>,
+    vb: vec3<f32>,
+    j0: mat3x3<f32>,
+    j1: mat3x3<f32>,
+    j2: mat3x3<f32>,
+    s0: vec3<f32>,
+}
+
+fn line_terms(pre: Dev, post: Dev) -> LineTerms {
     let ra = pre.r0;
-    line_values[local_line] = LineData(
-        as_columns(ra),
-        as_columns(transpose(ra) * pre.m * ra),
-        as_columns(post.m),
-        vec4<f32>(pre.d + ra * post.d, 0.0),
-        vec4<f32>(post.t0 + post.d, 0.0));
+    let ma = transpose(ra) * pre.m * ra;
+    let mb = post.m;
+    let vb = post.t0 + post.d;
+    let p = IDENTITY3 + ma;
+    let q = transpose(IDENTITY3 + mb);
+    let half_ra = 0.5 * ra;
+    return LineTerms(
+        ra * p,
+        pre.d + ra * (post.d + ma * vb),
+        ra * ma[0],
+        vb,
+        half_ra * mat3x3<f32>(cross(q[0], p[0]), cross(q[0], p[1]), cross(q[0], p[2])),
+        half_ra * mat3x3<f32>(cross(q[1], p[0]), cross(q[1], p[1]), cross(q[1], p[2])),
+        half_ra * mat3x3<f32>(cross(q[2], p[0]), cross(q[2], p[1]), cross(q[2], p[2])),
+        half_ra * skew(ma + mb + ma * mb));
 }
 
-// Which points an invocation of the point pass computes: params.options.z lanes share a line
-// (a power of two up to 64, so short lines share a workgroup), each taking params.options.y
-// points, params.options.z apart. Returns (line in the chunk, first i).
-fn point_tile(wid: vec3<u32>, lid: vec3<u32>) -> vec2<u32> {
-    let lanes_per_line = params.options.z;
-    let lines_per_group = WORKGROUP / lanes_per_line;
-    let local_line = wid.y * lines_per_group + lid.x / lanes_per_line;
-    let first = wid.x * lanes_per_line * params.options.y + lid.x % lanes_per_line;
-    return vec2<u32>(local_line, first);
+// Line `local` of the chunk as (j, k).
+fn line_jk(local: u32) -> vec2<u32> {
+    let line = params.chunk.x + local;
+    return vec2<u32>(line % params.grid.y, line / params.grid.y);
 }
 
-// Three of X's errors (n = 0: EXX EYX EZX, n = 3: EAX EBX ECX) where each is one polynomial
-// piece of degree 3 at most (params.x_poly): coefficients, start and clamp range as columns.
-struct XPoly {
-    c0: vec3<f32>,
-    c1: vec3<f32>,
-    c2: vec3<f32>,
-    c3: vec3<f32>,
-    start: vec3<f32>,
-    lo: vec3<f32>,
-    hi: vec3<f32>,
+// X's part of a point: its component errors e (translations) and Mx = Rot(EAX, EBX, ECX) − I, and
+// tq, X's nominal motion along x̂.
+struct XValues {
+    e: vec3<f32>,
+    mx: mat3x3<f32>,
+    tq: f32,
 }
 
-fn x_poly_group(n: u32) -> XPoly {
-    let a = params.x_poly[n];
-    let b = params.x_poly[n + 1u];
-    let c = params.x_poly[n + 2u];
-    let sa = params.x_poly_span[n];
-    let sb = params.x_poly_span[n + 1u];
-    let sc = params.x_poly_span[n + 2u];
-    return XPoly(
-        vec3<f32>(a.x, b.x, c.x), vec3<f32>(a.y, b.y, c.y), vec3<f32>(a.z, b.z, c.z),
-        vec3<f32>(a.w, b.w, c.w), vec3<f32>(sa.x, sb.x, sc.x), vec3<f32>(sa.y, sb.y, sc.y),
-        vec3<f32>(sa.z, sb.z, sc.z));
+// X's polynomials and motion, read from the uniforms once per invocation: a CPU adapter reloads
+// uniforms at every use otherwise.
+struct XTerms {
+    e0: vec3<f32>,
+    e1: vec3<f32>,
+    e2: vec3<f32>,
+    e3: vec3<f32>,
+    a0: vec3<f32>,
+    a1: vec3<f32>,
+    a2: vec3<f32>,
+    a3: vec3<f32>,
+    motion: vec4<f32>,
+    nx: u32,
 }
 
-// The three errors at position q: the values the axis pass tabulates, from coefficients every
-// lane shares instead of a per-lane gather.
-fn eval_x_poly(p: XPoly, q: f32) -> vec3<f32> {
-    let s = clamp(vec3<f32>(q), p.lo, p.hi) - p.start;
-    return p.c0 + s * (p.c1 + s * (p.c2 + s * p.c3));
+fn x_terms() -> XTerms {
+    return XTerms(
+        params.x_translation[0].xyz, params.x_translation[1].xyz,
+        params.x_translation[2].xyz, params.x_translation[3].xyz,
+        params.x_rotation[0].xyz, params.x_rotation[1].xyz,
+        params.x_rotation[2].xyz, params.x_rotation[3].xyz,
+        params.x_motion, params.grid.x);
 }
 
-// Pre · X(i) · Post, with Pre including X's location and X(i) = Trans(q·u) · E_X(q) =
-// [(I + Mx), q·u + e] (a linear axis has no nominal rotation):
-//   M = Ra·M~·Raᵀ,  M~ = M1~ + Mb + M1~·Mb,  M1~ = Ma~ + Mx + Ma~·Mx
-//   d = c0 + Ra·(e + Ma~·(q·u + e) + M1~·vb)
-// so VE = d and OE = Ra · rotation_vector(M~), which needs only the skew part of M~. Each
-// invocation computes several points of one line (see `point_tile`): the line's values are loaded
-// once and used for all of them, and each point needs only X's six component errors at its q,
-// evaluated here where they are single polynomial pieces (X_TRANSLATIONS_INLINE,
-// X_ROTATIONS_INLINE) and loaded from x_errors otherwise. Ra is the identity unless a rotary axis
-// stands before X in the product order (ROTARY_BEFORE_X).
-@compute @workgroup_size(64)
-fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
-    let nx = params.grid.x;
-    let tile = point_tile(wid, lid);
-    let local_line = tile.x;
-    let first = tile.y;
-    let stride = params.options.z;
-    let points_per_lane = params.options.y;
-    if first >= nx || local_line >= params.chunk.y {
-        return;
+fn x_values(x: XTerms, i: u32) -> XValues {
+    let t = f32(i) - x.motion.z;
+    var e = x.e0 + t * (x.e1 + t * (x.e2 + t * x.e3));
+    if X_TRANSLATION_TABLE {
+        e = x_errors[i].xyz;
     }
-    let line = line_values[local_line];
-    let ra = columns(line.ra);
-    let ma = columns(line.ma);
-    let mb = columns(line.mb);
-    let vb = line.vb.xyz;
-    // X moves along ±x: q·u = (q·direction, 0, 0).
-    let direction = axes[min(params.chunk.z, params.grid.w - 1u)].unit.x;
-    let base_line = local_line * 6u * nx;
-    // Everything the loop reads of the uniforms, read once: a CPU adapter reloads them per
-    // iteration otherwise.
-    let poly_t = x_poly_group(0u);
-    let poly_a = x_poly_group(3u);
-    let origin_x = params.origin.x;
-    let spacing_x = params.spacing.x;
-    let out_length = arrayLength(&out);
-    for (var p = 0u; p < points_per_lane; p = p + 1u) {
-        let i = first + p * stride;
-        if i >= nx {
-            break;
-        }
-        var mx = ZERO3;
-        var tq = 0.0;
-        var e = vec3<f32>(0.0);
-        if HAS_X {
-            let q = origin_x + f32(i) * spacing_x;
-            if X_TRANSLATIONS_INLINE {
-                e = eval_x_poly(poly_t, q);
-            } else {
-                e = x_errors[i].xyz;
-            }
-            if X_ROTATIONS_INLINE {
-                mx = tiny_rot_deviation(eval_x_poly(poly_a, q));
-            } else {
-                mx = tiny_rot_deviation(x_errors[nx + i].xyz);
-            }
-            tq = q * direction;
-        }
-        let m1 = ma + mx + ma * mx;
-        var w = e + ma * e + tq * ma[0] + m1 * vb;
-        var rv = rotation_vector_of_skew(0.5 * (skew(m1) + skew(mb) + skew_of_product(m1, mb)));
-        if ROTARY_BEFORE_X {
-            w = ra * w;
-            rv = ra * rv;
-        }
-        let ve = line.c0.xyz + w;
+    var angles = x.a0 + t * (x.a1 + t * (x.a2 + t * x.a3));
+    if X_ROTATION_TABLE {
+        angles = x_errors[x.nx + i].xyz;
+    }
+    return XValues(e, tiny_rot_deviation(angles), x.motion.x + t * x.motion.y);
+}
 
-        let base = base_line + i;
-        if base + 5u * nx >= out_length {
-            return;
-        }
-        out[base] = rv.x;
-        out[base + nx] = rv.y;
-        out[base + 2u * nx] = rv.z;
+fn store_point(base: u32, nx: u32, line: LineTerms, x: XValues) {
+    let u = x.e + x.mx * line.vb;
+    let ve = line.c + line.p * u + x.tq * line.t;
+    let s = line.s0 + line.j0 * x.mx[0] + line.j1 * x.mx[1] + line.j2 * x.mx[2];
+    let oe = rotation_vector_of_half_skew(s);
+    if base + 5u * nx < arrayLength(&out) {
+        out[base] = oe.x;
+        out[base + nx] = oe.y;
+        out[base + 2u * nx] = oe.z;
         out[base + 3u * nx] = ve.x;
         out[base + 4u * nx] = ve.y;
         out[base + 5u * nx] = ve.z;
     }
 }
 
-// The ceiling `volmap bench` measures the chain kernel against: the same dispatch and the same
-// output as `points_main`, computing nothing.
+// The lines and points an invocation of the point pass (and of the write-only kernel) covers:
+// params.chunk.w lanes share a group of LINES_PER_LANE lines (a power of two up to 64, so that
+// short lines share a workgroup), each lane taking params.chunk.z points along them,
+// params.chunk.w apart. Returns (first line of the group in the chunk, first i).
+fn point_tile(wid: vec3<u32>, lid: vec3<u32>) -> vec2<u32> {
+    let lanes = params.chunk.w;
+    let group = wid.y * (WORKGROUP / lanes) + lid.x / lanes;
+    return vec2<u32>(group * LINES_PER_LANE, wid.x * lanes * params.chunk.z + lid.x % lanes);
+}
+
 @compute @workgroup_size(64)
-fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;
+    let lines = params.chunk.y;
     let tile = point_tile(wid, lid);
-    let local_line = tile.x;
+    let first_line = tile.x;
     let first = tile.y;
-    let stride = params.options.z;
-    let points_per_lane = params.options.y;
-    if first >= nx || local_line >= params.chunk.y {
+    if first_line >= lines || first >= nx {
         return;
     }
-    let base_line = local_line * 6u * nx;
-    let out_length = arrayLength(&out);
-    for (var p = 0u; p < points_per_lane; p = p + 1u) {
-        let i = first + p * stride;
+    let stride = params.chunk.w;
+    let points_per_lane = params.chunk.z;
+    // The terms of each line this invocation covers; past the chunk's last line an invocation
+    // repeats that line and writes nothing for it.
+    let lines_here = min(LINES_PER_LANE, lines - first_line);
+    let jk0 = line_jk(first_line);
+    let pre0 = pre_at(jk0.x, jk0.y);
+    let line0 = line_terms(pre0, post_at(jk0.x, jk0.y));
+    var line1 = line0;
+    var line2 = line0;
+    var line3 = line0;
+    if LINES_PER_LANE > 1u {
+        let jk = line_jk(first_line + min(1u, lines_here - 1u));
+        var pre = pre0;
+        if PRE_VARIES {
+            pre = pre_at(jk.x, jk.y);
+        }
+        line1 = line_terms(pre, post_at(jk.x, jk.y));
+    }
+    if LINES_PER_LANE > 2u {
+        let jk2 = line_jk(first_line + min(2u, lines_here - 1u));
+        let jk3 = line_jk(first_line + min(3u, lines_here - 1u));
+        var pre2 = pre0;
+        var pre3 = pre0;
+        if PRE_VARIES {
+            pre2 = pre_at(jk2.x, jk2.y);
+            pre3 = pre_at(jk3.x, jk3.y);
+        }
+        line2 = line_terms(pre2, post_at(jk2.x, jk2.y));
+        line3 = line_terms(pre3, post_at(jk3.x, jk3.y));
+    }
+    let x = x_terms();
+    let line_stride = 6u * nx;
+    let base0 = first_line * line_stride;
+    for (var n = 0u; n < points_per_lane; n = n + 1u) {
+        let i = first + n * stride;
         if i >= nx {
             break;
         }
-        let base = base_line + i;
-        if base + 5u * nx >= out_length {
-            return;
+        let xv = x_values(x, i);
+        let base = base0 + i;
+        store_point(base, nx, line0, xv);
+        if LINES_PER_LANE > 1u && lines_here > 1u {
+            store_point(base + line_stride, nx, line1, xv);
         }
-        let v = f32(i);
+        if LINES_PER_LANE > 2u && lines_here > 2u {
+            store_point(base + 2u * line_stride, nx, line2, xv);
+        }
+        if LINES_PER_LANE > 3u && lines_here > 3u {
+            store_point(base + 3u * line_stride, nx, line3, xv);
+        }
+    }
+}
+
+fn store_same(base: u32, nx: u32, v: f32) {
+    if base + 5u * nx < arrayLength(&out) {
         out[base] = v;
         out[base + nx] = v;
         out[base + 2u * nx] = v;
         out[base + 3u * nx] = v;
         out[base + 4u * nx] = v;
         out[base + 5u * nx] = v;
+    }
+}
+
+// The ceiling `volmap bench` measures the chain kernel against: the same dispatch, the same
+// invocations writing the same values of the output, computing nothing.
+@compute @workgroup_size(64)
+fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let nx = params.grid.x;
+    let lines = params.chunk.y;
+    let tile = point_tile(wid, lid);
+    let first_line = tile.x;
+    let first = tile.y;
+    if first_line >= lines || first >= nx {
+        return;
+    }
+    let stride = params.chunk.w;
+    let points_per_lane = params.chunk.z;
+    let lines_here = min(LINES_PER_LANE, lines - first_line);
+    let line_stride = 6u * nx;
+    let base0 = first_line * line_stride;
+    for (var n = 0u; n < points_per_lane; n = n + 1u) {
+        let i = first + n * stride;
+        if i >= nx {
+            break;
+        }
+        let base = base0 + i;
+        let v = f32(i);
+        store_same(base, nx, v);
+        if LINES_PER_LANE > 1u && lines_here > 1u {
+            store_same(base + line_stride, nx, v);
+        }
+        if LINES_PER_LANE > 2u && lines_here > 2u {
+            store_same(base + 2u * line_stride, nx, v);
+        }
+        if LINES_PER_LANE > 3u && lines_here > 3u {
+            store_same(base + 3u * line_stride, nx, v);
+        }
     }
 }

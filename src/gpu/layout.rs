@@ -27,25 +27,22 @@ pub struct Params {
     pub spacing: [f32; 4],
     /// nx, ny, nz, number of axes.
     pub grid: [u32; 4],
-    /// First line of this chunk, lines in this chunk, position of X in the product order (the
-    /// number of axes when there is no X), number of axis-value entries.
+    /// Axis-value entries, group entries, unused, unused.
+    pub counts: [u32; 4],
+    /// First line of this chunk, lines in this chunk, points per invocation of the point pass,
+    /// invocations per group of lines (the point pass's tiling, see `shaders/chain.wgsl`).
     pub chunk: [u32; 4],
-    /// Nominal translation of `S · Trans(tool)`: the tool offset, mm.
-    pub tail_offset: [f32; 4],
-    /// Translation deviation of `S · Trans(tool)`, mm.
-    pub tail_delta: [f32; 4],
-    /// Rotation deviation `R_S − I` of the spindle error.
-    pub tail_m: Mat4,
-    /// x: unused; y: points per invocation of the point pass; z: lanes per line; w: unused.
-    /// (The machine's shape is compiled into the point pass: `gpu::PointVariant`.)
-    pub options: [u32; 4],
-    /// X's six component errors where each is one polynomial piece of degree 3 at most (the
-    /// groups `PointVariant` marks inline): `c0..c3` in `s = q − start`.
-    pub x_poly: [[f32; 4]; 6],
-    /// For each of them: start, lowest and highest position (positions clamp), unused.
-    pub x_poly_span: [[f32; 4]; 6],
+    /// First group entry of each slot: PA, PB (Pre), QA, QB (Post).
+    pub slots: [u32; 4],
+    /// X's nominal motion along x̂ (`q` times X's sense) at the centre index, its step per index,
+    /// the centre index (X's polynomials are in `t = i − centre`); w unused.
+    pub x_motion: [f32; 4],
+    /// `EXX EYX EZX` as polynomials in `t`: `x_translation[k]` holds the three `c_k`.
+    pub x_translation: [[f32; 4]; 4],
+    /// `EAX EBX ECX` likewise.
+    pub x_rotation: [[f32; 4]; 4],
 }
-const _: () = assert!(std::mem::size_of::<Params>() == 176 + 2 * 6 * 16);
+const _: () = assert!(std::mem::size_of::<Params>() == 7 * 16 + 8 * 16);
 
 /// One axis of the chain, in product order. Keep in sync with `struct AxisData` in
 /// `shaders/chain.wgsl`.
@@ -108,18 +105,33 @@ pub struct DevData {
 }
 const _: () = assert!(std::mem::size_of::<DevData>() == 96);
 
-/// What a grid line contributes to its points. Written by the `line_values` pass. Keep in sync
-/// with `struct LineData` in `shaders/chain.wgsl`.
+/// One factor of a group: an axis-value entry or a constant transform (X's location,
+/// `S·Trans(tool)`). Keep in sync with `struct Factor` in `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct LineData {
-    pub ra: [[f32; 4]; 3],
-    pub ma: [[f32; 4]; 3],
-    pub mb: [[f32; 4]; 3],
-    pub c0: [f32; 4],
-    pub vb: [f32; 4],
+pub struct Factor {
+    /// Source (`FACTOR_AXIS_ENTRY` or `FACTOR_CONSTANT`), the axis's first axis-value entry,
+    /// the dimension that indexes it (0 fixed, 1 j, 2 k), unused.
+    pub info: [u32; 4],
+    /// The transform itself when the source is `FACTOR_CONSTANT`.
+    pub value: DevData,
 }
-const _: () = assert!(std::mem::size_of::<LineData>() == 176);
+const _: () = assert!(std::mem::size_of::<Factor>() == 16 + 96);
+
+/// `Factor::info[0]` values.
+pub const FACTOR_AXIS_ENTRY: u32 = 0;
+pub const FACTOR_CONSTANT: u32 = 1;
+
+/// One of the four group tables PA, PB, QA, QB: the product of a run of factors, tabulated
+/// over its dimension. Keep in sync with `struct Group` in `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, Pod, Zeroable)]
+pub struct Group {
+    /// First factor, factor count (0: the slot is unused), dimension (0: one entry, 1: one per
+    /// j, 2: one per k), first entry in the group table.
+    pub info: [u32; 4],
+}
+const _: () = assert!(std::mem::size_of::<Group>() == 16);
 
 /// The output per point and channel, in EXR channel order (alphabetical): for each line of a
 /// chunk, `nx` values of each channel in turn.

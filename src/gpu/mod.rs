@@ -1,5 +1,9 @@
 //! The GPU engine: the machine packed into the buffers of `shaders/chain.wgsl`, and the map
 //! computed chunk by chunk with the readback of one chunk overlapping the compute of the next.
+//!
+//! Per map, two passes evaluate every axis at its grid values (the machine's error tables on the
+//! GPU) and fold the chain on either side of X into at most two tables each; per chunk, one pass
+//! composes each line's products from those tables and evaluates its points.
 
 pub mod device;
 pub mod layout;
@@ -11,20 +15,17 @@ use std::sync::{Arc, Mutex};
 use nalgebra::{Matrix3, Vector3};
 
 use crate::grid::Grid;
-use crate::machine::{AxisLetter, Machine};
+use crate::machine::{Axis, AxisLetter, Machine};
 use crate::reference;
 pub use device::GpuError;
 use device::{Buffer, Gpu, Pass, Readback};
-use layout::{AxisData, DevData, Function, LineData, Mat4, Params, Piece, CHANNELS};
+use layout::{AxisData, DevData, Factor, Function, Group, Mat4, Params, Piece, CHANNELS};
 pub use sample::{GpuSampler, SAMPLE_WGSL};
 
 /// The chain kernel's WGSL source.
 pub const CHAIN_WGSL: &str = include_str!("../../shaders/chain.wgsl");
 /// Invocations per workgroup; keep in sync with `@workgroup_size` in `shaders/chain.wgsl`.
 pub const WORKGROUP_SIZE: u64 = 64;
-/// The most points each invocation of the point pass computes along its line, sharing the line's
-/// values among them (on lavapipe 8, 16 and 32 gave about 62, 77 and 85 Mpts/s).
-pub const MAX_POINTS_PER_LANE: u64 = 32;
 /// Bytes of output per grid point: six f32 channels.
 pub const BYTES_PER_POINT: u64 = (CHANNELS.len() * 4) as u64;
 /// The default upper bound of points per chunk on a CPU adapter: two chunks in flight hold about
@@ -35,6 +36,31 @@ pub const DEFAULT_CHUNK_POINTS: u64 = 1 << 20;
 /// staging), still bounded whatever the grid.
 pub const DEFAULT_CHUNK_POINTS_HARDWARE: u64 = 1 << 23;
 
+/// How the point pass divides a chunk among its invocations: each takes `lines_per_lane`
+/// neighbouring lines and up to `points_per_lane` points along them. Line terms are computed once
+/// per invocation and line, X's errors once per invocation and point, so more of either shares
+/// more work; the write-only ceiling uses the same tiling.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Tiling {
+    pub points_per_lane: u64,
+    /// 1, 2 or 4 (the shader's `LINES_PER_LANE`).
+    pub lines_per_lane: u32,
+}
+
+/// The tiling on a CPU adapter, which runs an invocation's points one after another and every
+/// store and gather lane by lane: long runs and four lines per invocation (the fastest of the
+/// tilings measured on lavapipe, see the README's performance section).
+pub const SOFTWARE_TILING: Tiling = Tiling {
+    points_per_lane: 64,
+    lines_per_lane: 4,
+};
+/// The tiling on a hardware GPU: one line per invocation and shorter runs, so that neighbouring
+/// invocations write neighbouring values.
+pub const HARDWARE_TILING: Tiling = Tiling {
+    points_per_lane: 32,
+    lines_per_lane: 1,
+};
+
 /// The machine and grid as the shader's buffers. Built on the host in f64, stored in f32.
 #[derive(Debug, Clone)]
 pub struct Packed {
@@ -44,7 +70,12 @@ pub struct Packed {
     pub pieces: Vec<Piece>,
     /// Flat coefficients, padded to whole vec4s.
     pub coefficients: Vec<[f32; 4]>,
-    /// The shape of the machine the point pass is compiled for.
+    /// PA, PB, QA, QB: the group tables the group pass fills.
+    pub groups: [Group; 4],
+    /// The factors of the groups, group after group.
+    pub factors: Vec<Factor>,
+    /// The shape of the machine the point pass is compiled for (one line per invocation; the
+    /// engine sets its own tiling).
     pub variant: PointVariant,
 }
 
@@ -110,15 +141,118 @@ pub fn check_error_angles(machine: &Machine, grid: &Grid) -> Result<(), String> 
     }
 }
 
+/// The deviation form `[(I + M)·R0, t0 + d]` of the transform from `ideal` to `real`, both
+/// computed in f64: `R0 = R_ideal`, `t0 = t_ideal`, `M = R_real·R_idealᵀ − I`, `d = t_real − t_ideal`.
+fn deviation_form(real: &reference::Transform, ideal: &reference::Transform) -> DevData {
+    let r_real = real.fixed_view::<3, 3>(0, 0);
+    let r_ideal = ideal.fixed_view::<3, 3>(0, 0);
+    let m = r_real * r_ideal.transpose() - Matrix3::identity();
+    let t0 = ideal.fixed_view::<3, 1>(0, 3);
+    let d = real.fixed_view::<3, 1>(0, 3) - t0;
+    DevData {
+        r0_t0: std::array::from_fn(|c| {
+            [
+                r_ideal[(0, c)] as f32,
+                r_ideal[(1, c)] as f32,
+                r_ideal[(2, c)] as f32,
+                t0[c] as f32,
+            ]
+        }),
+        m_d: std::array::from_fn(|c| {
+            [
+                m[(0, c)] as f32,
+                m[(1, c)] as f32,
+                m[(2, c)] as f32,
+                d[c] as f32,
+            ]
+        }),
+    }
+}
+
+fn constant_factor(value: DevData) -> Factor {
+    Factor {
+        info: [layout::FACTOR_CONSTANT, 0, 0, 0],
+        value,
+    }
+}
+
+/// Splits one side of X (its factors in product order) into at most two runs with at most one
+/// factor each that varies along the grid (Y with j, Z with k): the second run starts at the
+/// second varying factor. Returns each run with the dimension it varies along (0: none).
+fn split_side(side: &[Factor]) -> Vec<(&[Factor], u32)> {
+    let varying: Vec<usize> = (0..side.len()).filter(|&n| side[n].info[2] != 0).collect();
+    debug_assert!(
+        varying.len() <= 2,
+        "only Y and Z vary along a line's neighbours"
+    );
+    match varying.as_slice() {
+        [first, second, ..] => vec![
+            (&side[..*second], side[*first].info[2]),
+            (&side[*second..], side[*second].info[2]),
+        ],
+        [only] => vec![(side, side[*only].info[2])],
+        [] => vec![(side, 0)],
+    }
+}
+
+/// `Σ c_k s^k` with `s = a + b·t`, as coefficients in `t` (f64, then f32).
+fn polynomial_in_t(coefficients: &[f64], a: f64, b: f64) -> [f64; 4] {
+    let mut out = [0.0; 4];
+    for (k, &c) in coefficients.iter().enumerate() {
+        // c·(a + b·t)^k = c·Σ_m C(k, m)·a^(k−m)·b^m·t^m
+        let mut binomial = 1.0;
+        for (m, slot) in out.iter_mut().enumerate().take(k + 1) {
+            *slot += c * binomial * a.powi((k - m) as i32) * b.powi(m as i32);
+            binomial = binomial * (k - m) as f64 / (m + 1) as f64;
+        }
+    }
+    out
+}
+
+/// X's six component errors as polynomials of degree 3 at most in `t = i − centre`, where each is
+/// one polynomial piece over every X of the grid (so the point pass evaluates it exactly, without
+/// clamping, from coefficients every invocation shares); `None` for those that are not.
+fn x_polynomials(x: &Axis, grid: &Grid, centre: f64) -> [Option<[f64; 4]>; 6] {
+    let (origin, spacing) = (grid.origin_mm[0], grid.spacing_mm[0]);
+    let (q_low, q_high) = (origin, origin + spacing * (grid.dims[0] - 1) as f64);
+    std::array::from_fn(
+        |n| match x.components[n].as_ref().filter(|f| !f.is_zero()) {
+            None => Some([0.0; 4]),
+            Some(f) => {
+                let form = f.pieces();
+                match form.pieces.as_slice() {
+                    [piece]
+                        if !form.periodic
+                            && piece.coefficients.len() <= 4
+                            && form.lo <= q_low
+                            && q_high <= form.hi =>
+                    {
+                        Some(polynomial_in_t(
+                            &piece.coefficients,
+                            origin + spacing * centre - piece.start,
+                            spacing,
+                        ))
+                    }
+                    _ => None,
+                }
+            }
+        },
+    )
+}
+
 /// Packs the machine and the grid for the chain kernel.
 pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
+    let ideal = machine.without_errors();
     let mut functions = Vec::new();
     let mut pieces = Vec::new();
     let mut flat: Vec<f32> = Vec::new();
     let mut axes = Vec::new();
     let mut entries = 0u32;
-    let mut x_position = None;
-    let mut rotary_before_x = false;
+    // Pre: the axes before X in product order, then X's location; Post: the axes after X, then
+    // S·Trans(tool). Without X every axis stands in Pre (a chain has at least one axis).
+    let mut pre = Vec::new();
+    let mut post = Vec::new();
+    let mut x_seen = false;
     for axis in machine.axes_in_product_order() {
         let mut indices = [layout::NO_FUNCTION; 6];
         for (n, component) in axis.components.iter().enumerate() {
@@ -162,10 +296,6 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
                 grid.pose[letter.index()] as f32,
             )
         };
-        if letter == AxisLetter::X {
-            x_position = Some(axes.len() as u32);
-        }
-        rotary_before_x |= !letter.is_linear() && x_position.is_none();
         let first_entry = entries;
         entries += if source == layout::SOURCE_FIXED {
             1
@@ -187,44 +317,91 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
                 layout::NO_FUNCTION,
             ],
         });
+        if letter == AxisLetter::X {
+            x_seen = true;
+            let ideal_x = ideal.axis(AxisLetter::X).expect("same axes");
+            pre.push(constant_factor(deviation_form(
+                &reference::location(axis),
+                &reference::location(ideal_x),
+            )));
+            continue;
+        }
+        let dimension = if source == layout::SOURCE_FIXED {
+            0
+        } else {
+            source
+        };
+        let factor = Factor {
+            info: [layout::FACTOR_AXIS_ENTRY, first_entry, dimension, 0],
+            value: bytemuck::Zeroable::zeroed(),
+        };
+        // X's location closes Pre; the axes after it belong to Post.
+        if x_seen {
+            post.push(factor);
+        } else {
+            pre.push(factor);
+        }
     }
     while flat.len() % 4 != 0 {
         flat.push(0.0);
     }
     let coefficients = flat.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
 
-    // X's errors that are one polynomial piece of degree ≤ 3 are evaluated by the point pass
-    // from workgroup-uniform coefficients instead of gathered per point from the x_errors table.
-    let mut x_poly = [[0.0f32; 4]; 6];
-    let mut x_poly_span = [[0.0f32; 4]; 6];
-    let mut inline = [true; 6];
-    if let Some(x) = machine.axis(AxisLetter::X) {
-        for (n, component) in x.components.iter().enumerate() {
-            let Some(f) = component.as_ref().filter(|f| !f.is_zero()) else {
+    let tail = |m: &Machine| {
+        let [exs, eys, ezs, eas, ebs] = m.spindle;
+        reference::error_transform([exs, eys, ezs, eas, ebs, 0.0])
+            * reference::trans(Vector3::from(m.tool_offset_mm))
+    };
+    post.push(constant_factor(deviation_form(
+        &tail(machine),
+        &tail(&ideal),
+    )));
+
+    // PA, PB from Pre, QA, QB from Post; a side with one run leaves its second slot unused.
+    let mut groups = [Group::default(); 4];
+    let mut factors = Vec::new();
+    let mut slots = [SLOT_ABSENT; 4];
+    let mut first_entries = [0u32; 4];
+    let mut group_entries = 0u32;
+    for (side, first_slot) in [(&pre, 0usize), (&post, 2usize)] {
+        let runs = split_side(side);
+        for slot in first_slot..first_slot + 2 {
+            first_entries[slot] = group_entries;
+            groups[slot].info[3] = group_entries;
+            let Some(&(run, dimension)) = runs.get(slot - first_slot) else {
                 continue;
             };
-            let form = f.pieces();
-            match form.pieces.as_slice() {
-                [piece] if !form.periodic && piece.coefficients.len() <= 4 => {
-                    for (c, &value) in piece.coefficients.iter().enumerate() {
-                        x_poly[n][c] = value as f32;
-                    }
-                    x_poly_span[n] = [
-                        piece.start as f32,
-                        finite_or_unbounded(form.lo),
-                        finite_or_unbounded(form.hi),
-                        0.0,
-                    ];
-                }
-                _ => inline[n] = false,
-            }
+            groups[slot].info = [
+                factors.len() as u32,
+                run.len() as u32,
+                dimension,
+                group_entries,
+            ];
+            factors.extend_from_slice(run);
+            slots[slot] = dimension;
+            group_entries += if dimension == 0 {
+                1
+            } else {
+                grid.dims[dimension as usize] as u32
+            };
         }
     }
-    // S · Trans(tool) = [(I + M_S), tool + e_S + M_S·tool].
-    let [exs, eys, ezs, eas, ebs] = machine.spindle;
-    let spindle_m = rot_deviation(eas, ebs, 0.0);
-    let tool = Vector3::from(machine.tool_offset_mm);
-    let tail_delta = Vector3::new(exs, eys, ezs) + spindle_m * tool;
+    let pre_varies = slots[..2].iter().any(|&s| s == SLOT_J || s == SLOT_K);
+
+    // X's errors as polynomials in t = i − centre where each is one piece, else its table.
+    let nx = grid.dims[0];
+    let centre = (nx - 1) as f64 / 2.0;
+    let (polynomials, sense) = match machine.axis(AxisLetter::X) {
+        Some(x) => (x_polynomials(x, grid, centre), x.unit_vector()[0]),
+        None => ([Some([0.0; 4]); 6], 0.0),
+    };
+    let coefficients_of = |group: &[Option<[f64; 4]>]| -> [[f32; 4]; 4] {
+        std::array::from_fn(|k| {
+            let c = |n: usize| group[n].map_or(0.0, |p| p[k]) as f32;
+            [c(0), c(1), c(2), 0.0]
+        })
+    };
+    let (origin_x, spacing_x) = (grid.origin_mm[0], grid.spacing_mm[0]);
     let params = Params {
         origin: vec4_of(grid.origin_mm),
         spacing: vec4_of(grid.spacing_mm),
@@ -234,19 +411,24 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
             grid.dims[2] as u32,
             axes.len() as u32,
         ],
-        chunk: [0, 0, x_position.unwrap_or(axes.len() as u32), entries],
-        tail_offset: vec4_of(machine.tool_offset_mm),
-        tail_delta: vec4_of(tail_delta.into()),
-        tail_m: mat4_of(&spindle_m),
-        options: [0; 4],
-        x_poly,
-        x_poly_span,
+        counts: [entries, group_entries, 0, 0],
+        chunk: [0; 4],
+        slots: first_entries,
+        x_motion: [
+            (sense * (origin_x + spacing_x * centre)) as f32,
+            (sense * spacing_x) as f32,
+            centre as f32,
+            0.0,
+        ],
+        x_translation: coefficients_of(&polynomials[..3]),
+        x_rotation: coefficients_of(&polynomials[3..]),
     };
     let variant = PointVariant {
-        rotary_before_x,
-        has_x: x_position.is_some(),
-        x_translations_inline: inline[..3].iter().all(|&b| b),
-        x_rotations_inline: inline[3..].iter().all(|&b| b),
+        lines_per_lane: 1,
+        slots,
+        pre_varies,
+        x_translation_table: polynomials[..3].iter().any(Option::is_none),
+        x_rotation_table: polynomials[3..].iter().any(Option::is_none),
     };
     Packed {
         params,
@@ -254,53 +436,65 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
         functions,
         pieces,
         coefficients,
+        groups,
+        factors,
         variant,
     }
 }
 
-/// The chain kernels on an open device.
-pub struct GpuMapper {
-    gpu: Gpu,
-    axis_values: device::Kernel,
-    line_values: device::Kernel,
-    /// The point pass per shape of machine (its override constants), compiled when first used.
-    points: Mutex<HashMap<PointVariant, Arc<device::Kernel>>>,
-    write_only: device::Kernel,
-}
+/// Where each group slot of the point pass comes from: its one entry, the line's j or k, or
+/// nowhere (keep in sync with `SLOT_*` in `shaders/chain.wgsl`).
+pub const SLOT_ONE: u32 = 0;
+pub const SLOT_J: u32 = 1;
+pub const SLOT_K: u32 = 2;
+pub const SLOT_ABSENT: u32 = 3;
 
-/// The shape of a machine as the point pass sees it: its pipeline-overridable constants (see
-/// `shaders/chain.wgsl`), one compiled pipeline per shape.
+/// The shape of a machine and the tiling as the point pass sees them: its pipeline-overridable
+/// constants (see `shaders/chain.wgsl`), one compiled pipeline per variant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct PointVariant {
-    /// A rotary axis stands before X in the product order (Pre has a nominal rotation).
-    pub rotary_before_x: bool,
-    /// The chain has an X axis.
-    pub has_x: bool,
-    /// X's translations (EXX EYX EZX) are single polynomial pieces, in `Params::x_poly`.
-    pub x_translations_inline: bool,
-    /// X's rotations (EAX EBX ECX) are single polynomial pieces, in `Params::x_poly`.
-    pub x_rotations_inline: bool,
+    /// Lines per invocation (the tiling's).
+    pub lines_per_lane: u32,
+    /// Where PA, PB, QA, QB come from: `SLOT_ONE`, `SLOT_J`, `SLOT_K` or `SLOT_ABSENT`.
+    pub slots: [u32; 4],
+    /// Pre changes from line to line (Y or Z stands before X in the product order).
+    pub pre_varies: bool,
+    /// X's translations (EXX EYX EZX) come from the axis pass's table, not from polynomials.
+    pub x_translation_table: bool,
+    /// X's rotations (EAX EBX ECX) likewise.
+    pub x_rotation_table: bool,
 }
 
 impl PointVariant {
-    fn constants(&self) -> [(&'static str, f64); 4] {
-        let value = |b: bool| if b { 1.0 } else { 0.0 };
+    fn constants(&self) -> [(&'static str, f64); 8] {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
         [
-            ("ROTARY_BEFORE_X", value(self.rotary_before_x)),
-            ("HAS_X", value(self.has_x)),
-            ("X_TRANSLATIONS_INLINE", value(self.x_translations_inline)),
-            ("X_ROTATIONS_INLINE", value(self.x_rotations_inline)),
+            ("LINES_PER_LANE", self.lines_per_lane as f64),
+            ("PRE_A", self.slots[0] as f64),
+            ("PRE_B", self.slots[1] as f64),
+            ("POST_A", self.slots[2] as f64),
+            ("POST_B", self.slots[3] as f64),
+            ("PRE_VARIES", flag(self.pre_varies)),
+            ("X_TRANSLATION_TABLE", flag(self.x_translation_table)),
+            ("X_ROTATION_TABLE", flag(self.x_rotation_table)),
         ]
     }
 }
 
-/// Which per-chunk work [`GpuMapper::time_kernel`] measures.
+/// Which per-chunk work [`GpuMapper::time_kernels`] measures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum KernelChoice {
-    /// The line and point passes of the chain.
+    /// The point pass of the chain.
     Chain,
     /// A kernel with the same dispatch and output that computes nothing: the ceiling.
     WriteOnly,
+}
+
+/// One kernel to time: what it computes and how the chunk is divided among its invocations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TimedKernel {
+    pub choice: KernelChoice,
+    pub tiling: Tiling,
 }
 
 /// The buffers of one chunk in flight.
@@ -308,20 +502,45 @@ struct Slot {
     params: Buffer,
     output: Buffer,
     staging: Buffer,
-    line_bindings: device::Bindings,
-    point_bindings: device::Bindings,
-    write_only_bindings: device::Bindings,
 }
 
-/// A map ready to run: the machine on the device, its axis values computed, the chunks planned.
+/// How one tiling dispatches a chunk: its pipelines, their bindings to each slot, the shape of
+/// the dispatch.
+struct Plan {
+    tiling: Tiling,
+    /// Points per invocation and invocations per group of lines (`Params::chunk[2..4]`).
+    shape: [u32; 2],
+    x_groups: u32,
+    lines_per_workgroup: u64,
+    points: Arc<device::Kernel>,
+    write_only: Arc<device::Kernel>,
+    /// Per slot: the point pass's bindings, the write-only kernel's.
+    bindings: Vec<(device::Bindings, device::Bindings)>,
+}
+
+/// A map ready to run: the machine on the device, its axis values and groups computed, the
+/// chunks planned for one or more tilings.
 struct Prepared {
     params: Params,
     nx: u64,
-    x_groups: u32,
-    lines_per_group: u64,
     chunks: Vec<(u64, u64)>,
     slots: Vec<Slot>,
-    points: Arc<device::Kernel>,
+    plans: Vec<Plan>,
+}
+
+/// A cache of pipelines compiled on first use, one per key.
+type Pipelines<K> = Mutex<HashMap<K, Arc<device::Kernel>>>;
+
+/// The chain kernels on an open device.
+pub struct GpuMapper {
+    gpu: Gpu,
+    axis_values: device::Kernel,
+    groups: device::Kernel,
+    /// The point pass per variant (its override constants).
+    points: Pipelines<PointVariant>,
+    /// The write-only ceiling per lines per invocation.
+    write_only: Pipelines<u32>,
+    tiling: Tiling,
 }
 
 impl GpuMapper {
@@ -332,14 +551,19 @@ impl GpuMapper {
         };
         let kernel = |entry: &str| gpu.kernel(&format!("chain.wgsl {entry}"), CHAIN_WGSL, entry);
         let axis_values = kernel("axis_values_main")?;
-        let line_values = kernel("line_values_main")?;
-        let write_only = kernel("write_only_main")?;
+        let groups = kernel("groups_main")?;
+        let tiling = if gpu.is_software() {
+            SOFTWARE_TILING
+        } else {
+            HARDWARE_TILING
+        };
         Ok(Some(GpuMapper {
             gpu,
             axis_values,
-            line_values,
+            groups,
             points: Mutex::new(HashMap::new()),
-            write_only,
+            write_only: Mutex::new(HashMap::new()),
+            tiling,
         }))
     }
 
@@ -347,19 +571,65 @@ impl GpuMapper {
         self.gpu.adapter_name()
     }
 
-    /// The point pass for this shape of machine, compiled the first time it is asked for.
-    fn points_kernel(&self, variant: PointVariant) -> Result<Arc<device::Kernel>, GpuError> {
-        let mut cache = self.points.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(kernel) = cache.get(&variant) {
+    /// The tiling maps use on this device.
+    pub fn tiling(&self) -> Tiling {
+        self.tiling
+    }
+
+    /// Maps with `tiling` from now on (tests cover every tiling on one device with it). Returns
+    /// an error for a tiling the shader has no variant for.
+    pub fn set_tiling(&mut self, tiling: Tiling) -> Result<(), GpuError> {
+        if ![1, 2, 4].contains(&tiling.lines_per_lane) || tiling.points_per_lane == 0 {
+            return Err(self.error(format!(
+                "no point pass takes {} lines of {} points per invocation",
+                tiling.lines_per_lane, tiling.points_per_lane
+            )));
+        }
+        self.tiling = tiling;
+        Ok(())
+    }
+
+    /// The tilings a write-only ceiling is measured with: the device's own, one line per
+    /// invocation, and the defaults of both kinds of adapter. How fast the same values can be
+    /// written depends on who writes which (by up to 2× on lavapipe), so the ceiling is the
+    /// fastest of these, never only the chain's own.
+    pub fn ceiling_tilings(&self) -> Vec<Tiling> {
+        let mut tilings = Vec::new();
+        for t in [
+            self.tiling,
+            Tiling {
+                lines_per_lane: 1,
+                ..self.tiling
+            },
+            SOFTWARE_TILING,
+            HARDWARE_TILING,
+        ] {
+            if !tilings.contains(&t) {
+                tilings.push(t);
+            }
+        }
+        tilings
+    }
+
+    /// The pipeline for `key` from `cache`, compiled the first time it is asked for.
+    fn pipeline<K: Copy + Eq + std::hash::Hash + std::fmt::Debug>(
+        &self,
+        cache: &Pipelines<K>,
+        key: K,
+        entry: &str,
+        constants: &[(&str, f64)],
+    ) -> Result<Arc<device::Kernel>, GpuError> {
+        let mut cache = cache.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(kernel) = cache.get(&key) {
             return Ok(kernel.clone());
         }
         let kernel = Arc::new(self.gpu.kernel_with_constants(
-            &format!("chain.wgsl points_main {variant:?}"),
+            &format!("chain.wgsl {entry} {key:?}"),
             CHAIN_WGSL,
-            "points_main",
-            &variant.constants(),
+            entry,
+            constants,
         )?);
-        cache.insert(variant, kernel.clone());
+        cache.insert(key, kernel.clone());
         Ok(kernel)
     }
 
@@ -373,11 +643,10 @@ impl GpuMapper {
         (self.gpu.max_storage_binding_bytes() / BYTES_PER_POINT).min(default)
     }
 
-    /// The most lines one chunk may hold: one workgroup row per line.
+    /// The most lines one chunk may hold: as many as workgroups fit in one dispatch dimension,
+    /// so the point pass's rows of workgroups fit whatever its tiling.
     pub fn max_chunk_lines(&self) -> u64 {
-        let by_binding =
-            self.gpu.max_storage_binding_bytes() / std::mem::size_of::<LineData>() as u64;
-        (self.gpu.max_workgroups_per_dimension() as u64).min(by_binding)
+        self.gpu.max_workgroups_per_dimension() as u64
     }
 
     fn error(&self, message: String) -> GpuError {
@@ -387,12 +656,14 @@ impl GpuMapper {
         }
     }
 
-    /// Uploads the machine, computes its axis values and plans the chunks.
+    /// Uploads the machine, computes its axis values and groups, and plans the chunks for each
+    /// of `tilings`.
     fn prepare(
         &self,
         machine: &Machine,
         grid: &Grid,
         chunk_points: Option<u64>,
+        tilings: &[Tiling],
     ) -> Result<Prepared, GpuError> {
         check_error_angles(machine, grid).map_err(|message| self.error(message))?;
         let packed = pack(machine, grid);
@@ -400,15 +671,7 @@ impl GpuMapper {
         let gpu = &self.gpu;
         let limit =
             chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
-        // Up to MAX_POINTS_PER_LANE points per invocation; lines shorter than a workgroup's
-        // worth share it (lanes per line a power of two).
-        let lanes_per_line = nx
-            .div_ceil(MAX_POINTS_PER_LANE)
-            .next_power_of_two()
-            .min(WORKGROUP_SIZE);
-        let lines_per_group = WORKGROUP_SIZE / lanes_per_line;
-        let x_groups = nx.div_ceil(lanes_per_line * MAX_POINTS_PER_LANE);
-        if nx > limit || x_groups > gpu.max_workgroups_per_dimension() as u64 {
+        if nx > limit {
             return Err(self.error(format!(
                 "a line of {nx} points does not fit in one chunk of at most {limit} points"
             )));
@@ -417,20 +680,21 @@ impl GpuMapper {
         let chunks = grid.chunks(lines_per_chunk * nx);
         let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
-        let entries = packed.params.chunk[3] as u64;
+        let [entries, group_entries, _, _] = packed.params.counts.map(u64::from);
 
         let params = gpu.uniform("params", bytemuck::bytes_of(&packed.params));
         let axes = gpu.storage("axes", bytemuck::cast_slice(&packed.axes));
         let functions = gpu.storage("functions", bytemuck::cast_slice(&packed.functions));
         let pieces = gpu.storage("pieces", bytemuck::cast_slice(&packed.pieces));
         let coefficients = gpu.storage("coefficients", bytemuck::cast_slice(&packed.coefficients));
-        let axis_values = gpu.output(
-            "axis values",
-            entries.max(1) * std::mem::size_of::<DevData>() as u64,
-        );
+        let groups = gpu.storage("groups", bytemuck::cast_slice(&packed.groups));
+        let factors = gpu.storage("factors", bytemuck::cast_slice(&packed.factors));
+        let entry_bytes = std::mem::size_of::<DevData>() as u64;
+        let axis_values = gpu.output("axis values", entries.max(1) * entry_bytes);
+        let group_values = gpu.output("group values", group_entries.max(1) * entry_bytes);
         let x_errors = gpu.output("x errors", 2 * 16 * nx);
 
-        // Every axis at every grid value it takes, once per map.
+        // Every axis at every grid value it takes, then the groups of factors, once per map.
         let axis_bindings = gpu.bind(
             &self.axis_values,
             &[
@@ -443,115 +707,157 @@ impl GpuMapper {
                 (8, &x_errors),
             ],
         );
-        let groups = entries.div_ceil(WORKGROUP_SIZE);
-        if groups > gpu.max_workgroups_per_dimension() as u64 {
-            return Err(self.error(format!("{entries} axis values exceed one dispatch")));
-        }
+        let group_bindings = gpu.bind(
+            &self.groups,
+            &[
+                (0, &params),
+                (5, &axis_values),
+                (6, &group_values),
+                (9, &groups),
+                (10, &factors),
+            ],
+        );
+        let dispatch = |count: u64, what: &str| -> Result<u32, GpuError> {
+            let groups = count.div_ceil(WORKGROUP_SIZE).max(1);
+            if groups > gpu.max_workgroups_per_dimension() as u64 {
+                return Err(self.error(format!("{count} {what} exceed one dispatch")));
+            }
+            Ok(groups as u32)
+        };
         gpu.submit(
-            &[Pass {
-                kernel: &self.axis_values,
-                bindings: &axis_bindings,
-                workgroups: [groups as u32, 1, 1],
-            }],
+            &[
+                Pass {
+                    kernel: &self.axis_values,
+                    bindings: &axis_bindings,
+                    workgroups: [dispatch(entries, "axis values")?, 1, 1],
+                },
+                Pass {
+                    kernel: &self.groups,
+                    bindings: &group_bindings,
+                    workgroups: [dispatch(group_entries, "group entries")?, 1, 1],
+                },
+            ],
             None,
         );
 
-        let points = self.points_kernel(packed.variant)?;
-        let slots = (0..2.min(chunks.len()))
-            .map(|_| {
-                let params = gpu.uniform("chunk params", bytemuck::bytes_of(&packed.params));
-                let lines = gpu.output(
-                    "line values",
-                    chunk_lines * std::mem::size_of::<LineData>() as u64,
-                );
-                let output = gpu.output("output", chunk_bytes);
-                let staging = gpu.staging("staging", chunk_bytes);
-                let line_bindings = gpu.bind(
-                    &self.line_values,
-                    &[(0, &params), (1, &axes), (5, &axis_values), (6, &lines)],
-                );
-                let point_bindings = gpu.bind(
-                    &points,
-                    &[
-                        (0, &params),
-                        (1, &axes),
-                        (6, &lines),
-                        (7, &output),
-                        (8, &x_errors),
-                    ],
-                );
-                let write_only_bindings = gpu.bind(&self.write_only, &[(0, &params), (7, &output)]);
-                Slot {
-                    params,
-                    output,
-                    staging,
-                    line_bindings,
-                    point_bindings,
-                    write_only_bindings,
-                }
+        let slots: Vec<Slot> = (0..2.min(chunks.len()))
+            .map(|_| Slot {
+                params: gpu.uniform("chunk params", bytemuck::bytes_of(&packed.params)),
+                output: gpu.output("output", chunk_bytes),
+                staging: gpu.staging("staging", chunk_bytes),
             })
             .collect();
-        let mut params = packed.params;
-        params.options[1] = nx.div_ceil(lanes_per_line * x_groups) as u32;
-        params.options[2] = lanes_per_line as u32;
+        let plans = tilings
+            .iter()
+            .map(|&tiling| {
+                // Up to points_per_lane points per invocation; lines shorter than a workgroup's
+                // worth share it (invocations per group of lines a power of two).
+                let lanes_per_line = nx
+                    .div_ceil(tiling.points_per_lane)
+                    .next_power_of_two()
+                    .min(WORKGROUP_SIZE);
+                let x_groups = nx.div_ceil(lanes_per_line * tiling.points_per_lane);
+                if x_groups > gpu.max_workgroups_per_dimension() as u64 {
+                    return Err(self.error(format!(
+                        "a line of {nx} points needs more workgroups than one dispatch holds"
+                    )));
+                }
+                let variant = PointVariant {
+                    lines_per_lane: tiling.lines_per_lane,
+                    ..packed.variant
+                };
+                let points =
+                    self.pipeline(&self.points, variant, "points_main", &variant.constants())?;
+                let write_only = self.pipeline(
+                    &self.write_only,
+                    tiling.lines_per_lane,
+                    "write_only_main",
+                    &[("LINES_PER_LANE", tiling.lines_per_lane as f64)],
+                )?;
+                let bindings = slots
+                    .iter()
+                    .map(|slot| {
+                        (
+                            gpu.bind(
+                                &points,
+                                &[
+                                    (0, &slot.params),
+                                    (6, &group_values),
+                                    (7, &slot.output),
+                                    (8, &x_errors),
+                                ],
+                            ),
+                            gpu.bind(&write_only, &[(0, &slot.params), (7, &slot.output)]),
+                        )
+                    })
+                    .collect();
+                Ok(Plan {
+                    tiling,
+                    shape: [
+                        nx.div_ceil(lanes_per_line * x_groups) as u32,
+                        lanes_per_line as u32,
+                    ],
+                    x_groups: x_groups as u32,
+                    lines_per_workgroup: WORKGROUP_SIZE / lanes_per_line
+                        * tiling.lines_per_lane as u64,
+                    points,
+                    write_only,
+                    bindings,
+                })
+            })
+            .collect::<Result<Vec<Plan>, GpuError>>()?;
         Ok(Prepared {
-            points,
-            params,
+            params: packed.params,
             nx,
-            x_groups: x_groups as u32,
-            lines_per_group,
             chunks,
             slots,
+            plans,
         })
     }
 
-    /// Submits chunk `n` of `prepared` into its slot, with or without the copy to the host.
+    /// Submits chunk `n` of `prepared` with plan `plan` into its slot, with or without the copy
+    /// to the host.
     fn submit_chunk(
         &self,
         prepared: &Prepared,
+        plan: usize,
         n: usize,
         choice: KernelChoice,
         readback: bool,
         timed: Option<(&device::Timer, u32)>,
     ) -> device::Submission {
         let (first_line, lines) = prepared.chunks[n];
-        let slot = &prepared.slots[n % prepared.slots.len()];
+        let slot_index = n % prepared.slots.len();
+        let slot = &prepared.slots[slot_index];
+        let plan = &prepared.plans[plan];
         let mut params = prepared.params;
-        params.chunk[0] = first_line as u32;
-        params.chunk[1] = lines as u32;
+        params.chunk = [
+            first_line as u32,
+            lines as u32,
+            plan.shape[0],
+            plan.shape[1],
+        ];
         self.gpu.write(&slot.params, bytemuck::bytes_of(&params));
-        let point_grid = [
-            prepared.x_groups,
-            lines.div_ceil(prepared.lines_per_group) as u32,
-            1,
-        ];
-        let chain = [
-            Pass {
-                kernel: &self.line_values,
-                bindings: &slot.line_bindings,
-                workgroups: [lines.div_ceil(WORKGROUP_SIZE) as u32, 1, 1],
-            },
-            Pass {
-                kernel: &prepared.points,
-                bindings: &slot.point_bindings,
-                workgroups: point_grid,
-            },
-        ];
-        let write_only = [Pass {
-            kernel: &self.write_only,
-            bindings: &slot.write_only_bindings,
-            workgroups: point_grid,
-        }];
-        let passes: &[Pass] = match choice {
-            KernelChoice::Chain => &chain,
-            KernelChoice::WriteOnly => &write_only,
+        let (point_bindings, write_only_bindings) = &plan.bindings[slot_index];
+        let (kernel, bindings) = match choice {
+            KernelChoice::Chain => (&plan.points, point_bindings),
+            KernelChoice::WriteOnly => (&plan.write_only, write_only_bindings),
+        };
+        let pass = Pass {
+            kernel,
+            bindings,
+            workgroups: [
+                plan.x_groups,
+                lines.div_ceil(plan.lines_per_workgroup) as u32,
+                1,
+            ],
         };
         let copy = readback.then(|| Readback {
             from: &slot.output,
             to: &slot.staging,
             bytes: lines * prepared.nx * BYTES_PER_POINT,
         });
-        self.gpu.submit_timed(passes, copy, timed)
+        self.gpu.submit_timed(&[pass], copy, timed)
     }
 
     /// Computes the map chunk by chunk. `on_chunk(first_line, lines, data)` receives each chunk's
@@ -564,10 +870,10 @@ impl GpuMapper {
         chunk_points: Option<u64>,
         mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
     ) -> Result<(), E> {
-        let prepared = self.prepare(machine, grid, chunk_points)?;
+        let prepared = self.prepare(machine, grid, chunk_points, &[self.tiling])?;
         let mut pending: Option<(device::Submission, usize)> = None;
         for n in 0..prepared.chunks.len() {
-            let submission = self.submit_chunk(&prepared, n, KernelChoice::Chain, true, None);
+            let submission = self.submit_chunk(&prepared, 0, n, KernelChoice::Chain, true, None);
             // Read the previous chunk while this one computes.
             if let Some((previous, p)) = pending.replace((submission, n)) {
                 self.deliver(&prepared, previous, p, &mut on_chunk)?;
@@ -594,31 +900,46 @@ impl GpuMapper {
         })?
     }
 
-    /// The seconds one pass over the whole grid takes on the device (best of `runs`) for each
-    /// kernel of `choices`, and whether timestamp queries timed them. The kernels take turns, run
-    /// after run, so a ceiling and the kernel it bounds are measured under the same conditions.
+    /// The seconds one pass over the whole grid takes on the device (best of `runs`) for each of
+    /// `kernels`, and whether timestamp queries timed them. The kernels take turns, run after
+    /// run, so a ceiling and the kernel it bounds are measured under the same conditions.
     pub fn time_kernels(
         &self,
         machine: &Machine,
         grid: &Grid,
-        choices: &[KernelChoice],
+        kernels: &[TimedKernel],
         runs: usize,
     ) -> Result<(Vec<f64>, bool), GpuError> {
-        let prepared = self.prepare(machine, grid, None)?;
-        // Let the axis pass and any lazy driver work finish before the clock starts.
-        for &choice in choices {
-            let warm_up = self.submit_chunk(&prepared, 0, choice, false, None);
+        let mut tilings: Vec<Tiling> = Vec::new();
+        for kernel in kernels {
+            if !tilings.contains(&kernel.tiling) {
+                tilings.push(kernel.tiling);
+            }
+        }
+        let prepared = self.prepare(machine, grid, None, &tilings)?;
+        let plan_of = |kernel: &TimedKernel| {
+            prepared
+                .plans
+                .iter()
+                .position(|p| p.tiling == kernel.tiling)
+                .expect("a plan per tiling")
+        };
+        // Let the per-map passes and any lazy driver work finish before the clock starts.
+        for kernel in kernels {
+            let warm_up =
+                self.submit_chunk(&prepared, plan_of(kernel), 0, kernel.choice, false, None);
             self.gpu.wait(warm_up)?;
         }
         let timer = self.gpu.timer(prepared.chunks.len());
-        let mut best = vec![f64::INFINITY; choices.len()];
+        let mut best = vec![f64::INFINITY; kernels.len()];
         for _ in 0..runs.max(1) {
-            for (k, &choice) in choices.iter().enumerate() {
+            for (k, kernel) in kernels.iter().enumerate() {
+                let plan = plan_of(kernel);
                 let start = std::time::Instant::now();
                 let mut last = None;
                 for n in 0..prepared.chunks.len() {
                     let timed = timer.as_ref().map(|t| (t, n as u32));
-                    last = Some(self.submit_chunk(&prepared, n, choice, false, timed));
+                    last = Some(self.submit_chunk(&prepared, plan, n, kernel.choice, false, timed));
                 }
                 if let Some(last) = last {
                     self.gpu.wait(last)?;
@@ -633,7 +954,7 @@ impl GpuMapper {
         Ok((best, timer.is_some()))
     }
 
-    /// [`GpuMapper::time_kernels`] for one kernel.
+    /// [`GpuMapper::time_kernels`] for one kernel with this device's tiling.
     pub fn time_kernel(
         &self,
         machine: &Machine,
@@ -641,7 +962,94 @@ impl GpuMapper {
         choice: KernelChoice,
         runs: usize,
     ) -> Result<(f64, bool), GpuError> {
-        let (seconds, timestamps) = self.time_kernels(machine, grid, &[choice], runs)?;
+        let kernel = TimedKernel {
+            choice,
+            tiling: self.tiling,
+        };
+        let (seconds, timestamps) = self.time_kernels(machine, grid, &[kernel], runs)?;
         Ok((seconds[0], timestamps))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::embedded;
+
+    #[test]
+    fn polynomials_in_the_grid_index_equal_the_pieces() {
+        let coefficients = [0.02, -3e-5, 4e-8, -2e-11];
+        let (a, b) = (-137.5, 12.5);
+        let in_t = polynomial_in_t(&coefficients, a, b);
+        for t in [-40.0, -3.5, 0.0, 1.0, 17.25, 40.0] {
+            let s = a + b * t;
+            let want: f64 = coefficients.iter().rev().fold(0.0, |acc, c| acc * s + c);
+            let got: f64 = in_t.iter().rev().fold(0.0, |acc, c| acc * t + c);
+            assert!((want - got).abs() < 1e-15, "t = {t}: {want} vs {got}");
+        }
+        assert_eq!(polynomial_in_t(&[0.5], 3.0, 2.0), [0.5, 0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn each_side_folds_into_at_most_two_tables_by_j_or_k() {
+        let grid = |m: &Machine, pose| Grid::full_travel(m, [5, 6, 7], pose).unwrap();
+        // Li (FFXYZ): Pre is X's location alone, Post runs through Y then Z.
+        let li = embedded::load("vmc-li2015").unwrap();
+        let packed = pack(&li, &grid(&li, [0.0; 6]));
+        assert_eq!(
+            packed.variant.slots,
+            [SLOT_ONE, SLOT_ABSENT, SLOT_J, SLOT_K]
+        );
+        assert!(!packed.variant.pre_varies);
+        let entries: Vec<u32> = packed.groups.iter().map(|g| g.info[3]).collect();
+        assert_eq!(entries, [0, 1, 1, 7]);
+        assert_eq!(packed.params.counts[1], 1 + 6 + 7);
+        // Hwang's 4-axis FYCFXZ (product order C Y X Z): Pre = C·Y(j)·L_X, Post = Z(k)·S·tool.
+        let four = embedded::load("4axis-hwang2014").unwrap();
+        let packed = pack(&four, &grid(&four, [0.0, 0.0, 0.0, 0.0, 0.0, 40.0]));
+        assert_eq!(
+            packed.variant.slots,
+            [SLOT_J, SLOT_ABSENT, SLOT_K, SLOT_ABSENT]
+        );
+        assert!(packed.variant.pre_varies);
+        assert_eq!(packed.groups[0].info[..3], [0, 3, 1]);
+        assert_eq!(packed.groups[2].info[..3], [3, 2, 2]);
+        // Without X every axis stands in Pre: Y(j) then Z(k).
+        let travels = [(AxisLetter::Y, [0.0, 100.0]), (AxisLetter::Z, [0.0, 50.0])];
+        let no_x = Machine::nominal("no X", "FYFZ", &travels).unwrap();
+        let packed = pack(
+            &no_x,
+            &Grid::full_travel(&no_x, [1, 6, 7], [0.0; 6]).unwrap(),
+        );
+        assert_eq!(
+            packed.variant.slots,
+            [SLOT_J, SLOT_K, SLOT_ONE, SLOT_ABSENT]
+        );
+        assert!(packed.variant.pre_varies);
+    }
+
+    #[test]
+    fn x_errors_are_polynomials_only_where_one_piece_covers_the_grid() {
+        // The 5-axis machine's EXX is a cubic spline of four pieces; its other X errors are
+        // polynomials or three-node tables over the whole travel.
+        let five = embedded::load("5axis-hwang2014").unwrap();
+        let packed = pack(
+            &five,
+            &Grid::full_travel(&five, [9, 4, 3], [0.0, 0.0, 0.0, 0.0, 30.0, 60.0]).unwrap(),
+        );
+        assert!(packed.variant.x_translation_table);
+        assert!(!packed.variant.x_rotation_table);
+        let li = embedded::load("vmc-li2015").unwrap();
+        let grid = Grid::full_travel(&li, [9, 4, 3], [0.0; 6]).unwrap();
+        let packed = pack(&li, &grid);
+        assert!(!packed.variant.x_translation_table && !packed.variant.x_rotation_table);
+        // EXX of Li is 2e-5·q: in t = i − 4 with 125 mm steps, 0.01 + 2.5e-3·t.
+        let [c0, c1, c2, c3] = packed.params.x_translation.map(|c| c[0] as f64);
+        assert!(
+            (c0 - 0.01).abs() < 1e-9 && (c1 - 2.5e-3).abs() < 1e-9,
+            "{c0} {c1}"
+        );
+        assert_eq!([c2, c3], [0.0, 0.0]);
+        assert_eq!(packed.params.x_motion[..3], [500.0, 125.0, 4.0]);
     }
 }

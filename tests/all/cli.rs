@@ -221,8 +221,18 @@ fn bench_prints_a_table_and_writes_json() {
                 .iter()
                 .filter(|p| p["path"].as_str().unwrap().starts_with("GPU"))
                 .all(|p| p["fraction_of_ceiling"].is_number()));
+            let ceiling = paths
+                .iter()
+                .find(|p| p["path"].as_str().unwrap().contains("write-only"))
+                .unwrap();
+            assert_eq!(ceiling["fraction_of_ceiling"].as_f64(), Some(1.0));
+            for key in ["kernel_tiling", "ceiling_tiling"] {
+                let tiling = m[key].as_str().unwrap();
+                assert!(tiling.ends_with("per invocation"), "{key}: {tiling}");
+            }
         } else {
             assert_eq!(gpu_paths, 0);
+            assert!(m["kernel_tiling"].is_null() && m["ceiling_tiling"].is_null());
         }
     }
 }

@@ -3,6 +3,7 @@
 
 use volmap::cpu;
 use volmap::gpu::layout::CHANNELS;
+use volmap::gpu::{GpuMapper, Tiling};
 use volmap::grid::Grid;
 use volmap::machine::{embedded, AxisLetter, Machine};
 use volmap::map::{OE_TOLERANCE_RAD, VE_TOLERANCE_MM};
@@ -17,7 +18,15 @@ fn gpu_field(
     grid: &Grid,
     chunk_points: Option<u64>,
 ) -> Option<(Vec<f32>, usize)> {
-    let gpu = gpu()?;
+    Some(field_with(gpu()?, machine, grid, chunk_points))
+}
+
+fn field_with(
+    gpu: &GpuMapper,
+    machine: &Machine,
+    grid: &Grid,
+    chunk_points: Option<u64>,
+) -> (Vec<f32>, usize) {
     let mut field = Vec::new();
     let mut chunks = 0;
     let mut next_line = 0;
@@ -35,7 +44,7 @@ fn gpu_field(
     )
     .expect("GPU map");
     assert_eq!(next_line, grid.lines());
-    Some((field, chunks))
+    (field, chunks)
 }
 
 /// The largest VE and OE differences between a GPU field and the reference at every point.
@@ -64,7 +73,11 @@ fn assert_matches_reference(machine: &Machine, grid: &Grid) {
     let Some((field, _)) = gpu_field(machine, grid, None) else {
         return;
     };
-    let (ve, oe) = max_differences(machine, grid, &field);
+    assert_field_matches_reference(machine, grid, &field);
+}
+
+fn assert_field_matches_reference(machine: &Machine, grid: &Grid, field: &[f32]) {
+    let (ve, oe) = max_differences(machine, grid, field);
     eprintln!(
         "{}: max |ΔVE| {ve:.2e} mm, max |ΔOE| {oe:.2e} rad",
         machine.name
@@ -245,8 +258,9 @@ fn error_angles_beyond_the_kernels_range_are_refused() {
 #[test]
 fn every_shape_of_the_point_pass_matches_the_reference() {
     // The point pass is compiled per shape of machine: X's translations and rotations evaluated
-    // in the pass (one polynomial piece each) or gathered from the axis pass's table (several
-    // pieces), a rotary axis before X or not, and no X axis at all.
+    // in the pass (one polynomial piece each) or read from the axis pass's table (several
+    // pieces); Pre and Post folded into one or two group tables by j, by k or constant (a rotary
+    // axis or Y before X or not); and no X axis at all.
     use volmap::machine::{ErrorFunction, Interp, Table};
     let one_piece =
         |scale: f64| ErrorFunction::Poly(vec![scale, scale / 700.0, -scale / 4.9e5, scale / 3.4e8]);
@@ -324,4 +338,69 @@ fn every_shape_of_the_point_pass_matches_the_reference() {
             assert_matches_reference(&machine, &grid);
         }
     }
+}
+
+#[test]
+fn every_tiling_of_the_point_pass_matches_the_reference() {
+    // Each invocation takes 1, 2 or 4 lines and a run of points along them. 37 points and 35
+    // lines leave short runs and incomplete groups of lines at the ends of every chunk, and a
+    // chunk of 37·9 points starts mid-group.
+    if gpu().is_none() {
+        return;
+    }
+    let mut gpu = GpuMapper::open().unwrap().expect("an adapter");
+    let machine = embedded::embedded("5axis-hwang2014").unwrap().unwrap();
+    let grid = Grid::full_travel(&machine, [37, 7, 5], [0.0, 0.0, 0.0, 0.0, -35.0, 210.0]).unwrap();
+    for (points_per_lane, lines_per_lane) in
+        [(64, 4), (64, 2), (64, 1), (32, 1), (8, 2), (3, 4), (1, 1)]
+    {
+        gpu.set_tiling(Tiling {
+            points_per_lane,
+            lines_per_lane,
+        })
+        .unwrap();
+        for chunk_points in [None, Some(37 * 9)] {
+            let (field, _) = field_with(&gpu, &machine, &grid, chunk_points);
+            eprint!(
+                "{points_per_lane} points × {lines_per_lane} lines, chunks of {chunk_points:?}: "
+            );
+            assert_field_matches_reference(&machine, &grid, &field);
+        }
+    }
+    for lines_per_lane in [0, 3, 8] {
+        let error = gpu
+            .set_tiling(Tiling {
+                points_per_lane: 64,
+                lines_per_lane,
+            })
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("no point pass takes"), "{error}");
+    }
+}
+
+#[test]
+fn an_x_table_shorter_than_the_grid_holds_its_end_values() {
+    // One polynomial piece over [100, 500] mm while the grid runs from 0 to 700 mm: beyond the
+    // table the end values hold, which the point pass's polynomials in the grid index cannot
+    // express, so X's errors come from the axis pass's table there.
+    use volmap::machine::{ErrorFunction, Interp, Table};
+    let short = |scale: f64| {
+        ErrorFunction::Table(
+            Table::new(
+                vec![(100.0, scale), (300.0, -scale), (500.0, scale / 2.0)],
+                Interp::Quadratic,
+                false,
+            )
+            .unwrap(),
+        )
+    };
+    let travels = [(X, [0.0, 700.0]), (Y, [0.0, 400.0]), (Z, [0.0, 300.0])];
+    let mut machine = Machine::nominal("short X tables", "FYXFZ", &travels).unwrap();
+    machine.tool_offset_mm = [0.0, 0.0, -90.0];
+    let x = machine.axis_mut(X).unwrap();
+    x.components[1] = Some(short(0.01));
+    x.components[5] = Some(short(4e-5));
+    let grid = Grid::full_travel(&machine, [29, 5, 4], [0.0; 6]).unwrap();
+    assert_matches_reference(&machine, &grid);
 }
