@@ -74,9 +74,8 @@ pub struct Packed {
     pub groups: [Group; 4],
     /// The factors of the groups, group after group.
     pub factors: Vec<Factor>,
-    /// The shape of the machine the point pass is compiled for (one line per invocation; the
-    /// engine sets its own tiling).
-    pub variant: PointVariant,
+    /// The shape of the machine the point pass is compiled for.
+    pub shape: MachineShape,
 }
 
 fn mat4_of(m: &Matrix3<f64>) -> Mat4 {
@@ -423,8 +422,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
         x_translation: coefficients_of(&polynomials[..3]),
         x_rotation: coefficients_of(&polynomials[3..]),
     };
-    let variant = PointVariant {
-        lines_per_lane: 1,
+    let shape = MachineShape {
         slots,
         pre_varies,
         x_translation_table: polynomials[..3].iter().any(Option::is_none),
@@ -438,7 +436,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
         coefficients,
         groups,
         factors,
-        variant,
+        shape,
     }
 }
 
@@ -449,12 +447,10 @@ pub const SLOT_J: u32 = 1;
 pub const SLOT_K: u32 = 2;
 pub const SLOT_ABSENT: u32 = 3;
 
-/// The shape of a machine and the tiling as the point pass sees them: its pipeline-overridable
-/// constants (see `shaders/chain.wgsl`), one compiled pipeline per variant.
+/// The shape of a machine as the point pass sees it: where each group slot comes from and where
+/// X's errors do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct PointVariant {
-    /// Lines per invocation (the tiling's).
-    pub lines_per_lane: u32,
+pub struct MachineShape {
     /// Where PA, PB, QA, QB come from: `SLOT_ONE`, `SLOT_J`, `SLOT_K` or `SLOT_ABSENT`.
     pub slots: [u32; 4],
     /// Pre changes from line to line (Y or Z stands before X in the product order).
@@ -465,18 +461,27 @@ pub struct PointVariant {
     pub x_rotation_table: bool,
 }
 
+/// A shape of machine with the lines per invocation of a tiling: the point pass's
+/// pipeline-overridable constants (see `shaders/chain.wgsl`), one compiled pipeline each.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct PointVariant {
+    pub shape: MachineShape,
+    pub lines_per_lane: u32,
+}
+
 impl PointVariant {
     fn constants(&self) -> [(&'static str, f64); 8] {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        let shape = &self.shape;
         [
             ("LINES_PER_LANE", self.lines_per_lane as f64),
-            ("PRE_A", self.slots[0] as f64),
-            ("PRE_B", self.slots[1] as f64),
-            ("POST_A", self.slots[2] as f64),
-            ("POST_B", self.slots[3] as f64),
-            ("PRE_VARIES", flag(self.pre_varies)),
-            ("X_TRANSLATION_TABLE", flag(self.x_translation_table)),
-            ("X_ROTATION_TABLE", flag(self.x_rotation_table)),
+            ("PRE_A", shape.slots[0] as f64),
+            ("PRE_B", shape.slots[1] as f64),
+            ("POST_A", shape.slots[2] as f64),
+            ("POST_B", shape.slots[3] as f64),
+            ("PRE_VARIES", flag(shape.pre_varies)),
+            ("X_TRANSLATION_TABLE", flag(shape.x_translation_table)),
+            ("X_ROTATION_TABLE", flag(shape.x_rotation_table)),
         ]
     }
 }
@@ -763,8 +768,8 @@ impl GpuMapper {
                     )));
                 }
                 let variant = PointVariant {
+                    shape: packed.shape,
                     lines_per_lane: tiling.lines_per_lane,
-                    ..packed.variant
                 };
                 let points =
                     self.pipeline(&self.points, variant, "points_main", &variant.constants())?;
@@ -996,11 +1001,8 @@ mod tests {
         // Li (FFXYZ): Pre is X's location alone, Post runs through Y then Z.
         let li = embedded::load("vmc-li2015").unwrap();
         let packed = pack(&li, &grid(&li, [0.0; 6]));
-        assert_eq!(
-            packed.variant.slots,
-            [SLOT_ONE, SLOT_ABSENT, SLOT_J, SLOT_K]
-        );
-        assert!(!packed.variant.pre_varies);
+        assert_eq!(packed.shape.slots, [SLOT_ONE, SLOT_ABSENT, SLOT_J, SLOT_K]);
+        assert!(!packed.shape.pre_varies);
         let entries: Vec<u32> = packed.groups.iter().map(|g| g.info[3]).collect();
         assert_eq!(entries, [0, 1, 1, 7]);
         assert_eq!(packed.params.counts[1], 1 + 6 + 7);
@@ -1008,10 +1010,10 @@ mod tests {
         let four = embedded::load("4axis-hwang2014").unwrap();
         let packed = pack(&four, &grid(&four, [0.0, 0.0, 0.0, 0.0, 0.0, 40.0]));
         assert_eq!(
-            packed.variant.slots,
+            packed.shape.slots,
             [SLOT_J, SLOT_ABSENT, SLOT_K, SLOT_ABSENT]
         );
-        assert!(packed.variant.pre_varies);
+        assert!(packed.shape.pre_varies);
         assert_eq!(packed.groups[0].info[..3], [0, 3, 1]);
         assert_eq!(packed.groups[2].info[..3], [3, 2, 2]);
         // Without X every axis stands in Pre: Y(j) then Z(k).
@@ -1021,11 +1023,8 @@ mod tests {
             &no_x,
             &Grid::full_travel(&no_x, [1, 6, 7], [0.0; 6]).unwrap(),
         );
-        assert_eq!(
-            packed.variant.slots,
-            [SLOT_J, SLOT_K, SLOT_ONE, SLOT_ABSENT]
-        );
-        assert!(packed.variant.pre_varies);
+        assert_eq!(packed.shape.slots, [SLOT_J, SLOT_K, SLOT_ONE, SLOT_ABSENT]);
+        assert!(packed.shape.pre_varies);
     }
 
     #[test]
@@ -1037,12 +1036,12 @@ mod tests {
             &five,
             &Grid::full_travel(&five, [9, 4, 3], [0.0, 0.0, 0.0, 0.0, 30.0, 60.0]).unwrap(),
         );
-        assert!(packed.variant.x_translation_table);
-        assert!(!packed.variant.x_rotation_table);
+        assert!(packed.shape.x_translation_table);
+        assert!(!packed.shape.x_rotation_table);
         let li = embedded::load("vmc-li2015").unwrap();
         let grid = Grid::full_travel(&li, [9, 4, 3], [0.0; 6]).unwrap();
         let packed = pack(&li, &grid);
-        assert!(!packed.variant.x_translation_table && !packed.variant.x_rotation_table);
+        assert!(!packed.shape.x_translation_table && !packed.shape.x_rotation_table);
         // EXX of Li is 2e-5·q: in t = i − 4 with 125 mm steps, 0.01 + 2.5e-3·t.
         let [c0, c1, c2, c3] = packed.params.x_translation.map(|c| c[0] as f64);
         assert!(
