@@ -523,11 +523,8 @@ fn x_values(x: XTerms, i: u32) -> XValues {
     return XValues(e, tiny_rot_deviation(angles), x.motion.x + t * x.motion.y);
 }
 
-fn store_point(base: u32, nx: u32, line: LineTerms, x: XValues) {
-    let u = x.e + x.mx * line.vb;
-    let ve = line.c + line.p * u + x.tq * line.t;
-    let s = line.s0 + line.j0 * x.mx[0] + line.j1 * x.mx[1] + line.j2 * x.mx[2];
-    let oe = rotation_vector_of_half_skew(s);
+// The six channels of the point at `base` (its OE.X; the channels of a line are nx apart).
+fn store(base: u32, nx: u32, oe: vec3<f32>, ve: vec3<f32>) {
     if base + 5u * nx < arrayLength(&out) {
         out[base] = oe.x;
         out[base + nx] = oe.y;
@@ -536,6 +533,13 @@ fn store_point(base: u32, nx: u32, line: LineTerms, x: XValues) {
         out[base + 4u * nx] = ve.y;
         out[base + 5u * nx] = ve.z;
     }
+}
+
+fn store_point(base: u32, nx: u32, line: LineTerms, x: XValues) {
+    let u = x.e + x.mx * line.vb;
+    let ve = line.c + line.p * u + x.tq * line.t;
+    let s = line.s0 + line.j0 * x.mx[0] + line.j1 * x.mx[1] + line.j2 * x.mx[2];
+    store(base, nx, rotation_vector_of_half_skew(s), ve);
 }
 
 // The lines and points an invocation of the point pass (and of the write-only kernel) covers:
@@ -612,19 +616,8 @@ fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
     }
 }
 
-fn store_same(base: u32, nx: u32, v: f32) {
-    if base + 5u * nx < arrayLength(&out) {
-        out[base] = v;
-        out[base + nx] = v;
-        out[base + 2u * nx] = v;
-        out[base + 3u * nx] = v;
-        out[base + 4u * nx] = v;
-        out[base + 5u * nx] = v;
-    }
-}
-
 // The ceiling `volmap bench` measures the chain kernel against: the same dispatch, the same
-// invocations writing the same values of the output, computing nothing.
+// invocations writing the same values of the output with the same stores, computing nothing.
 @compute @workgroup_size(64)
 fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;
@@ -646,16 +639,16 @@ fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocat
             break;
         }
         let base = base0 + i;
-        let v = f32(i);
-        store_same(base, nx, v);
+        let v = vec3<f32>(f32(i));
+        store(base, nx, v, v);
         if LINES_PER_LANE > 1u && lines_here > 1u {
-            store_same(base + line_stride, nx, v);
+            store(base + line_stride, nx, v, v);
         }
         if LINES_PER_LANE > 2u && lines_here > 2u {
-            store_same(base + 2u * line_stride, nx, v);
+            store(base + 2u * line_stride, nx, v, v);
         }
         if LINES_PER_LANE > 3u && lines_here > 3u {
-            store_same(base + 3u * line_stride, nx, v);
+            store(base + 3u * line_stride, nx, v, v);
         }
     }
 }
