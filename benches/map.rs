@@ -1,8 +1,9 @@
 //! Criterion benchmarks of every map path, in grid points per second, for the 3-axis and the
 //! 5-axis embedded machines: the f64 reference (one thread), the CPU engine (all threads), the
 //! GPU kernel alone and with readback, the write-only ceiling at each tiling it is measured with,
-//! and writing the EXR field. `cargo bench`; the fixed seed is the grid itself. Without an adapter the GPU benchmarks are left out, with a line saying so.
-//! `volmap bench` prints the same figures as one table.
+//! and writing the EXR field. `cargo bench`; the fixed seed is the grid itself. Without an
+//! adapter the GPU benchmarks are left out, with a line saying so. `volmap bench` prints the same
+//! figures as one table.
 
 use std::hint::black_box;
 use std::time::Duration;
