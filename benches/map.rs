@@ -9,13 +9,13 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use volmap::cpu::{self, CpuPlan};
-use volmap::field::FieldWriter;
-use volmap::gpu::layout::CHANNELS;
+use volmap::engine::cpu::{self, CpuPlan};
+use volmap::engine::map;
 use volmap::gpu::{GpuError, GpuMapper, KernelChoice, TimedKernel};
-use volmap::grid::Grid;
-use volmap::machine::embedded;
-use volmap::map;
+use volmap::io::embedded;
+use volmap::io::field::FieldWriter;
+use volmap::model::channels::CHANNELS;
+use volmap::model::grid::Grid;
 
 fn bench_maps(c: &mut Criterion) {
     let gpu = GpuMapper::open().ok().flatten();

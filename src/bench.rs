@@ -8,13 +8,14 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::cpu::{self, CpuPlan};
-use crate::field::FieldWriter;
-use crate::gpu::layout::CHANNELS;
+use crate::engine::cpu::{self, CpuPlan};
+use crate::engine::map::{self, MapError, MapOptions};
+use crate::engine::Engine;
 use crate::gpu::{GpuError, KernelChoice, Tiling, TimedKernel};
-use crate::grid::Grid;
-use crate::machine::Machine;
-use crate::map::{self, Engine, MapError, MapOptions};
+use crate::io::field::FieldWriter;
+use crate::model::channels::CHANNELS;
+use crate::model::grid::Grid;
+use crate::model::Machine;
 
 /// One measured path.
 #[derive(Debug, Clone, Serialize)]
@@ -60,7 +61,7 @@ pub enum BenchError {
     #[error(transparent)]
     Map(#[from] MapError),
     #[error(transparent)]
-    Field(#[from] crate::field::FieldError),
+    Field(#[from] crate::io::field::FieldError),
     #[error("benchmark scratch folder: {0}")]
     Scratch(std::io::Error),
 }

@@ -1,39 +1,36 @@
 //! volmap: the volumetric error of multi-axis machine tools, mapped over their workspace.
 //!
-//! The mathematics is MODEL.md's: every axis contributes a relative transform with its ISO 230-1
-//! errors, the chain `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn · S · Trans(tool)` is multiplied at every
-//! commanded position, and the tool tip's deviation from the ideal machine is the volumetric error.
+//! The mathematics is MODEL.md's: every axis contributes a relative transform with its ISO
+//! 230-1 errors, the chain `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn · S · Trans(tool)` is multiplied
+//! at every commanded position, and the tool tip's deviation from the ideal machine is the
+//! volumetric error.
 //!
-//! The crate is laid out as the architecture:
-//! - [`machine`]: the machine model, its TOML file and the embedded machines;
-//! - [`reference`](mod@reference): the f64 CPU reference (nalgebra), ground truth of every test;
-//! - [`gpu`]: the WGSL chain kernel (`shaders/chain.wgsl`) on wgpu, all wgpu calls in
-//!   [`gpu::device`];
-//! - [`cpu`]: the reference over a grid on all cores, the fallback where no adapter exists;
-//! - [`grid`]: the grid of commanded positions a map covers;
-//! - [`field`]: field files (OpenEXR) written as a stream and read back;
-//! - [`map`]: a whole map run, its statistics and its spot check;
-//! - [`query`]: VE and OE at arbitrary positions, from a field or exactly;
-//! - [`features`]: part files, feature errors and machine capability, on [`tolerance`]
-//!   (minimum zones) and [`mesh`] (STL in, PLY out);
-//! - [`standards`]: standard accuracy tests from the model against measured data, `fit` and
-//!   `build`;
-//! - [`plot`]: charts, colour maps and the deformed grid as SVG and PNG;
+//! The crate is laid out in layers, each using only those below it:
+//! - [`model`]: what a machine is (chain, axes, error functions), the grid of commanded positions,
+//!   the channels of a field; no files, no devices;
+//! - [`reference`](mod@reference): the f64 truth (nalgebra), and a machine with its ideal twin;
+//! - [`io`]: files: machine files and the embedded machines, field files (OpenEXR), points CSV,
+//!   meshes;
+//! - [`gpu`]: every wgpu call, the chain kernel's packing and mapper, the sampler;
+//! - [`engine`]: the GPU, the CPU engine and the reference over a grid, one map run into a field;
+//! - [`query`]: answers at arbitrary positions, field slices, the deformed grid;
+//! - [`part`]: part files, feature errors, minimum zones, machine capability;
+//! - [`standards`]: the standard tests (one file per ISO part) from the model, against measured
+//!   data;
+//! - [`calibrate`]: location errors fitted to tests, machine files built from measurements;
 //! - [`nc`]: offline NC program compensation;
+//! - [`plot`]: one drawing written as SVG or PNG, and the charts built from it;
 //! - [`bench`](mod@bench): `volmap bench`.
 
 pub mod bench;
-pub mod cpu;
-pub mod features;
-pub mod field;
+pub mod calibrate;
+pub mod engine;
 pub mod gpu;
-pub mod grid;
-pub mod machine;
-pub mod map;
-pub mod mesh;
+pub mod io;
+pub mod model;
 pub mod nc;
+pub mod part;
 pub mod plot;
 pub mod query;
 pub mod reference;
 pub mod standards;
-pub mod tolerance;

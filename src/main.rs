@@ -15,10 +15,11 @@ use anyhow::Context;
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use volmap::field::{FieldInfo, FieldReader};
-use volmap::grid::{self, Grid};
-use volmap::machine::embedded;
-use volmap::map::{self, DeviceChoice, Engine, FieldStats, MapOptions};
+use volmap::engine::map::{self, FieldStats, MapOptions};
+use volmap::engine::{DeviceChoice, Engine};
+use volmap::io::embedded;
+use volmap::io::field::{FieldInfo, FieldReader};
+use volmap::model::grid::{self, Grid};
 
 /// Maps the volumetric error of multi-axis machine tools: the full chain of homogeneous
 /// transforms with every measured axis error, at every point of a grid over the workspace.
@@ -411,7 +412,7 @@ fn run_bench(args: BenchArgs) -> Result<ExitCode, Failure> {
                 p.trim()
                     .chars()
                     .next()
-                    .and_then(volmap::machine::AxisLetter::from_char)
+                    .and_then(volmap::model::AxisLetter::from_char)
                     .is_some_and(|l| machine.chain.contains(l))
             })
             .collect();
@@ -460,11 +461,11 @@ fn run_sample(args: SampleArgs) -> Result<ExitCode, Failure> {
     use volmap::query;
     // The points and the field are read side by side: both are mostly parsing.
     let (points, loaded) = rayon::join(
-        || query::read_points(&args.points),
+        || volmap::io::points::read_points(&args.points),
         || {
             args.field
                 .as_deref()
-                .map(query::LoadedField::open)
+                .map(volmap::io::field::LoadedField::open)
                 .transpose()
         },
     );
@@ -486,7 +487,7 @@ fn run_sample(args: SampleArgs) -> Result<ExitCode, Failure> {
         (None, Some(machine)) if args.exact => {
             let machine = embedded::load(machine).map_err(bad_input)?;
             let pose = grid::parse_pose(&args.pose, &machine).map_err(bad_input)?;
-            let points: Vec<query::QueryPoint> = points
+            let points: Vec<volmap::io::points::QueryPoint> = points
                 .iter()
                 .map(|p| {
                     let mut p = p.clone();
@@ -512,24 +513,26 @@ fn run_sample(args: SampleArgs) -> Result<ExitCode, Failure> {
         None => {
             let stdout = std::io::stdout();
             let mut out = std::io::BufWriter::new(stdout.lock());
-            query::write_samples(&mut out, &points, &samples)
+            volmap::io::points::write_samples(&mut out, &points, &samples)
                 .context("writing to standard output")?;
             out.flush().context("writing to standard output")?;
         }
-        Some(path) => write_atomically(path, |out| query::write_samples(out, &points, &samples))?,
+        Some(path) => write_atomically(path, |out| {
+            volmap::io::points::write_samples(out, &points, &samples)
+        })?,
     }
     Ok(ExitCode::SUCCESS)
 }
 
 fn run_features(args: FeaturesArgs) -> Result<ExitCode, Failure> {
-    use volmap::features::{self, ErrorSource, PartFile, Verdict};
+    use volmap::part::{ErrorSource, PartFile, Verdict};
     let part_name = args.part.display().to_string();
     let part = PartFile::read(&args.part).map_err(bad_input)?;
     let field;
     let machine;
     let source = match (&args.field, &args.machine) {
         (Some(path), _) => {
-            field = volmap::query::LoadedField::open(path).map_err(bad_input)?;
+            field = volmap::io::field::LoadedField::open(path).map_err(bad_input)?;
             ErrorSource::Field(&field)
         }
         (None, Some(name)) => {
@@ -542,7 +545,7 @@ fn run_features(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             )))
         }
     };
-    let rows = features::evaluate(&part, source, &part_name).map_err(bad_input)?;
+    let rows = volmap::part::evaluate(&part, source, &part_name).map_err(bad_input)?;
     println!("{} ({} features)", part.name, rows.len());
     println!(
         "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} worst point (commanded X Y Z, mm)",

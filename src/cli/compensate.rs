@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use volmap::machine::embedded;
+use volmap::io::embedded;
 use volmap::nc::{self, Options, ToolLengths};
 
 use super::super::{bad_input, write_atomically, Failure};

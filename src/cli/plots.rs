@@ -88,7 +88,7 @@ enum PlotKind {
     /// The workspace grid displaced by the magnified volumetric error (Hwang et al., Fig. 9).
     Grid {
         /// An embedded machine's name or a machine file.
-        #[arg(long, default_value = volmap::machine::embedded::DEFAULT_MACHINE)]
+        #[arg(long, default_value = volmap::io::embedded::DEFAULT_MACHINE)]
         machine: String,
         /// Grid lines along X, Y, Z.
         #[arg(long, default_value = "5x5x5")]
@@ -143,11 +143,12 @@ pub fn run_plot(args: PlotArgs) -> Result<ExitCode, Failure> {
             scale,
             out,
         } => {
-            let machine = volmap::machine::embedded::load(&machine).map_err(bad_input)?;
-            let dims = volmap::grid::parse_dims(&grid).map_err(bad_input)?;
-            let pose = volmap::grid::parse_pose(&pose, &machine).map_err(bad_input)?;
-            let grid = volmap::grid::Grid::full_travel(&machine, dims, pose).map_err(bad_input)?;
-            let deformed = volmap::standards::deformed_grid(&machine, &grid, scale);
+            let machine = volmap::io::embedded::load(&machine).map_err(bad_input)?;
+            let dims = volmap::model::grid::parse_dims(&grid).map_err(bad_input)?;
+            let pose = volmap::model::grid::parse_pose(&pose, &machine).map_err(bad_input)?;
+            let grid =
+                volmap::model::grid::Grid::full_travel(&machine, dims, pose).map_err(bad_input)?;
+            let deformed = volmap::query::deformed_grid(&machine, &grid, scale);
             let drawing = plot::deformed_grid(
                 &format!(
                     "{}: the workspace deformed by its volumetric error",

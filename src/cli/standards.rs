@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 
-use volmap::machine::embedded;
+use volmap::io::embedded;
 use volmap::standards::{self, Setup, TestResult};
 
 use super::super::{bad_input, write_atomically, Failure};
@@ -319,7 +319,7 @@ pub struct FitArgs {
 }
 
 pub fn run_fit(args: FitArgs) -> Result<ExitCode, Failure> {
-    use volmap::standards::fit;
+    use volmap::calibrate::fit;
     let machine = embedded::load(&args.machine).map_err(bad_input)?;
     let file = fit::FitFile::read(&args.measurements).map_err(bad_input)?;
     let report = fit::fit(&machine, &file).map_err(bad_input)?;
@@ -375,8 +375,8 @@ pub struct BuildArgs {
 }
 
 pub fn run_build(args: BuildArgs) -> Result<ExitCode, Failure> {
-    use volmap::machine::AxisLetter;
-    use volmap::standards::build;
+    use volmap::calibrate::build;
+    use volmap::model::AxisLetter;
     let base = embedded::load(&args.base).map_err(bad_input)?;
     let mut axes = Vec::new();
     for pair in &args.axes {
@@ -406,7 +406,7 @@ pub fn run_build(args: BuildArgs) -> Result<ExitCode, Failure> {
         .parent()
         .map(std::path::Path::to_path_buf)
         .unwrap_or_default();
-    volmap::machine::Machine::from_toml(&text, &args.out.display().to_string(), Some(&folder))
+    volmap::model::Machine::from_toml(&text, &args.out.display().to_string(), Some(&folder))
         .map_err(bad_input)?;
     write_atomically(&args.out, |out| out.write_all(text.as_bytes()))?;
     println!(

@@ -133,10 +133,6 @@ pub struct Group {
 }
 const _: () = assert!(std::mem::size_of::<Group>() == 16);
 
-/// The output per point and channel, in EXR channel order (alphabetical): for each line of a
-/// chunk, `nx` values of each channel in turn.
-pub const CHANNELS: [&str; 6] = ["OE.X", "OE.Y", "OE.Z", "VE.X", "VE.Y", "VE.Z"];
-
 /// What the sampling kernel needs to know of the field and the dispatch. Keep in sync with
 /// `struct SampleParams` in `shaders/sample.wgsl`.
 #[repr(C)]

@@ -14,12 +14,13 @@ use std::sync::{Arc, Mutex};
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::grid::Grid;
-use crate::machine::{Axis, AxisLetter, Machine};
+use crate::model::channels::CHANNELS;
+use crate::model::grid::Grid;
+use crate::model::{Axis, AxisLetter, Machine};
 use crate::reference;
 pub use device::GpuError;
 use device::{Buffer, Gpu, Pass, Readback};
-use layout::{AxisData, DevData, Factor, Function, Group, Mat4, Params, Piece, CHANNELS};
+use layout::{AxisData, DevData, Factor, Function, Group, Mat4, Params, Piece};
 pub use sample::{GpuSampler, SAMPLE_WGSL};
 
 /// The chain kernel's WGSL source.
@@ -979,7 +980,7 @@ impl GpuMapper {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::machine::embedded;
+    use crate::io::embedded;
 
     #[test]
     fn polynomials_in_the_grid_index_equal_the_pieces() {

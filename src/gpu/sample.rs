@@ -1,4 +1,4 @@
-//! The GPU twin of trilinear sampling ([`crate::query::LoadedField::sample`]): each position's
+//! The GPU twin of trilinear sampling ([`crate::io::field::LoadedField::sample`]): each position's
 //! grid cell and fractions are found on the host in f64, the field goes to the device in slabs
 //! of whole z planes that fit its binding limit, and `shaders/sample.wgsl` blends the eight
 //! corners of every cell.
@@ -6,6 +6,7 @@
 use super::device::{self, Gpu, Pass, Readback};
 use super::layout::{SampleParams, SamplePoint};
 use super::GpuError;
+use crate::io::field::GridCell;
 
 /// The sampling kernel's WGSL source.
 pub const SAMPLE_WGSL: &str = include_str!("../../shaders/sample.wgsl");
@@ -39,7 +40,7 @@ impl GpuSampler {
         self.gpu.is_software()
     }
 
-    /// Samples the field of grid `dims` at `points`. `field[p]` holds the six values of grid
+    /// Samples the field of grid `dims` in `cells` (found on the host, see [`GridCell`]). `field[p]` holds the six values of grid
     /// point `p = i + nx·(j + ny·k)`; every point's cell must lie in the grid (the host checks
     /// positions before it builds them). `max_slab_bytes` caps the field bytes held on the
     /// device at once, below the device's own limit.
@@ -47,9 +48,10 @@ impl GpuSampler {
         &self,
         dims: [usize; 3],
         field: &[[f32; SAMPLE_VALUES]],
-        points: &[SamplePoint],
+        cells: &[GridCell],
         max_slab_bytes: Option<u64>,
     ) -> Result<Vec<[f32; SAMPLE_VALUES]>, GpuError> {
+        let points: Vec<SamplePoint> = cells.iter().map(sample_point).collect();
         let [nx, ny, nz] = dims.map(|n| n as u64);
         let error = |message: String| GpuError::Runtime {
             adapter: self.adapter_name().to_string(),
@@ -146,5 +148,15 @@ impl GpuSampler {
             }
         }
         Ok(samples)
+    }
+}
+
+/// A cell as the sampling kernel takes it.
+fn sample_point(cell: &GridCell) -> SamplePoint {
+    let [i, j, k] = cell.lower.map(|n| n as u32);
+    let [tx, ty, tz] = cell.fraction.map(|t| t as f32);
+    SamplePoint {
+        cell: [i, j, k, 0],
+        t: [tx, ty, tz, 0.0],
     }
 }

@@ -28,7 +28,7 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::machine::{Command, Machine};
+use crate::model::{Command, Machine};
 use crate::reference;
 use parse::{parse_program, Line};
 use path::{arc_path, arc_through, lerp, Path};

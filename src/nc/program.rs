@@ -3,7 +3,7 @@
 
 use super::parse::Line;
 use super::{NcError, Options};
-use crate::machine::{AxisLetter, Machine};
+use crate::model::{AxisLetter, Machine};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Motion {

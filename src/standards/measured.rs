@@ -30,7 +30,7 @@ pub struct Measured {
 }
 
 /// A measurement file's name (for errors) and text.
-pub(super) fn read_text(path: &Path) -> Result<(String, String), StandardsError> {
+pub(crate) fn read_text(path: &Path) -> Result<(String, String), StandardsError> {
     let name = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|source| StandardsError::Io {
         path: name.clone(),
@@ -41,7 +41,7 @@ pub(super) fn read_text(path: &Path) -> Result<(String, String), StandardsError>
 
 /// The lines of a measurement CSV that hold its header and rows: 1-based line numbers, trimmed;
 /// blank lines and `#` comments skipped.
-pub(super) fn csv_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+pub(crate) fn csv_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
     text.lines()
         .enumerate()
         .map(|(n, l)| (n + 1, l.trim()))
@@ -49,7 +49,7 @@ pub(super) fn csv_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
 }
 
 /// A row's fields, as many as the header has columns (else the message why not).
-pub(super) fn csv_fields(row: &str, columns: usize) -> Result<Vec<&str>, String> {
+pub(crate) fn csv_fields(row: &str, columns: usize) -> Result<Vec<&str>, String> {
     let fields: Vec<&str> = row.split(',').map(str::trim).collect();
     if fields.len() != columns {
         return Err(format!("{} fields, the header has {columns}", fields.len()));
@@ -58,7 +58,7 @@ pub(super) fn csv_fields(row: &str, columns: usize) -> Result<Vec<&str>, String>
 }
 
 /// A finite number from a field of `column` (else the message why not).
-pub(super) fn csv_number(field: &str, column: &str) -> Result<f64, String> {
+pub(crate) fn csv_number(field: &str, column: &str) -> Result<f64, String> {
     field
         .parse::<f64>()
         .ok()

@@ -23,26 +23,21 @@
 //!
 //! Measured curves are compared as they come: zero them where the prediction is zeroed.
 
-pub mod build;
-mod circular;
-mod deformation;
-mod diagonal;
-pub mod fit;
 pub mod iso230_2;
+pub mod iso230_4;
+pub mod iso230_6;
 pub mod measured;
-mod positioning;
-mod rtest;
+pub mod rtest;
 
-pub use circular::{circular, least_squares_circle, plane_axes, CircularSpec};
-pub use deformation::{deformed_grid, DeformedGrid};
-pub use diagonal::{diagonal, diagonal_ends, read_profile, DiagonalSpec};
-pub use positioning::{positioning, read_positioning, PositioningSpec};
+pub use iso230_2::{positioning, read_positioning, PositioningSpec};
+pub use iso230_4::{circular, least_squares_circle, plane_axes, CircularSpec};
+pub use iso230_6::{diagonal, diagonal_ends, read_profile, DiagonalSpec};
 pub use rtest::{rtest, RTestSpec};
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::grid::{self, GridError};
-use crate::machine::{AxisLetter, Command, Machine};
+use crate::model::grid::{self, GridError};
+use crate::model::{AxisLetter, Command, Machine};
 use crate::reference;
 
 #[derive(Debug, thiserror::Error)]
@@ -105,7 +100,7 @@ impl<'a> Setup<'a> {
         command
     }
 
-    fn linear_axis(&self, letter: AxisLetter) -> Result<&crate::machine::Axis, StandardsError> {
+    fn linear_axis(&self, letter: AxisLetter) -> Result<&crate::model::Axis, StandardsError> {
         self.machine.axis(letter).ok_or_else(|| {
             parameter(format!(
                 "the machine (chain {}) has no {letter} axis",

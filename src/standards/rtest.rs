@@ -9,7 +9,7 @@ use super::measured::{Measured, Unit};
 use super::{
     default_pose, figure, parameter, range_of, read_profile, Setup, StandardsError, TestResult,
 };
-use crate::machine::AxisLetter;
+use crate::model::AxisLetter;
 use crate::reference;
 
 /// The R-test of a rotary axis.
@@ -42,7 +42,7 @@ pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsErr
 }
 
 /// An R-test's measured results, where the spec names a file.
-pub(super) fn read_rtest(spec: &RTestSpec) -> Result<Option<Measured>, StandardsError> {
+pub(crate) fn read_rtest(spec: &RTestSpec) -> Result<Option<Measured>, StandardsError> {
     spec.csv
         .as_deref()
         .map(|p| read_profile(p, ("angle", Unit::Angle), &["dX", "dY", "dZ"]))
@@ -50,7 +50,7 @@ pub(super) fn read_rtest(spec: &RTestSpec) -> Result<Option<Measured>, Standards
 }
 
 /// [`rtest`] with the measured results already read (a fit runs the test many times).
-pub(super) fn rtest_with(
+pub(crate) fn rtest_with(
     setup: &Setup,
     spec: &RTestSpec,
     measured: Option<&Measured>,

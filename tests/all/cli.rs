@@ -655,7 +655,7 @@ fn build_and_fit_write_machine_files_that_map() {
         .arg(dir.path().join("built.exr"))
         .assert()
         .success();
-    assert!(volmap::machine::Machine::from_path(&fitted).is_ok());
+    assert!(volmap::model::Machine::from_path(&fitted).is_ok());
     volmap()
         .args([
             "build",

@@ -3,7 +3,7 @@
 use std::sync::OnceLock;
 
 use volmap::gpu::{GpuMapper, GpuSampler};
-use volmap::machine::{AxisLetter, ErrorFunction, Interp, Machine, Table};
+use volmap::model::{AxisLetter, ErrorFunction, Interp, Machine, Table};
 
 /// The GPU engine, opened once. `None` (test skipped, with a line on stderr) only where no
 /// adapter exists; a panic instead when `VOLMAP_REQUIRE_GPU` is set.

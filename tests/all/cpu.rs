@@ -1,10 +1,11 @@
 //! The CPU engine (the f64 twin of the GPU passes) against the reference at every point: equal
 //! up to the rounding of the f32 output.
 
-use volmap::cpu::{point_values, CpuPlan};
-use volmap::gpu::layout::CHANNELS;
-use volmap::grid::Grid;
-use volmap::machine::{embedded, AxisLetter, Chain, Machine};
+use volmap::engine::cpu::{point_values, CpuPlan};
+use volmap::io::embedded;
+use volmap::model::channels::CHANNELS;
+use volmap::model::grid::Grid;
+use volmap::model::{AxisLetter, Chain, Machine};
 
 use super::common::{ranges, with_random_errors, Rng};
 

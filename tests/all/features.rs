@@ -1,7 +1,7 @@
 //! Feature errors on machines whose effect on a feature is known by hand.
 
-use volmap::features::{evaluate, ErrorSource, FeatureError, PartFile, Verdict};
-use volmap::machine::{AxisLetter, ErrorFunction, Interp, Machine, Table};
+use volmap::model::{AxisLetter, ErrorFunction, Interp, Machine, Table};
+use volmap::part::{evaluate, ErrorSource, FeatureError, PartFile, Verdict};
 use AxisLetter::*;
 
 fn gantry() -> Machine {
@@ -337,7 +337,7 @@ fn positions_move_with_their_datums() {
         "part.toml",
     )
     .unwrap();
-    let by_name = |rows: &[volmap::features::FeatureResult], n: &str| {
+    let by_name = |rows: &[volmap::part::FeatureResult], n: &str| {
         rows.iter().find(|r| r.name == n).unwrap().error_mm
     };
     assert!(by_name(&rows, "H") < 1e-9, "{}", by_name(&rows, "H"));

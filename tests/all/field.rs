@@ -1,16 +1,17 @@
 //! Field files: written as a stream, read back by volmap and by an independent OpenEXR reader.
 
 use exr::prelude::{read_first_flat_layer_from_file, FlatSamples, Vec2};
-use volmap::cpu;
-use volmap::field::{FieldReader, FieldWriter};
-use volmap::gpu::layout::CHANNELS;
-use volmap::grid::{parse_pose, Grid};
-use volmap::machine::embedded;
-use volmap::map::{self, Engine, MapOptions};
+use volmap::engine::cpu;
+use volmap::engine::map::{self, MapOptions};
+use volmap::engine::Engine;
+use volmap::io::embedded;
+use volmap::io::field::{FieldReader, FieldWriter};
+use volmap::model::channels::CHANNELS;
+use volmap::model::grid::{parse_pose, Grid};
 
 /// What the CPU engine computes for the grid: the field file must hold exactly these values.
 fn engine_values(
-    machine: &volmap::machine::Machine,
+    machine: &volmap::model::Machine,
     grid: &Grid,
 ) -> impl Fn([usize; 3], usize) -> f32 {
     let mut values = vec![0.0f32; grid.points() as usize * CHANNELS.len()];
@@ -22,7 +23,7 @@ fn engine_values(
 fn mapped(
     dir: &std::path::Path,
     dims: [usize; 3],
-) -> (volmap::machine::Machine, Grid, std::path::PathBuf) {
+) -> (volmap::model::Machine, Grid, std::path::PathBuf) {
     let machine = embedded::load("5axis-hwang2014").unwrap();
     let pose = parse_pose("B=12.5,C=200", &machine).unwrap();
     let grid = Grid::full_travel(&machine, dims, pose).unwrap();

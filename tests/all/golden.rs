@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use volmap::machine::embedded;
+use volmap::io::embedded;
 use volmap::reference::deviation;
 
 use super::common::Rng;

@@ -1,12 +1,13 @@
 //! The GPU engine against the f64 reference, at every grid point, within the tolerances of the
 //! core issue: 1e-6 mm for VE and 1e-9 rad for OE.
 
-use volmap::cpu;
-use volmap::gpu::layout::CHANNELS;
+use volmap::engine::cpu;
+use volmap::engine::map::{OE_TOLERANCE_RAD, VE_TOLERANCE_MM};
 use volmap::gpu::{GpuMapper, Tiling};
-use volmap::grid::Grid;
-use volmap::machine::{embedded, AxisLetter, Machine};
-use volmap::map::{OE_TOLERANCE_RAD, VE_TOLERANCE_MM};
+use volmap::io::embedded;
+use volmap::model::channels::CHANNELS;
+use volmap::model::grid::Grid;
+use volmap::model::{AxisLetter, Machine};
 
 use super::common::{all_five_axis_chains, gpu, ranges, with_random_errors, Rng};
 use AxisLetter::*;
@@ -120,10 +121,7 @@ fn two_metre_workspace_with_every_error_kind() {
     // interpolation kinds, periodic rotary tables: the case the deviation form exists for.
     let mut rng = Rng(2026);
     for chain in ["FYXCFZB", "FXYZFAC", "FFXYZBC", "FBCZYXF"] {
-        let letters: Vec<AxisLetter> = volmap::machine::Chain::parse(chain)
-            .unwrap()
-            .axes()
-            .collect();
+        let letters: Vec<AxisLetter> = volmap::model::Chain::parse(chain).unwrap().axes().collect();
         let machine = with_random_errors(
             Machine::nominal(chain, chain, &ranges(&letters)).unwrap(),
             &mut rng,
@@ -204,7 +202,7 @@ fn more_lines_than_a_dispatch_dimension_holds_run_in_several_chunks() {
     let grid = Grid::full_travel(&machine, [3, 70_000, 1], [0.0; 6]).unwrap();
     let Some(gpu) = gpu() else { return };
     // Random points, and the last lines, which only the second chunk computes.
-    let mut checked = volmap::map::sample_points(grid.points() - 300, 3000);
+    let mut checked = volmap::engine::map::sample_points(grid.points() - 300, 3000);
     checked.extend(grid.points() - 300..grid.points());
     let mut captured = Vec::new();
     let mut chunks = 0;
@@ -229,7 +227,7 @@ fn more_lines_than_a_dispatch_dimension_holds_run_in_several_chunks() {
     .unwrap();
     assert_eq!(chunks, 2);
     assert_eq!(captured.len(), checked.len());
-    let result = volmap::map::check_against_reference(&machine, &grid, &checked, &captured);
+    let result = volmap::engine::map::check_against_reference(&machine, &grid, &checked, &captured);
     assert!(result.passed(), "{result:?}");
 }
 
@@ -261,7 +259,7 @@ fn every_shape_of_the_point_pass_matches_the_reference() {
     // in the pass (one polynomial piece each) or read from the axis pass's table (several
     // pieces); Pre and Post folded into one or two group tables by j, by k or constant (a rotary
     // axis or Y before X or not); and no X axis at all.
-    use volmap::machine::{ErrorFunction, Interp, Table};
+    use volmap::model::{ErrorFunction, Interp, Table};
     let one_piece =
         |scale: f64| ErrorFunction::Poly(vec![scale, scale / 700.0, -scale / 4.9e5, scale / 3.4e8]);
     let three_node = |scale: f64| {
@@ -290,10 +288,8 @@ fn every_shape_of_the_point_pass_matches_the_reference() {
         for (translations_inline, rotations_inline) in
             [(true, true), (true, false), (false, true), (false, false)]
         {
-            let letters: Vec<AxisLetter> = volmap::machine::Chain::parse(chain)
-                .unwrap()
-                .axes()
-                .collect();
+            let letters: Vec<AxisLetter> =
+                volmap::model::Chain::parse(chain).unwrap().axes().collect();
             let travels: Vec<(AxisLetter, [f64; 2])> = letters
                 .iter()
                 .map(|&l| {
@@ -384,7 +380,7 @@ fn an_x_table_shorter_than_the_grid_holds_its_end_values() {
     // One polynomial piece over [100, 500] mm while the grid runs from 0 to 700 mm: beyond the
     // table the end values hold, which the point pass's polynomials in the grid index cannot
     // express, so X's errors come from the axis pass's table there.
-    use volmap::machine::{ErrorFunction, Interp, Table};
+    use volmap::model::{ErrorFunction, Interp, Table};
     let short = |scale: f64| {
         ErrorFunction::Table(
             Table::new(

@@ -2,7 +2,9 @@
 
 use std::path::Path;
 
-use volmap::machine::{embedded, AxisLetter, ErrorFunction, Interp, Machine, MachineError};
+use volmap::io::embedded;
+use volmap::io::machine_file::MachineError;
+use volmap::model::{AxisLetter, ErrorFunction, Interp, Machine};
 
 const GOOD: &str = r#"
 name = "3-axis VMC"

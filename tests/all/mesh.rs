@@ -1,7 +1,7 @@
 //! STL reading (ASCII and binary) and PLY writing.
 
 use nalgebra::Vector3;
-use volmap::mesh::{Mesh, MeshError};
+use volmap::io::mesh::{Mesh, MeshError};
 
 /// A unit tetrahedron as corner triples.
 fn tetrahedron() -> Vec<[Vector3<f64>; 3]> {

@@ -4,7 +4,8 @@
 use std::path::Path;
 
 use nalgebra::Vector3;
-use volmap::machine::{embedded, AxisLetter, ErrorFunction, Machine};
+use volmap::io::embedded;
+use volmap::model::{AxisLetter, ErrorFunction, Machine};
 use volmap::nc::{self, Options, ToolLengths};
 
 fn options(decimals: usize) -> Options {

@@ -1,9 +1,10 @@
 //! Plots: what the drawings hold, SVG that parses, PNG that decodes with the curves and text in
 //! it, field slices that hold the field's values, and the deformed grid's geometry.
 
-use volmap::grid::Grid;
-use volmap::machine::embedded;
-use volmap::map::{self, Engine, MapOptions};
+use volmap::engine::map::{self, MapOptions};
+use volmap::engine::Engine;
+use volmap::io::embedded;
+use volmap::model::grid::Grid;
 use volmap::plot::{self, Color, Series, Shape};
 
 fn series() -> Vec<Series> {
@@ -134,7 +135,7 @@ fn a_field_slice_holds_the_field_values() {
         |_| {},
     )
     .unwrap();
-    let field = volmap::query::LoadedField::open(&path).unwrap();
+    let field = volmap::io::field::LoadedField::open(&path).unwrap();
     // Column order of LoadedField values: VE.X VE.Y VE.Z OE.X OE.Y OE.Z.
     let value = |i: usize, j: usize, k: usize| field.values()[i + 7 * (j + 5 * k)];
     let z_at = grid.origin_mm[2] + 2.0 * grid.spacing_mm[2];
@@ -182,7 +183,7 @@ fn the_deformed_grid_is_the_nominal_grid_plus_the_magnified_error() {
     let mut pose = [0.0; 6];
     pose[4] = 30.0;
     let grid = Grid::full_travel(&machine, [3, 3, 2], pose).unwrap();
-    let deformed = volmap::standards::deformed_grid(&machine, &grid, None);
+    let deformed = volmap::query::deformed_grid(&machine, &grid, None);
     // Lines along X: 3·2, along Y: 2·3, along Z: 3·3.
     assert_eq!(deformed.nominal.len(), 6 + 6 + 9);
     let ideal = machine.without_errors();

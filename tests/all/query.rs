@@ -1,9 +1,13 @@
 //! Point queries: trilinear sampling of fields and exact values from the model.
 
-use volmap::grid::Grid;
-use volmap::machine::{embedded, AxisLetter, ErrorFunction, Machine};
-use volmap::map::{self, Engine, MapOptions};
-use volmap::query::{self, LoadedField, QueryError};
+use volmap::engine::map::{self, MapOptions};
+use volmap::engine::Engine;
+use volmap::io::embedded;
+use volmap::io::field::LoadedField;
+use volmap::io::points::parse_points;
+use volmap::model::grid::Grid;
+use volmap::model::{AxisLetter, ErrorFunction, Machine};
+use volmap::query::{self, QueryError};
 
 use super::common::{sampler, Rng};
 use AxisLetter::*;
@@ -66,7 +70,7 @@ fn trilinear_sampling_is_exact_where_the_field_is_trilinear() {
         })
         .chain([[0.0, -200.0, 0.0], [600.0, 200.0, 300.0]])
         .collect();
-    let points = query::parse_points(&points_csv(&positions), "p.csv").unwrap();
+    let points = parse_points(&points_csv(&positions), "p.csv").unwrap();
     let sampled = query::sample_field(&field, &points, "p.csv").unwrap();
     let exact = query::sample_exact(&machine, &points);
     for ((p, s), e) in points.iter().zip(&sampled).zip(&exact) {
@@ -107,7 +111,7 @@ fn grid_nodes_give_the_stored_values_and_midpoints_their_means() {
     // Nodes hold what the map wrote: the f32 of the model's value.
     let exact = query::sample_exact(
         &machine,
-        &query::parse_points("X,Y,Z,B,C\n200,400,250,15,100\n", "p.csv").unwrap(),
+        &parse_points("X,Y,Z,B,C\n200,400,250,15,100\n", "p.csv").unwrap(),
     );
     let stored = node([1, 2, 1]);
     assert_eq!(grid.command([1, 2, 1])[..3], [200.0, 400.0, 250.0]);
@@ -127,7 +131,7 @@ fn positions_outside_the_grid_or_the_pose_are_errors() {
         [0.0, 0.0, 0.0, 0.0, 15.0, 100.0],
     ))
     .unwrap();
-    let outside = query::parse_points("X,Y,Z\n10,10,10\n\n800.5,0,0\n", "p.csv").unwrap();
+    let outside = parse_points("X,Y,Z\n10,10,10\n\n800.5,0,0\n", "p.csv").unwrap();
     let error = query::sample_field(&field, &outside, "p.csv").unwrap_err();
     assert!(
         matches!(
@@ -144,7 +148,7 @@ fn positions_outside_the_grid_or_the_pose_are_errors() {
         error.to_string().contains("p.csv: line 4: X=800.5"),
         "{error}"
     );
-    let wrong_pose = query::parse_points("X,Y,Z,B\n10,10,10,15\n10,10,10,20\n", "p.csv").unwrap();
+    let wrong_pose = parse_points("X,Y,Z,B\n10,10,10,15\n10,10,10,20\n", "p.csv").unwrap();
     let error = query::sample_field(&field, &wrong_pose, "p.csv")
         .unwrap_err()
         .to_string();
@@ -166,9 +170,7 @@ fn bad_point_files_name_the_line() {
         ("X,Y,Z\n1,2,nan\n", "not a finite number"),
     ];
     for (text, message) in cases {
-        let error = query::parse_points(text, "pts.csv")
-            .unwrap_err()
-            .to_string();
+        let error = parse_points(text, "pts.csv").unwrap_err().to_string();
         assert!(
             error.contains("pts.csv") && error.contains(message),
             "`{text}`: {error}"
@@ -199,7 +201,10 @@ fn positions_within(field: &LoadedField, count: usize, rng: &mut Rng) -> Vec<[f6
 }
 
 /// The largest difference per column and the largest magnitude of each column.
-fn column_differences(a: &[query::Sample], b: &[query::Sample]) -> ([f64; 6], [f64; 6]) {
+fn column_differences(
+    a: &[volmap::model::channels::Sample],
+    b: &[volmap::model::channels::Sample],
+) -> ([f64; 6], [f64; 6]) {
     let mut difference = [0.0f64; 6];
     let mut largest = [0.0f64; 6];
     for (x, y) in a.iter().zip(b) {
@@ -225,7 +230,7 @@ fn gpu_sampling_matches_the_cpu() {
         ))
         .unwrap();
         let positions = positions_within(&field, 2000, &mut Rng(5));
-        let points = query::parse_points(&points_csv(&positions), "p.csv").unwrap();
+        let points = parse_points(&points_csv(&positions), "p.csv").unwrap();
         let on_cpu = query::sample_field(&field, &points, "p.csv").unwrap();
         let on_gpu = query::sample_field_gpu(&field, &points, "p.csv", sampler).unwrap();
         let (difference, largest) = column_differences(&on_cpu, &on_gpu);
@@ -248,10 +253,10 @@ fn gpu_sampling_in_slabs_equals_one_slab() {
     let machine = embedded::load("vmc-li2015").unwrap();
     let field = LoadedField::open(&mapped(dir.path(), &machine, [6, 5, 11], [0.0; 6])).unwrap();
     let positions = positions_within(&field, 3000, &mut Rng(9));
-    let points = query::parse_points(&points_csv(&positions), "p.csv").unwrap();
+    let points = parse_points(&points_csv(&positions), "p.csv").unwrap();
     let located: Vec<_> = points
         .iter()
-        .map(|p| field.cell(&p.command).unwrap().for_gpu())
+        .map(|p| field.cell(&p.command).unwrap())
         .collect();
     let dims = field.info.dims;
     let whole = sampler

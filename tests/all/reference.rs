@@ -2,7 +2,7 @@
 
 use nalgebra::{Matrix4, Vector3};
 use proptest::prelude::*;
-use volmap::machine::{AxisLetter, Chain, ErrorFunction, Machine};
+use volmap::model::{AxisLetter, Chain, ErrorFunction, Machine};
 use volmap::reference::{self, deviation, relative_transform};
 
 use super::common::{all_five_axis_chains, ranges, with_random_errors, Rng};

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use volmap::machine::{AxisLetter, ErrorFunction, Machine};
+use volmap::model::{AxisLetter, ErrorFunction, Machine};
 use volmap::standards::{
     self, CircularSpec, DiagonalSpec, PositioningSpec, RTestSpec, Setup, StandardsError,
 };
@@ -495,8 +495,8 @@ fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
         fit_toml += &format!("[[diagonal]]\ndiagonal = \"{diagonal}\"\ncsv = \"{name}\"\n");
     }
     let fit_path = write(&dir, "fit.toml", &fit_toml);
-    let file = standards::fit::FitFile::read(&fit_path).unwrap();
-    let report = standards::fit::fit(&given, &file).unwrap();
+    let file = volmap::calibrate::fit::FitFile::read(&fit_path).unwrap();
+    let report = volmap::calibrate::fit::fit(&given, &file).unwrap();
     assert_eq!(report.points, 3 * 72 + 4 * 21);
     for (estimate, &(name, _, _, value)) in report.estimates.iter().zip(&truth) {
         assert_eq!(estimate.name, name);
@@ -515,7 +515,7 @@ fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
     assert!(report.rms_after_mm < 0.4e-3, "{}", report.rms_after_mm);
     assert!(report.rms_before_mm > 3.0 * report.rms_after_mm);
     // The machine file with the estimates reads back with them.
-    let text = standards::fit::fitted_machine_toml(&given, &report.estimates).unwrap();
+    let text = volmap::calibrate::fit::fitted_machine_toml(&given, &report.estimates).unwrap();
     let fitted = Machine::from_toml(&text, "fitted.toml", None).unwrap();
     for (estimate, &(_, axis, index, _)) in report.estimates.iter().zip(&truth) {
         assert_eq!(fitted.axis(axis).unwrap().location[index], estimate.value);
@@ -578,8 +578,8 @@ fn fit_recovers_a_rotary_axis_line_from_r_tests() {
             sphere[0], sphere[1], sphere[2]
         );
     }
-    let file = standards::fit::FitFile::read(&write(&dir, "fit.toml", &fit_toml)).unwrap();
-    let report = standards::fit::fit(&given, &file).unwrap();
+    let file = volmap::calibrate::fit::FitFile::read(&write(&dir, "fit.toml", &fit_toml)).unwrap();
+    let report = volmap::calibrate::fit::fit(&given, &file).unwrap();
     for (estimate, &(name, _, value)) in report.estimates.iter().zip(&truth) {
         assert_eq!(estimate.name, name);
         assert!(
@@ -607,22 +607,22 @@ fn fit_says_what_the_measurements_cannot_see() {
         let text = format!(
             "estimate = [{estimate}]\n[[circular]]\nplane = \"XY\"\nradius_mm = 100.0\npoints = 72\ncsv = \"xy.csv\"\n"
         );
-        standards::fit::FitFile::read(&write(&dir, "fit.toml", &text)).unwrap()
+        volmap::calibrate::fit::FitFile::read(&write(&dir, "fit.toml", &text)).unwrap()
     };
-    let error = standards::fit::fit(&machine, &file("\"EA0Z\""))
+    let error = volmap::calibrate::fit::fit(&machine, &file("\"EA0Z\""))
         .unwrap_err()
         .to_string();
     assert!(error.contains("EA0Z does not change"), "{error}");
-    let error = standards::fit::fit(&machine, &file("\"EQ0Z\""))
+    let error = volmap::calibrate::fit::fit(&machine, &file("\"EQ0Z\""))
         .unwrap_err()
         .to_string();
     assert!(error.contains("not a location error"), "{error}");
-    let error = standards::fit::fit(&machine, &file("\"EC0B\""))
+    let error = volmap::calibrate::fit::fit(&machine, &file("\"EC0B\""))
         .unwrap_err()
         .to_string();
     assert!(error.contains("no B axis"), "{error}");
     let unknown = write(&dir, "bad.toml", "estimate = []\nwobble = 1\n");
-    let error = standards::fit::FitFile::read(&unknown)
+    let error = volmap::calibrate::fit::FitFile::read(&unknown)
         .unwrap_err()
         .to_string();
     assert!(
@@ -633,8 +633,8 @@ fn fit_says_what_the_measurements_cannot_see() {
 
 #[test]
 fn build_chooses_elements_per_component_and_writes_a_machine() {
-    use volmap::machine::Interp;
-    use volmap::standards::build;
+    use volmap::calibrate::build;
+    use volmap::model::Interp;
     let dir = tempfile::tempdir().unwrap();
     let base_path = write(&dir, "base.toml", THREE_AXIS_TOML);
     let base = Machine::from_path(&base_path).unwrap();
@@ -706,7 +706,7 @@ fn build_chooses_elements_per_component_and_writes_a_machine() {
 
 #[test]
 fn build_rejects_bad_measurement_files() {
-    use volmap::standards::build;
+    use volmap::calibrate::build;
     let dir = tempfile::tempdir().unwrap();
     let check = |text: &str, line: usize, words: &str| {
         let path = write(&dir, "x.csv", text);

@@ -1,7 +1,7 @@
 //! Minimum-zone form tolerances on point sets with known answers.
 
 use nalgebra::{Rotation3, Vector3};
-use volmap::tolerance::{
+use volmap::part::tolerance::{
     cylindricity_min_zone, flatness_least_squares, flatness_min_zone, ToleranceError,
 };
 

@@ -14,9 +14,9 @@
 
 use std::path::Path;
 
-use super::measured::{csv_fields, csv_lines, csv_number, read_text};
-use super::StandardsError;
-use crate::machine::{AxisLetter, Interp, Machine, Table, COMPONENT_NAMES};
+use crate::model::{AxisLetter, Interp, Machine, Table, COMPONENT_NAMES};
+use crate::standards::measured::{csv_fields, csv_lines, csv_number, read_text};
+use crate::standards::StandardsError;
 
 /// One measured component of one axis, with the interpolation chosen for it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

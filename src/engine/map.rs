@@ -4,12 +4,13 @@
 use std::path::Path;
 use std::time::Instant;
 
-use crate::cpu;
-use crate::field::{FieldError, FieldInfo, FieldWriter};
-use crate::gpu::layout::CHANNELS;
-use crate::gpu::{GpuError, GpuMapper};
-use crate::grid::Grid;
-use crate::machine::Machine;
+use crate::engine::cpu;
+use crate::engine::Engine;
+use crate::gpu::GpuError;
+use crate::io::field::{FieldError, FieldInfo, FieldWriter};
+use crate::model::channels::CHANNELS;
+use crate::model::grid::Grid;
+use crate::model::Machine;
 
 #[derive(Debug, thiserror::Error)]
 pub enum MapError {
@@ -19,60 +20,6 @@ pub enum MapError {
     Field(#[from] FieldError),
     #[error("no GPU adapter found (--device gpu); use --device auto or cpu to compute on the CPU")]
     NoAdapter,
-}
-
-/// `--device`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DeviceChoice {
-    /// The GPU when an adapter exists, else the CPU.
-    Auto,
-    Gpu,
-    Cpu,
-}
-
-/// Where the map is computed.
-pub enum Engine {
-    Gpu(Box<GpuMapper>),
-    Cpu,
-}
-
-impl Engine {
-    /// Opens the engine `choice` asks for. With `Auto` and no adapter, falls back to the CPU and
-    /// returns a note saying so.
-    pub fn select(choice: DeviceChoice) -> Result<(Engine, Option<String>), MapError> {
-        if choice == DeviceChoice::Cpu {
-            return Ok((Engine::Cpu, None));
-        }
-        match GpuMapper::open()? {
-            Some(gpu) => Ok((Engine::Gpu(Box::new(gpu)), None)),
-            None if choice == DeviceChoice::Auto => Ok((
-                Engine::Cpu,
-                Some("no GPU adapter found: computing on the CPU (f64, all cores)".into()),
-            )),
-            None => Err(MapError::NoAdapter),
-        }
-    }
-
-    pub fn name(&self) -> String {
-        match self {
-            Engine::Gpu(g) => g.adapter_name().to_string(),
-            Engine::Cpu => format!("CPU, f64 ({} threads)", rayon::current_num_threads()),
-        }
-    }
-
-    /// Computes the map, handing chunks of whole lines to `on_chunk(first_line, lines, data)`.
-    pub fn run<E: From<GpuError>>(
-        &self,
-        machine: &Machine,
-        grid: &Grid,
-        chunk_points: Option<u64>,
-        on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
-    ) -> Result<(), E> {
-        match self {
-            Engine::Gpu(g) => g.run(machine, grid, chunk_points, on_chunk),
-            Engine::Cpu => cpu::run(machine, grid, chunk_points, on_chunk),
-        }
-    }
 }
 
 /// Statistics of a field, accumulated chunk by chunk.

@@ -9,9 +9,9 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use super::chain::{AxisLetter, Chain, ChainError};
-use super::errorfn::{ErrorFunction, Interp, Table, TableError};
-use super::{Axis, Machine, MachineSource, COMPONENT_NAMES};
+use crate::model::chain::{AxisLetter, Chain, ChainError};
+use crate::model::errorfn::{ErrorFunction, Interp, Table, TableError};
+use crate::model::{Axis, Machine, MachineSource, COMPONENT_NAMES};
 
 /// What is wrong with a machine file. Each message names the file and the key.
 #[derive(Debug, thiserror::Error)]

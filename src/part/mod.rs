@@ -22,7 +22,7 @@
 //! - profile of a meshed surface (normal `n` per triangle): `d = n·VE`, sampled over the
 //!   surface at the sampling spacing.
 //!
-//! Flatness and cylindricity are minimum zones ([`crate::tolerance`]); the height of a rib is the
+//! Flatness and cylindricity are minimum zones ([`crate::part::tolerance`]); the height of a rib is the
 //! largest deviation of its top from nominal; the parallelism of a hole to a datum hole is the
 //! diameter of the smallest cylinder parallel to the datum's axis that holds the hole's derived
 //! median line (the centres of its sections, least-squares circles). Positions are measured
@@ -31,16 +31,18 @@
 //! position error is the diameter of the cylinder about the true position that holds its derived
 //! median line, a rib side's the width of the zone about its true position that holds it.
 
+pub mod tolerance;
+
 use std::collections::HashMap;
 use std::path::Path;
 
 use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::machine::{AxisLetter, Command, Machine};
-use crate::query::LoadedField;
+use crate::io::field::LoadedField;
+use crate::model::{AxisLetter, Command, Machine};
 use crate::reference;
-use crate::tolerance::{self, ToleranceError};
+use tolerance::ToleranceError;
 
 #[derive(Debug, thiserror::Error)]
 pub enum FeatureError {
@@ -635,7 +637,7 @@ impl Evaluator<'_> {
     fn profile(
         &self,
         name: &str,
-        mesh: &crate::mesh::Mesh,
+        mesh: &crate::io::mesh::Mesh,
         tolerance: f64,
     ) -> Result<Profile, FeatureError> {
         use rayon::prelude::*;
@@ -940,7 +942,7 @@ pub fn evaluate(
                 ..
             } => {
                 let path = part.base.join(mesh);
-                let mesh = crate::mesh::Mesh::read_stl(&path)
+                let mesh = crate::io::mesh::Mesh::read_stl(&path)
                     .map_err(|e| evaluator.feature_error(name, e.to_string()))?;
                 let profile = evaluator.profile(name, &mesh, *tolerance_mm)?;
                 if let Some(ply) = ply {

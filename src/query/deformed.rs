@@ -1,7 +1,7 @@
 //! The workspace grid displaced by its magnified volumetric error (Hwang et al., Fig. 9).
 
-use crate::grid::Grid;
-use crate::machine::Machine;
+use crate::model::grid::Grid;
+use crate::model::Machine;
 use crate::reference;
 
 /// The grid lines of a workspace, nominal and with the magnified error added.

@@ -7,7 +7,7 @@
 
 use nalgebra::{Matrix3, Matrix4, Rotation3, Unit, Vector3};
 
-use crate::machine::{Axis, Command, Machine};
+use crate::model::{Axis, Command, Machine};
 
 pub type Transform = Matrix4<f64>;
 

@@ -1,15 +1,15 @@
-//! The machine model: kinematic chain, axes with their nominal geometry and ISO 230-1 errors,
-//! spindle errors and the tool offset (MODEL.md). Machines come from TOML files ([`file`](mod@file)) or are
-//! embedded in the binary ([`embedded`]).
+//! The model: what a machine is, with no file or device in sight. The kinematic chain, the axes
+//! with their nominal geometry and ISO 230-1 errors as functions of position, the spindle errors
+//! and the tool offset (MODEL.md); the grid of commanded positions a map covers; the channels of
+//! a field. Machine files are read into it by [`crate::io::machine_file`].
 
 pub mod chain;
-pub mod embedded;
+pub mod channels;
 pub mod errorfn;
-pub mod file;
+pub mod grid;
 
 pub use chain::{AxisLetter, Chain, ChainError};
 pub use errorfn::{ErrorFunction, Interp, Pieces, Table};
-pub use file::MachineError;
 
 /// Index of an error component within an axis: translations along x, y, z, then rotations about
 /// x, y, z. The ISO 230-1 names for axis X are `EXX EYX EZX EAX EBX ECX`; the location errors of

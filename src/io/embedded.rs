@@ -3,7 +3,8 @@
 
 use std::path::Path;
 
-use super::{Machine, MachineError};
+use super::machine_file::MachineError;
+use crate::model::Machine;
 
 /// `(name, file text)` of every embedded machine; the first is the default.
 pub const EMBEDDED: [(&str, &str); 4] = [

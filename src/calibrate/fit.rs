@@ -16,17 +16,16 @@ use std::path::{Path, PathBuf};
 use nalgebra::{DMatrix, DVector};
 use serde::Deserialize;
 
-use super::circular::{circular_with, read_circular};
-use super::diagonal::{diagonal_with, read_diagonal};
-use super::iso230_2::PositioningData;
-use super::measured::Measured;
-use super::positioning::positioning_with;
-use super::rtest::{read_rtest, rtest_with};
-use super::{
+use crate::model::{AxisLetter, Machine, COMPONENT_NAMES};
+use crate::standards::iso230_2::{positioning_with, PositioningData};
+use crate::standards::iso230_4::{circular_with, read_circular};
+use crate::standards::iso230_6::{diagonal_with, read_diagonal};
+use crate::standards::measured::Measured;
+use crate::standards::rtest::{read_rtest, rtest_with};
+use crate::standards::{
     least_squares_circle, read_positioning, CircularSpec, DiagonalSpec, PositioningSpec, RTestSpec,
     Setup, StandardsError, TestResult,
 };
-use crate::machine::{AxisLetter, Machine, COMPONENT_NAMES};
 
 /// The measurements file (TOML): what to estimate and the tests with their measured results.
 #[derive(Debug, Clone, Deserialize)]

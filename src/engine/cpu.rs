@@ -8,9 +8,9 @@
 use nalgebra::Matrix4;
 use rayon::prelude::*;
 
-use crate::gpu::layout::CHANNELS;
-use crate::grid::Grid;
-use crate::machine::Machine;
+use crate::model::channels::CHANNELS;
+use crate::model::grid::Grid;
+use crate::model::Machine;
 use crate::reference;
 
 /// Lines per CPU chunk are chosen so a chunk holds about this many points.

@@ -114,7 +114,7 @@ pub fn diagonal(setup: &Setup, spec: &DiagonalSpec) -> Result<TestResult, Standa
 }
 
 /// A diagonal's measured results, where the spec names a file.
-pub(super) fn read_diagonal(spec: &DiagonalSpec) -> Result<Option<Measured>, StandardsError> {
+pub(crate) fn read_diagonal(spec: &DiagonalSpec) -> Result<Option<Measured>, StandardsError> {
     spec.csv
         .as_deref()
         .map(|p| read_profile(p, ("position", Unit::Length), &["deviation"]))
@@ -122,7 +122,7 @@ pub(super) fn read_diagonal(spec: &DiagonalSpec) -> Result<Option<Measured>, Sta
 }
 
 /// [`diagonal`] with the measured results already read (a fit runs the test many times).
-pub(super) fn diagonal_with(
+pub(crate) fn diagonal_with(
     setup: &Setup,
     spec: &DiagonalSpec,
     measured: Option<&Measured>,

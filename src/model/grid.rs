@@ -5,7 +5,7 @@
 //! `Z = origin_z + k·spacing_z`. Points are numbered `p = i + nx·(j + ny·k)`; a *line* is the
 //! `nx` points of one `(j, k)`, numbered `line = j + ny·k` (the EXR scanline of that line).
 
-use crate::machine::{AxisLetter, Command, Machine};
+use crate::model::{AxisLetter, Command, Machine};
 
 #[derive(Debug, thiserror::Error)]
 pub enum GridError {

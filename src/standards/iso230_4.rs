@@ -99,7 +99,7 @@ fn sense_of(spec: &CircularSpec) -> Result<f64, StandardsError> {
 }
 
 /// A circle's measured results, where the spec names a file: angles in the order of the run.
-pub(super) fn read_circular(spec: &CircularSpec) -> Result<Option<Measured>, StandardsError> {
+pub(crate) fn read_circular(spec: &CircularSpec) -> Result<Option<Measured>, StandardsError> {
     let sense = sense_of(spec)?;
     spec.csv
         .as_deref()
@@ -112,7 +112,7 @@ pub(super) fn read_circular(spec: &CircularSpec) -> Result<Option<Measured>, Sta
 }
 
 /// [`circular`] with the measured results already read (a fit runs the test many times).
-pub(super) fn circular_with(
+pub(crate) fn circular_with(
     setup: &Setup,
     spec: &CircularSpec,
     measured: Option<&Measured>,

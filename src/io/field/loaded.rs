@@ -1,0 +1,129 @@
+//! A field read into memory for sampling at arbitrary positions: trilinear interpolation within
+//! its grid (the GPU twin is `shaders/sample.wgsl`).
+
+use std::path::Path;
+
+use super::{FieldError, FieldInfo, FieldReader};
+use crate::model::channels::{Sample, CHANNELS};
+use crate::model::Command;
+
+/// The grid cell that holds a position: its lower corner and the position's fractions within it
+/// along X, Y, Z (0 along a dimension one point deep).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridCell {
+    pub lower: [usize; 3],
+    pub fraction: [f64; 3],
+}
+
+/// A field file read into memory, point-interleaved for sampling: the six values of a grid point
+/// in the [`SAMPLE_COLUMNS`](crate::model::channels::SAMPLE_COLUMNS) order side by side, so a trilinear sample touches eight places.
+pub struct LoadedField {
+    pub info: FieldInfo,
+    /// `[p][c]` with `p = i + nx·(j + ny·k)`.
+    values: Vec<[f32; 6]>,
+}
+
+impl LoadedField {
+    pub fn open(path: &Path) -> Result<LoadedField, FieldError> {
+        let mut reader = FieldReader::open(path)?;
+        let info = reader.info().clone();
+        let nx = info.dims[0];
+        let mut values = Vec::with_capacity(reader.lines() as usize * nx);
+        reader.for_each_chunk((1 << 20) / nx as u64, |_, _, chunk| {
+            for line in chunk.chunks_exact(CHANNELS.len() * nx) {
+                values.extend((0..nx).map(|i| CHANNELS_TO_SAMPLE.map(|c| line[c * nx + i])));
+            }
+        })?;
+        Ok(LoadedField { info, values })
+    }
+
+    /// The first rotary axis (0 A, 1 B, 2 C) among those `given` whose position in `command`
+    /// differs from the field's pose, with that position and the field's: a field holds one
+    /// pose only.
+    pub fn pose_mismatch(&self, command: &Command, given: [bool; 3]) -> Option<(usize, f64, f64)> {
+        (0..3).find_map(|n| {
+            let (asked, held) = (command[3 + n], self.info.pose_deg[n]);
+            (given[n] && (asked - held).abs() > 1e-9 * (1.0 + held.abs()))
+                .then_some((n, asked, held))
+        })
+    }
+
+    /// The values at grid point `(i, j, k)`.
+    fn at(&self, [i, j, k]: [usize; 3]) -> &[f32; 6] {
+        let [nx, ny, _] = self.info.dims;
+        &self.values[i + nx * (j + ny * k)]
+    }
+
+    /// The grid cell that holds a commanded position (its lower corner) and the fractions of the
+    /// position within it; `Err((axis, lo, hi))` when the position lies outside the grid along
+    /// `axis`. Positions within 1e-9 of the travel of the grid count as inside (the ends of a
+    /// grid are rounded). Along a dimension one point deep the cell is 0 and the fraction 0.
+    pub fn cell(&self, command: &Command) -> Result<GridCell, (usize, f64, f64)> {
+        let mut base = [0usize; 3];
+        let mut t = [0.0f64; 3];
+        for d in 0..3 {
+            let n = self.info.dims[d];
+            let (origin, step) = (self.info.origin_mm[d], self.info.spacing_mm[d]);
+            let end = origin + (n - 1) as f64 * step;
+            let slack = 1e-9 * (1.0 + origin.abs().max(end.abs()));
+            let q = command[d];
+            if q < origin - slack || q > end + slack {
+                return Err((d, origin, end));
+            }
+            if n > 1 {
+                let u = ((q - origin) / step).clamp(0.0, (n - 1) as f64);
+                base[d] = (u.floor() as usize).min(n - 2);
+                t[d] = u - base[d] as f64;
+            }
+        }
+        Ok(GridCell {
+            lower: base,
+            fraction: t,
+        })
+    }
+
+    /// Trilinear interpolation at a commanded position, in f64; `Err((axis, lo, hi))` as
+    /// [`LoadedField::cell`]. The GPU twin is `shaders/sample.wgsl`.
+    pub fn sample(&self, command: &Command) -> Result<Sample, (usize, f64, f64)> {
+        Ok(self.blend(&self.cell(command)?))
+    }
+
+    /// The trilinear blend of the eight corners of a cell.
+    pub fn blend(&self, cell: &GridCell) -> Sample {
+        let (base, t) = (cell.lower, cell.fraction);
+        let mut out = [0.0; 6];
+        for corner in 0..8usize {
+            let mut weight = 1.0;
+            let mut ijk = base;
+            for d in 0..3 {
+                let upper = corner >> d & 1 == 1;
+                if upper {
+                    if self.info.dims[d] == 1 {
+                        weight = 0.0;
+                        break;
+                    }
+                    ijk[d] += 1;
+                    weight *= t[d];
+                } else {
+                    weight *= 1.0 - t[d];
+                }
+            }
+            if weight == 0.0 {
+                continue;
+            }
+            for (o, v) in out.iter_mut().zip(self.at(ijk)) {
+                *o += weight * *v as f64;
+            }
+        }
+        out
+    }
+
+    /// The values of every grid point, `[p][column]` with `p = i + nx·(j + ny·k)` and the
+    /// columns of [`SAMPLE_COLUMNS`](crate::model::channels::SAMPLE_COLUMNS).
+    pub fn values(&self) -> &[[f32; 6]] {
+        &self.values
+    }
+}
+
+/// For each output column of [`SAMPLE_COLUMNS`](crate::model::channels::SAMPLE_COLUMNS), its channel in [`CHANNELS`].
+const CHANNELS_TO_SAMPLE: [usize; 6] = [3, 4, 5, 0, 1, 2];

@@ -1,0 +1,116 @@
+//! Field files: OpenEXR, one part, scanlines, no compression, FLOAT channels
+//! `OE.X OE.Y OE.Z VE.X VE.Y VE.Z`. The image is `nx` wide and `ny·nz` tall; pixel
+//! `(i, j + k·ny)` holds grid point `(i, j, k)`.
+//!
+//! Uncompressed scanline chunks have a fixed size, so the offset table is known before any pixel
+//! is computed: the writer streams lines as they arrive and memory does not grow with the grid.
+//! It writes to a temporary file in the target's folder and renames it only when every line is
+//! written, so an interrupted run never leaves a truncated field.
+
+mod loaded;
+mod read;
+mod write;
+
+pub use loaded::{GridCell, LoadedField};
+pub use read::FieldReader;
+pub use write::FieldWriter;
+
+use crate::model::grid::Grid;
+
+#[derive(Debug, thiserror::Error)]
+pub enum FieldError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path}: not a volmap field: {what}")]
+    Format { path: String, what: String },
+    #[error("{path}: lines must arrive in order: expected line {expected}, got {got}")]
+    OutOfOrder {
+        path: String,
+        expected: u64,
+        got: u64,
+    },
+    #[error("{path}: only {written} of {total} lines were written; the field was not saved")]
+    Incomplete {
+        path: String,
+        written: u64,
+        total: u64,
+    },
+}
+
+/// What a field file says about itself, stored as header attributes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FieldInfo {
+    /// Grid points along X, Y, Z (`volmap.dims`, v3i).
+    pub dims: [usize; 3],
+    /// Commanded X, Y, Z of pixel (0, 0), mm (`volmap.origin`, v3d).
+    pub origin_mm: [f64; 3],
+    /// Grid step along X, Y, Z, mm (`volmap.spacing`, v3d).
+    pub spacing_mm: [f64; 3],
+    /// Commanded A, B, C, degrees (`volmap.pose`, v3d); axes the machine lacks are 0.
+    pub pose_deg: [f64; 3],
+    /// The rotary axes the machine has, e.g. `BC` (`volmap.poseAxes`).
+    pub pose_axes: String,
+    /// The machine's `name` (`volmap.machine`).
+    pub machine_name: String,
+    /// The chain in Hwang's notation (`volmap.chain`).
+    pub chain: String,
+    /// The machine file, verbatim (`volmap.machineToml`).
+    pub machine_toml: String,
+    /// CSV tables the machine file reads: `(path as written, text)` (`volmap.csv.<path>`).
+    pub csv_files: Vec<(String, String)>,
+    /// The device that computed the field (`volmap.device`).
+    pub device: String,
+}
+
+impl FieldInfo {
+    /// The grid of commanded positions the field covers.
+    pub fn grid(&self) -> Grid {
+        let mut pose = [0.0; 6];
+        pose[3..].copy_from_slice(&self.pose_deg);
+        Grid {
+            dims: self.dims,
+            origin_mm: self.origin_mm,
+            spacing_mm: self.spacing_mm,
+            pose,
+        }
+    }
+}
+
+/// `volmap.units`, written into every field.
+pub const UNITS: &str = "VE.X VE.Y VE.Z: mm, volumetric error p_real - p_ideal, workpiece frame; \
+OE.X OE.Y OE.Z: rad, rotation vector of R_real R_ideal^T, workpiece frame; \
+origin, spacing: mm (commanded X Y Z); pose: degrees (commanded A B C)";
+
+pub(crate) const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+pub(crate) const VERSION: u32 = 2;
+pub(crate) const FLAG_TILED: u32 = 0x200;
+pub(crate) const FLAG_LONG_NAMES: u32 = 0x400;
+pub(crate) const FLAG_DEEP: u32 = 0x800;
+pub(crate) const FLAG_MULTIPART: u32 = 0x1000;
+pub(crate) const PIXEL_FLOAT: i32 = 2;
+
+/// The grid and pose in words, exact (shortest round-trip decimals).
+pub fn grid_text(info: &FieldInfo) -> String {
+    let mut parts: Vec<String> = (0..3)
+        .map(|d| {
+            let end = info.origin_mm[d] + (info.dims[d].max(1) - 1) as f64 * info.spacing_mm[d];
+            format!(
+                "{}: {} points from {:?} to {:?} mm, step {:?} mm",
+                ["X", "Y", "Z"][d],
+                info.dims[d],
+                info.origin_mm[d],
+                end,
+                info.spacing_mm[d]
+            )
+        })
+        .collect();
+    for axis in info.pose_axes.chars() {
+        let index = "ABC".find(axis).unwrap_or(0);
+        parts.push(format!("{axis} at {:?} deg", info.pose_deg[index]));
+    }
+    parts.join("; ")
+}

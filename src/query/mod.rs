@@ -1,0 +1,48 @@
+//! Answers at arbitrary commanded positions: VE and OE interpolated in a field or computed exactly
+//! ([`sample_field`], [`sample_exact`]), a plane of a field for a colour map ([`field_slice`]), the
+//! workspace grid deformed by its error ([`deformed_grid`]).
+
+mod deformed;
+mod sample;
+mod slice;
+
+pub use deformed::{deformed_grid, DeformedGrid};
+pub use sample::{open_sampler, sample_exact, sample_field, sample_field_gpu};
+pub use slice::{field_slice, FieldSlice};
+
+use crate::gpu::GpuError;
+use crate::io::field::FieldError;
+use crate::io::points::PointsError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum QueryError {
+    #[error(transparent)]
+    Points(#[from] PointsError),
+    #[error("{path}: line {line}: {axis}={value} lies outside the field's grid ({lo} to {hi}); a field is not extrapolated")]
+    Outside {
+        path: String,
+        line: usize,
+        axis: char,
+        value: f64,
+        lo: f64,
+        hi: f64,
+    },
+    #[error(
+        "{path}: line {line}: {axis}={value}°, but the field holds the pose {axis}={field}° only"
+    )]
+    Pose {
+        path: String,
+        line: usize,
+        axis: char,
+        value: f64,
+        field: f64,
+    },
+    #[error(transparent)]
+    Field(#[from] FieldError),
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error("no GPU adapter found (--device gpu); use --device auto or cpu to sample on the CPU")]
+    NoAdapter,
+    #[error("{0}")]
+    Slice(String),
+}

@@ -1,0 +1,136 @@
+//! A plane of a field for a colour map, reading only the lines the plane crosses.
+
+use std::path::Path;
+
+use super::QueryError;
+use crate::io::field::FieldReader;
+use crate::model::channels::CHANNELS;
+
+/// A plane of a field for a colour map: `values[r * cols + c]`, row 0 at the low end of the
+/// vertical axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FieldSlice {
+    pub title: String,
+    /// Horizontal and vertical axis labels.
+    pub labels: [String; 2],
+    /// `(horizontal lo, hi, vertical lo, hi)`, mm.
+    pub extent: (f64, f64, f64, f64),
+    pub cols: usize,
+    pub rows: usize,
+    pub values: Vec<f64>,
+    pub unit: String,
+}
+
+/// Reads the grid plane across axis `normal` (`x`, `y` or `z`) nearest to `at` (mm; default the
+/// middle) and takes `quantity` there: `VE` (|VE|, mm), `OE` (|OE|, rad) or one channel
+/// (`VE.X` … `OE.Z`). Only the lines the plane crosses are read.
+pub fn field_slice(
+    path: &Path,
+    normal: &str,
+    at: Option<f64>,
+    quantity: &str,
+) -> Result<FieldSlice, QueryError> {
+    let d = match normal.trim() {
+        "x" | "X" => 0,
+        "y" | "Y" => 1,
+        "z" | "Z" => 2,
+        other => return Err(QueryError::Slice(format!("--normal {other}: x, y or z"))),
+    };
+    // Which channels make the quantity, and the unit.
+    let (channels, magnitude, unit): (Vec<usize>, bool, &str) = match quantity.trim() {
+        "VE" => (vec![3, 4, 5], true, "|VE| (mm)"),
+        "OE" => (vec![0, 1, 2], true, "|OE| (rad)"),
+        other => match CHANNELS.iter().position(|c| *c == other) {
+            Some(c) => (vec![c], false, if c < 3 { "rad" } else { "mm" }),
+            None => {
+                return Err(QueryError::Slice(format!(
+                    "--quantity {other}: VE, OE or one of {}",
+                    CHANNELS.join(", ")
+                )))
+            }
+        },
+    };
+    let mut reader = FieldReader::open(path)?;
+    let info = reader.info().clone();
+    let [nx, ny, nz] = info.dims;
+    let n = info.dims[d];
+    let index = match at {
+        None => n / 2,
+        Some(q) => {
+            let (origin, step) = (info.origin_mm[d], info.spacing_mm[d]);
+            let end = origin + (n - 1) as f64 * step;
+            if q < origin.min(end) - 1e-9 || q > origin.max(end) + 1e-9 {
+                return Err(QueryError::Slice(format!(
+                    "--at {q}: outside the field's grid along {} ({origin} to {end})",
+                    ['X', 'Y', 'Z'][d]
+                )));
+            }
+            if step > 0.0 {
+                ((q - origin) / step).round() as usize
+            } else {
+                0
+            }
+            .min(n - 1)
+        }
+    };
+    let (h, v) = match d {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    };
+    let (cols, rows) = (info.dims[h], info.dims[v]);
+    let mut values = vec![0.0; cols * rows];
+    let mut line = vec![0.0f32; CHANNELS.len() * nx];
+    let value_at = |line: &[f32], i: usize| -> f64 {
+        let parts = channels.iter().map(|&c| line[c * nx + i] as f64);
+        if magnitude {
+            parts.map(|x| x * x).sum::<f64>().sqrt()
+        } else {
+            parts.sum()
+        }
+    };
+    for k in 0..nz {
+        for j in 0..ny {
+            let wanted = match d {
+                0 => true,
+                1 => j == index,
+                _ => k == index,
+            };
+            if !wanted {
+                continue;
+            }
+            reader.read_line((k * ny + j) as u64, &mut line)?;
+            match d {
+                0 => values[k * cols + j] = value_at(&line, index),
+                1 => (0..nx).for_each(|i| values[k * cols + i] = value_at(&line, i)),
+                _ => (0..nx).for_each(|i| values[j * cols + i] = value_at(&line, i)),
+            }
+        }
+    }
+    let axis = ['X', 'Y', 'Z'];
+    let span = |a: usize| {
+        let o = info.origin_mm[a];
+        (o, o + (info.dims[a] - 1) as f64 * info.spacing_mm[a])
+    };
+    let (h_lo, h_hi) = span(h);
+    let (v_lo, v_hi) = span(v);
+    let position = info.origin_mm[d] + index as f64 * info.spacing_mm[d];
+    Ok(FieldSlice {
+        title: format!(
+            "{}: {} at {}={position:.1} mm",
+            info.machine_name,
+            if magnitude {
+                format!("|{}|", quantity.trim())
+            } else {
+                quantity.trim().to_string()
+            },
+            axis[d]
+        ),
+        labels: [format!("{} (mm)", axis[h]), format!("{} (mm)", axis[v])],
+        extent: (h_lo, h_hi, v_lo, v_hi),
+        cols,
+        rows,
+        values,
+        unit: unit.to_string(),
+    })
+}
