@@ -9,8 +9,9 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use volmap::engine::cpu::{self, CpuPlan};
+use volmap::engine::cpu::CpuPlan;
 use volmap::engine::map;
+use volmap::engine::reference;
 use volmap::gpu::{GpuError, GpuMapper, KernelChoice, TimedKernel};
 use volmap::io::embedded;
 use volmap::io::field::FieldWriter;
@@ -39,7 +40,7 @@ fn bench_maps(c: &mut Criterion) {
         group.bench_function("f64 reference, 1 thread", |b| {
             b.iter(|| {
                 for p in 0..small.points() {
-                    black_box(cpu::point_values(
+                    black_box(reference::point_values(
                         &machine,
                         &ideal,
                         &small,

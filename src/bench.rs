@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::engine::cpu::{self, CpuPlan};
-use crate::engine::map::{self, MapError, MapOptions};
-use crate::engine::Engine;
-use crate::gpu::{GpuError, KernelChoice, Tiling, TimedKernel};
-use crate::io::field::FieldWriter;
+use crate::engine::map::{self, MapOptions};
+use crate::engine::{reference, Engine, EngineError};
+use crate::error::{Classify, ErrorKind};
+use crate::gpu::{GpuError, GpuMapper, KernelChoice, Tiling, TimedKernel};
+use crate::io::field::{FieldError, FieldWriter};
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
@@ -44,6 +44,7 @@ pub struct MachineResult {
     pub paths: Vec<PathResult>,
 }
 
+/// A whole `volmap bench` run: where it ran and what each machine measured.
 #[derive(Debug, Clone, Serialize)]
 pub struct BenchReport {
     /// UTC date, YYYY-MM-DD.
@@ -54,46 +55,21 @@ pub struct BenchReport {
     pub machines: Vec<MachineResult>,
 }
 
+/// Why a benchmark could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
     #[error(transparent)]
     Gpu(#[from] GpuError),
     #[error(transparent)]
-    Map(#[from] MapError),
+    Engine(#[from] EngineError),
     #[error(transparent)]
-    Field(#[from] crate::io::field::FieldError),
-    #[error("benchmark scratch folder: {0}")]
-    Scratch(std::io::Error),
+    Field(#[from] FieldError),
 }
 
-/// The CPU's model name (Linux), or the architecture.
-pub fn cpu_name() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|text| {
-            text.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, name)| name.trim().to_string())
-        })
-        .unwrap_or_else(|| std::env::consts::ARCH.to_string())
-}
-
-/// Today's UTC date from the system clock (civil-from-days, proleptic Gregorian).
-pub fn today() -> String {
-    let days = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs() / 86_400) as i64;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!("{year:04}-{month:02}-{day:02}")
+impl Classify for BenchError {
+    fn kind(&self) -> ErrorKind {
+        ErrorKind::Work
+    }
 }
 
 /// Kernel timings are the best of this many runs over the grid.
@@ -104,6 +80,9 @@ fn timed<R>(f: impl FnOnce() -> R) -> (R, f64) {
     let r = f();
     (r, start.elapsed().as_secs_f64())
 }
+
+/// A measured path: its name, the points it computed and the seconds it took.
+type Row = (String, u64, f64);
 
 /// Measures every path for `machine` over `grid` (the GPU paths when `engine` is the GPU),
 /// writing scratch fields into `scratch`.
@@ -117,127 +96,23 @@ pub fn bench_machine(
     reference_points: u64,
     mut on_step: impl FnMut(&str),
 ) -> Result<MachineResult, BenchError> {
-    let points = grid.points();
-    let mut rows: Vec<(String, u64, f64)> = Vec::new();
     // The GPU kernels first, before any file is written: the kernel's flushing of written files
     // would compete with them for the cores lavapipe runs on.
-    let mut gpu_rows: Vec<(String, u64, f64)> = Vec::new();
-    let mut ceiling = None;
-    let mut kernel_timing = None;
-    let mut kernel_tiling = None;
-    let mut ceiling_tiling = None;
-    if let Engine::Gpu(gpu) = engine {
-        on_step("GPU kernel and its write-only ceiling");
-        // The ceiling is the fastest of the write-only kernel over several tilings; all take
-        // turns with the chain kernel.
-        let ceilings = gpu.ceiling_tilings();
-        let mut kernels: Vec<TimedKernel> = ceilings
-            .iter()
-            .map(|&tiling| TimedKernel {
-                choice: KernelChoice::WriteOnly,
-                tiling,
-            })
-            .collect();
-        kernels.push(TimedKernel {
-            choice: KernelChoice::Chain,
-            tiling: gpu.tiling(),
-        });
-        let (seconds, timestamps) = gpu.time_kernels(machine, grid, &kernels, KERNEL_RUNS)?;
-        kernel_timing = Some(
-            if timestamps {
-                "timestamp queries"
-            } else {
-                "wall clock"
-            }
-            .to_string(),
-        );
-        let (fastest, ceiling_seconds) =
-            seconds[..ceilings.len()].iter().copied().enumerate().fold(
-                (0, f64::INFINITY),
-                |best, (n, s)| if s < best.1 { (n, s) } else { best },
-            );
-        ceiling = Some(points as f64 / ceiling_seconds);
-        ceiling_tiling = Some(describe_tiling(ceilings[fastest]));
-        kernel_tiling = Some(describe_tiling(gpu.tiling()));
-        gpu_rows.push((
-            "GPU write-only kernel (ceiling)".into(),
-            points,
-            ceiling_seconds,
-        ));
-        gpu_rows.push(("GPU kernel".into(), points, seconds[ceilings.len()]));
-        on_step("GPU kernel + readback");
-        let (done, seconds) = timed(|| {
-            gpu.run(machine, grid, None, |_, _, data| -> Result<(), GpuError> {
-                std::hint::black_box(data);
-                Ok(())
-            })
-        });
-        done?;
-        gpu_rows.push(("GPU kernel + readback".into(), points, seconds));
-    }
-
-    on_step("f64 reference, 1 thread");
-    let ideal = machine.without_errors();
-    let sample = reference_points.min(points);
-    let (_, seconds) = timed(|| {
-        for p in 0..sample {
-            std::hint::black_box(cpu::point_values(machine, &ideal, grid, grid.indices(p)));
-        }
-    });
-    rows.push(("f64 reference, 1 thread".into(), sample, seconds));
-
-    on_step("CPU engine");
-    let mut field = vec![0.0f32; points as usize * CHANNELS.len()];
-    let (_, seconds) =
-        timed(|| CpuPlan::new(machine, grid).compute_lines(0, grid.lines(), &mut field));
-    rows.push((
-        format!("CPU engine, f64, {} threads", rayon::current_num_threads()),
-        points,
-        seconds,
-    ));
-
-    on_step("EXR write");
-    let info = map::field_info(machine, grid, "bench");
-    let path = scratch.join("bench-write.exr");
-    let (written, seconds) = timed(|| -> Result<(), BenchError> {
-        let mut writer = FieldWriter::create(&path, &info)?;
-        writer.write_lines(0, grid.lines(), &field)?;
-        writer.finish()?;
-        Ok(())
-    });
-    written?;
-    rows.push(("EXR write".into(), points, seconds));
-    drop(field);
-
-    on_step("reference + EXR write");
-    let (written, seconds) = timed(|| -> Result<(), BenchError> {
-        let mut writer = FieldWriter::create(&path, &info)?;
-        let mut buffer = Vec::new();
-        for (first, lines) in grid.chunks(cpu::CPU_CHUNK_POINTS) {
-            buffer.resize(lines as usize * grid.dims[0] * CHANNELS.len(), 0.0);
-            cpu::reference_lines(machine, &ideal, grid, first, lines, &mut buffer);
-            writer.write_lines(first, lines, &buffer)?;
-        }
-        writer.finish()?;
-        Ok(())
-    });
-    written?;
-    rows.push((
-        "map to EXR, f64 reference, all threads".into(),
-        points,
-        seconds,
-    ));
-
-    rows.append(&mut gpu_rows);
-    if let Engine::Gpu(_) = engine {
+    let gpu = match engine {
+        Engine::Gpu(gpu) => Some(bench_gpu_kernels(gpu, machine, grid, &mut on_step)?),
+        _ => None,
+    };
+    let mut rows = bench_cpu_paths(machine, grid, scratch, reference_points, &mut on_step)?;
+    if let Some(gpu) = &gpu {
+        rows.extend(gpu.rows.iter().cloned());
         on_step("map to EXR, GPU");
-        let (summary, _) = timed(|| {
-            map::map_to_file(machine, grid, engine, &path, &MapOptions::default(), |_| {})
-        });
-        rows.push(("map to EXR, GPU".into(), points, summary?.seconds));
+        let path = scratch.join("bench-map.exr");
+        let summary =
+            map::map_to_file(machine, grid, engine, &path, &MapOptions::default(), |_| {});
+        let _ = std::fs::remove_file(&path);
+        rows.push(("map to EXR, GPU".into(), grid.points(), summary?.seconds));
     }
-    let _ = std::fs::remove_file(&path);
-
+    let ceiling = gpu.as_ref().map(|g| g.ceiling);
     let reference_rate = rows[0].1 as f64 / rows[0].2;
     let paths = rows
         .into_iter()
@@ -258,11 +133,166 @@ pub fn bench_machine(
         machine: machine.name.clone(),
         chain: machine.chain.hwang_notation(),
         grid: grid.dims,
-        kernel_timing,
-        kernel_tiling,
-        ceiling_tiling,
+        kernel_timing: gpu.as_ref().map(|g| g.timing.clone()),
+        kernel_tiling: gpu.as_ref().map(|g| g.kernel_tiling.clone()),
+        ceiling_tiling: gpu.as_ref().map(|g| g.ceiling_tiling.clone()),
         paths,
     })
+}
+
+/// What the GPU kernels measured.
+struct GpuKernels {
+    /// Points per second of the write-only ceiling.
+    ceiling: f64,
+    timing: String,
+    kernel_tiling: String,
+    ceiling_tiling: String,
+    rows: Vec<Row>,
+}
+
+/// The write-only ceiling (the fastest over several tilings), the chain kernel taking turns with
+/// it, and the kernel with its readback through the engine's own run.
+fn bench_gpu_kernels(
+    gpu: &GpuMapper,
+    machine: &Machine,
+    grid: &Grid,
+    on_step: &mut impl FnMut(&str),
+) -> Result<GpuKernels, BenchError> {
+    let points = grid.points();
+    on_step("GPU kernel and its write-only ceiling");
+    let ceilings = gpu.ceiling_tilings();
+    let mut kernels: Vec<TimedKernel> = ceilings
+        .iter()
+        .map(|&tiling| TimedKernel {
+            choice: KernelChoice::WriteOnly,
+            tiling,
+        })
+        .collect();
+    kernels.push(TimedKernel {
+        choice: KernelChoice::Chain,
+        tiling: gpu.tiling(),
+    });
+    let (seconds, timestamps) = gpu.time_kernels(machine, grid, &kernels, KERNEL_RUNS)?;
+    let (fastest, ceiling_seconds) = seconds[..ceilings.len()].iter().copied().enumerate().fold(
+        (0, f64::INFINITY),
+        |best, (n, s)| {
+            if s < best.1 {
+                (n, s)
+            } else {
+                best
+            }
+        },
+    );
+    let mut rows: Vec<Row> = vec![
+        (
+            "GPU write-only kernel (ceiling)".into(),
+            points,
+            ceiling_seconds,
+        ),
+        ("GPU kernel".into(), points, seconds[ceilings.len()]),
+    ];
+    on_step("GPU kernel + readback");
+    let (done, seconds) = timed(|| {
+        gpu.run(machine, grid, None, |_, _, data| -> Result<(), GpuError> {
+            std::hint::black_box(data);
+            Ok(())
+        })
+    });
+    done?;
+    rows.push(("GPU kernel + readback".into(), points, seconds));
+    Ok(GpuKernels {
+        ceiling: points as f64 / ceiling_seconds,
+        timing: if timestamps {
+            "timestamp queries"
+        } else {
+            "wall clock"
+        }
+        .to_string(),
+        kernel_tiling: describe_tiling(gpu.tiling()),
+        ceiling_tiling: describe_tiling(ceilings[fastest]),
+        rows,
+    })
+}
+
+/// The f64 reference on one thread (the baseline), the CPU engine, writing the EXR file, and a
+/// whole map with the reference.
+fn bench_cpu_paths(
+    machine: &Machine,
+    grid: &Grid,
+    scratch: &Path,
+    reference_points: u64,
+    on_step: &mut impl FnMut(&str),
+) -> Result<Vec<Row>, BenchError> {
+    let points = grid.points();
+    let mut rows: Vec<Row> = Vec::new();
+    on_step("f64 reference, 1 thread");
+    let ideal = machine.without_errors();
+    let sample = reference_points.min(points);
+    let (_, seconds) = timed(|| {
+        for p in 0..sample {
+            std::hint::black_box(reference::point_values(
+                machine,
+                &ideal,
+                grid,
+                grid.indices(p),
+            ));
+        }
+    });
+    rows.push(("f64 reference, 1 thread".into(), sample, seconds));
+
+    on_step("CPU engine");
+    // The engine's own run, its chunks kept for the EXR write that follows.
+    let mut field = vec![0.0f32; points as usize * CHANNELS.len()];
+    let values_per_line = grid.dims[0] * CHANNELS.len();
+    let (done, seconds) = timed(|| {
+        Engine::Cpu.run(
+            machine,
+            grid,
+            None,
+            |first, lines, data| -> Result<(), BenchError> {
+                let start = first as usize * values_per_line;
+                let values = lines as usize * values_per_line;
+                field[start..start + values].copy_from_slice(&data[..values]);
+                Ok(())
+            },
+        )
+    });
+    done?;
+    rows.push((
+        format!("CPU engine, f64, {} threads", rayon::current_num_threads()),
+        points,
+        seconds,
+    ));
+
+    on_step("EXR write");
+    let info = map::field_info(machine, grid, "bench");
+    let path = scratch.join("bench-write.exr");
+    let (written, seconds) = timed(|| -> Result<(), BenchError> {
+        let mut writer = FieldWriter::create(&path, &info)?;
+        writer.write_lines(0, grid.lines(), &field)?;
+        writer.finish()?;
+        Ok(())
+    });
+    written?;
+    rows.push(("EXR write".into(), points, seconds));
+    drop(field);
+
+    on_step("reference + EXR write");
+    let summary = map::map_to_file(
+        machine,
+        grid,
+        &Engine::Reference,
+        &path,
+        &MapOptions::default(),
+        |_| {},
+    )?;
+    let _ = std::fs::remove_file(&path);
+    rows.push((
+        "map to EXR, f64 reference, all threads".into(),
+        points,
+        summary.seconds,
+    ));
+    Ok(rows)
 }
 
 /// A tiling in words: "64 points × 4 lines per invocation".

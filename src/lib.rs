@@ -6,6 +6,7 @@
 //! volumetric error.
 //!
 //! The crate is laid out in layers, each using only those below it:
+//! - [`error`]: what kind of failure an error is (bad input, or the work failed);
 //! - [`model`]: what a machine is (chain, axes, error functions), the grid of commanded positions,
 //!   the channels of a field; no files, no devices;
 //! - [`reference`](mod@reference): the f64 truth (nalgebra), and a machine with its ideal twin;
@@ -25,6 +26,7 @@
 pub mod bench;
 pub mod calibrate;
 pub mod engine;
+pub mod error;
 pub mod gpu;
 pub mod io;
 pub mod model;

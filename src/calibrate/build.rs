@@ -10,13 +10,14 @@
 //! the two neighbours, quadratic through the three nearest nodes, the natural cubic spline
 //! through all the others), ties (within 10%) going to the simpler. Quadratic tables need an odd
 //! node count (three-node elements); with fewer than four nodes nothing can be compared and the
-//! table is linear. `--interp` overrides the choice per component.
+//! table is linear. An interpolation asked for overrides the choice per component.
 
 use std::path::Path;
 
+use super::CalibrateError;
+use crate::io::csv::Csv;
+use crate::io::read_text;
 use crate::model::{AxisLetter, Interp, Machine, Table, COMPONENT_NAMES};
-use crate::standards::measured::{csv_fields, csv_lines, csv_number, read_text};
-use crate::standards::StandardsError;
 
 /// One measured component of one axis, with the interpolation chosen for it.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -34,14 +35,6 @@ pub struct BuiltComponent {
     pub reason: String,
 }
 
-fn csv_error(path: &str, line: usize, message: String) -> StandardsError {
-    StandardsError::Csv {
-        path: path.to_string(),
-        line,
-        message,
-    }
-}
-
 /// A measured component: its index among the six and its `(position, value)` nodes.
 pub type MeasuredComponent = (usize, Vec<(f64, f64)>);
 
@@ -49,114 +42,102 @@ pub type MeasuredComponent = (usize, Vec<(f64, f64)>);
 pub fn read_axis_csv(
     path: &Path,
     axis: AxisLetter,
-) -> Result<Vec<MeasuredComponent>, StandardsError> {
-    let (name, text) = read_text(path)?;
-    let mut rows = csv_lines(&text);
-    let (header_line, header) = rows
-        .next()
-        .ok_or_else(|| csv_error(&name, 1, "empty file; expected a header row".into()))?;
+) -> Result<Vec<MeasuredComponent>, CalibrateError> {
+    let text = read_text(path)?;
+    let name = path.display().to_string();
+    let mut csv = Csv::new(&text, &name);
     let position_unit = if axis.is_linear() { "mm" } else { "deg" };
-    let columns: Vec<&str> = header.split(',').map(str::trim).collect();
-    if columns.first() != Some(&format!("position_{position_unit}").as_str()) {
-        return Err(csv_error(
-            &name,
-            header_line,
-            format!("the first column must be `position_{position_unit}` (the {axis} position)"),
-        ));
+    let header = csv.header(&format!("naming position_{position_unit} and the errors"))?;
+    let position_column = format!("position_{position_unit}");
+    if header.names.first() != Some(&position_column) {
+        return Err(csv
+            .error(
+                header.line,
+                format!("the first column must be `{position_column}` (the {axis} position)"),
+            )
+            .into());
     }
     // (component index, factor to mm or rad)
     let mut components: Vec<(usize, f64)> = Vec::new();
-    for column in &columns[1..] {
-        let (key, unit) = column.split_once('_').unwrap_or((column, ""));
-        let chars: Vec<char> = key.chars().collect();
-        let index = match chars.as_slice() {
-            ['E', c, a] if *a == axis.as_char() => COMPONENT_NAMES.iter().position(|n| n == c),
-            _ => None,
+    for column in &header.names[1..] {
+        let component = component_column(column, axis).map_err(|m| csv.error(header.line, m))?;
+        if components.iter().any(|&(i, _)| i == component.0) {
+            let key = column.split_once('_').map_or(column.as_str(), |(k, _)| k);
+            return Err(csv
+                .error(header.line, format!("{key} appears twice"))
+                .into());
         }
-        .ok_or_else(|| {
-            csv_error(
-                &name,
-                header_line,
-                format!(
-                    "column `{column}`: expected a component error of {axis} with its unit, such as E{}{axis}_um or EA{axis}_urad",
-                    'X'
-                ),
-            )
-        })?;
-        let factor = match (index < 3, unit) {
-            (true, "mm") => 1.0,
-            (true, "um") => 1e-3,
-            (false, "rad") => 1.0,
-            (false, "urad") => 1e-6,
-            (false, "arcsec") => std::f64::consts::PI / (180.0 * 3600.0),
-            _ => {
-                return Err(csv_error(
-                    &name,
-                    header_line,
-                    format!(
-                        "column `{column}`: unit `{unit}` — {} errors are in {}",
-                        if index < 3 {
-                            "translational"
-                        } else {
-                            "angular"
-                        },
-                        if index < 3 {
-                            "mm or um"
-                        } else {
-                            "rad, urad or arcsec"
-                        }
-                    ),
-                ))
-            }
-        };
-        if components.iter().any(|&(i, _)| i == index) {
-            return Err(csv_error(
-                &name,
-                header_line,
-                format!("{key} appears twice"),
-            ));
-        }
-        components.push((index, factor));
+        components.push(component);
     }
     if components.is_empty() {
-        return Err(csv_error(
-            &name,
-            header_line,
-            "no error column after the position".into(),
-        ));
+        return Err(csv
+            .error(header.line, "no error column after the position")
+            .into());
     }
+    let names: Vec<String> = header.names.iter().map(|n| format!("`{n}`")).collect();
     let mut nodes: Vec<Vec<(f64, f64)>> = vec![Vec::new(); components.len()];
     let mut previous: Option<f64> = None;
-    for (line, row) in rows {
-        let fields = csv_fields(row, columns.len()).map_err(|m| csv_error(&name, line, m))?;
-        let number =
-            |n: usize| csv_number(fields[n], columns[n]).map_err(|m| csv_error(&name, line, m));
-        let q = number(0)?;
-        if let Some(p) = previous {
-            if q <= p {
-                return Err(csv_error(
-                    &name,
-                    line,
-                    format!("position {q} after {p}: rows must be sorted by position, rising"),
-                ));
-            }
+    for row in csv.rows() {
+        row.require_fields(names.len())?;
+        let q = row.number(0, &names[0])?;
+        if let Some(p) = previous.filter(|&p| q <= p) {
+            return Err(row
+                .error(format!(
+                    "position {q} after {p}: rows must be sorted by position, rising"
+                ))
+                .into());
         }
         previous = Some(q);
         for (c, &(_, factor)) in components.iter().enumerate() {
-            nodes[c].push((q, number(c + 1)? * factor));
+            nodes[c].push((q, row.number(c + 1, &names[c + 1])? * factor));
         }
     }
     if nodes[0].len() < 2 {
-        return Err(csv_error(
-            &name,
-            header_line,
-            format!(
-                "{} measured position(s): a table needs at least 2",
-                nodes[0].len()
-            ),
-        ));
+        return Err(csv
+            .error(
+                header.line,
+                format!(
+                    "{} measured position(s): a table needs at least 2",
+                    nodes[0].len()
+                ),
+            )
+            .into());
     }
     Ok(components.iter().map(|&(i, _)| i).zip(nodes).collect())
+}
+
+/// A component column of `axis` with its unit, `EXX_um` or `EAX_urad`: the component's index
+/// among the six and the factor to mm or rad (else the message why not).
+fn component_column(column: &str, axis: AxisLetter) -> Result<(usize, f64), String> {
+    let (key, unit) = column.split_once('_').unwrap_or((column, ""));
+    let chars: Vec<char> = key.chars().collect();
+    let index = match chars.as_slice() {
+        ['E', c, a] if *a == axis.as_char() => COMPONENT_NAMES.iter().position(|n| n == c),
+        _ => None,
+    }
+    .ok_or_else(|| {
+        format!(
+            "column `{column}`: expected a component error of {axis} with its unit, such as EX{axis}_um or EA{axis}_urad"
+        )
+    })?;
+    let factor = match (index < 3, unit) {
+        (true, "mm") => 1.0,
+        (true, "um") => 1e-3,
+        (false, "rad") => 1.0,
+        (false, "urad") => 1e-6,
+        (false, "arcsec") => std::f64::consts::PI / (180.0 * 3600.0),
+        (true, _) => {
+            return Err(format!(
+                "column `{column}`: unit `{unit}` — translational errors are in mm or um"
+            ))
+        }
+        (false, _) => {
+            return Err(format!(
+                "column `{column}`: unit `{unit}` — angular errors are in rad, urad or arcsec"
+            ))
+        }
+    };
+    Ok((index, factor))
 }
 
 /// Linear interpolation or extrapolation through two nodes.
@@ -240,19 +221,19 @@ pub fn choose_interp(
     (chosen, listed, "best at leave-one-out".into())
 }
 
-/// `--interp EXX=linear,EZZ=quadratic`.
-pub fn parse_interp_choices(text: &str) -> Result<Vec<(String, Interp)>, StandardsError> {
+/// Interpolations asked for per component: `EXX=linear,EZZ=quadratic`.
+pub fn parse_interp_choices(text: &str) -> Result<Vec<(String, Interp)>, CalibrateError> {
     text.split(',')
         .map(str::trim)
         .filter(|p| !p.is_empty())
         .map(|pair| {
             let (key, value) = pair.split_once('=').ok_or_else(|| {
-                StandardsError::Parameter(format!(
+                CalibrateError::Parameter(format!(
                     "`{pair}`: expected COMPONENT=linear|quadratic|cubic"
                 ))
             })?;
             let interp = Interp::parse(value.trim()).ok_or_else(|| {
-                StandardsError::Parameter(format!("`{value}`: linear, quadratic or cubic"))
+                CalibrateError::Parameter(format!("`{value}`: linear, quadratic or cubic"))
             })?;
             Ok((key.trim().to_string(), interp))
         })
@@ -265,9 +246,9 @@ pub fn build(
     base: &Machine,
     axes: &[(AxisLetter, &Path)],
     asked: &[(String, Interp)],
-) -> Result<(String, Vec<BuiltComponent>), StandardsError> {
+) -> Result<(String, Vec<BuiltComponent>), CalibrateError> {
     let mut table: toml::Table = toml::from_str(&base.source.toml).map_err(|e| {
-        StandardsError::Parameter(format!("the base machine's file does not parse again: {e}"))
+        CalibrateError::Parameter(format!("the base machine's file does not parse again: {e}"))
     })?;
     let mut built = Vec::new();
     for (key, _) in asked {
@@ -275,14 +256,14 @@ pub fn build(
             .iter()
             .any(|(a, _)| (0..6).any(|i| format!("E{}{}", COMPONENT_NAMES[i], a) == *key));
         if !known {
-            return Err(StandardsError::Parameter(format!(
-                "--interp {key}: not a component of a measured axis"
+            return Err(CalibrateError::Parameter(format!(
+                "interpolation asked for {key}: not a component of a measured axis"
             )));
         }
     }
     for &(axis, path) in axes {
         if base.axis(axis).is_none() {
-            return Err(StandardsError::Parameter(format!(
+            return Err(CalibrateError::Parameter(format!(
                 "{}: the base machine (chain {}) has no {axis} axis",
                 path.display(),
                 base.chain.hwang_notation()
@@ -294,7 +275,7 @@ pub fn build(
             .and_then(|t| t.get_mut(&axis.to_string()))
             .and_then(|v| v.as_table_mut())
             .ok_or_else(|| {
-                StandardsError::Parameter(format!(
+                CalibrateError::Parameter(format!(
                     "the base machine file has no [axes.{axis}] section"
                 ))
             })?;
@@ -304,7 +285,7 @@ pub fn build(
             let (interp, scores, reason) = choose_interp(&nodes, wanted);
             // Validates the table (an even node count for quadratic, …) the way the file will.
             Table::new(nodes.clone(), interp, false).map_err(|e| {
-                StandardsError::Parameter(format!("{}: {name}: {e}", path.display()))
+                CalibrateError::Parameter(format!("{}: {name}: {e}", path.display()))
             })?;
             let mut entry = toml::Table::new();
             entry.insert(
@@ -329,6 +310,6 @@ pub fn build(
             });
         }
     }
-    let text = toml::to_string(&table).map_err(|e| StandardsError::Parameter(e.to_string()))?;
+    let text = toml::to_string(&table).map_err(|e| CalibrateError::Parameter(e.to_string()))?;
     Ok((text, built))
 }

@@ -16,6 +16,8 @@ use std::path::{Path, PathBuf};
 use nalgebra::{DMatrix, DVector};
 use serde::Deserialize;
 
+use super::CalibrateError;
+use crate::io::read_text;
 use crate::model::{AxisLetter, Machine, COMPONENT_NAMES};
 use crate::standards::iso230_2::{positioning_with, PositioningData};
 use crate::standards::iso230_4::{circular_with, read_circular};
@@ -45,14 +47,11 @@ pub struct FitFile {
 
 impl FitFile {
     /// Reads the file; CSV paths are relative to its folder.
-    pub fn read(path: &Path) -> Result<FitFile, StandardsError> {
+    pub fn read(path: &Path) -> Result<FitFile, CalibrateError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| StandardsError::Io {
-            path: name.clone(),
-            source,
-        })?;
+        let text = read_text(path)?;
         let mut file: FitFile =
-            toml::from_str(&text).map_err(|e| StandardsError::Parameter(format!("{name}: {e}")))?;
+            toml::from_str(&text).map_err(|e| CalibrateError::Parameter(format!("{name}: {e}")))?;
         let folder = path.parent().unwrap_or(Path::new(""));
         let resolve = |csv: &mut Option<PathBuf>| {
             if let Some(p) = csv {
@@ -77,7 +76,7 @@ pub struct LocationError {
 }
 
 impl LocationError {
-    pub fn parse(name: &str, machine: &Machine) -> Result<LocationError, StandardsError> {
+    pub fn parse(name: &str, machine: &Machine) -> Result<LocationError, CalibrateError> {
         let c: Vec<char> = name.trim().chars().collect();
         let parsed = match c.as_slice() {
             ['E', component, '0', axis] => COMPONENT_NAMES
@@ -87,12 +86,12 @@ impl LocationError {
             _ => None,
         };
         let (index, axis) = parsed.ok_or_else(|| {
-            StandardsError::Parameter(format!(
+            CalibrateError::Parameter(format!(
                 "`{name}` is not a location error (E, then X Y Z A B C, then 0, then the axis: EC0Y, EX0C)"
             ))
         })?;
         if machine.axis(axis).is_none() {
-            return Err(StandardsError::Parameter(format!(
+            return Err(CalibrateError::Parameter(format!(
                 "`{name}`: the machine (chain {}) has no {axis} axis",
                 machine.chain.hwang_notation()
             )));
@@ -196,7 +195,7 @@ impl Test<'_> {
 
 /// Measured minus predicted, with each curve's zero (or circle) taken out, and the number of
 /// parameters so taken out.
-fn residuals(tests: &[Test], machine: &Machine) -> Result<(Vec<f64>, usize), StandardsError> {
+fn residuals(tests: &[Test], machine: &Machine) -> Result<(Vec<f64>, usize), CalibrateError> {
     let mut all = Vec::new();
     let mut nuisance = 0;
     for test in tests {
@@ -223,19 +222,19 @@ fn rms(values: &[f64]) -> f64 {
     (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt()
 }
 
-pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsError> {
+pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateError> {
     let unknowns: Vec<LocationError> = file
         .estimate
         .iter()
         .map(|n| LocationError::parse(n, machine))
         .collect::<Result<_, _>>()?;
     if unknowns.is_empty() {
-        return Err(StandardsError::Parameter(
+        return Err(CalibrateError::Parameter(
             "`estimate` names no location error".into(),
         ));
     }
     let missing = |kind: &str, n: usize| {
-        StandardsError::Parameter(format!(
+        CalibrateError::Parameter(format!(
             "[[{kind}]] number {}: give the measured results (`csv = \"...\"`)",
             n + 1
         ))
@@ -258,7 +257,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
         tests.push(Test::Rotary(s, m));
     }
     if tests.is_empty() {
-        return Err(StandardsError::Parameter(
+        return Err(CalibrateError::Parameter(
             "no measurements: add [[diagonal]], [[circular]], [[rtest]] or [[positioning]] tables"
                 .into(),
         ));
@@ -269,11 +268,11 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
     let points = before.len();
     let k = unknowns.len();
     let dof = points.checked_sub(k + nuisance).filter(|&d| d > 0).ok_or_else(|| {
-        StandardsError::Parameter(format!(
+        CalibrateError::Parameter(format!(
             "{points} measured points cannot determine {k} unknowns besides {nuisance} zeros and circles"
         ))
     })?;
-    let jacobian_at = |m: &Machine| -> Result<DMatrix<f64>, StandardsError> {
+    let jacobian_at = |m: &Machine| -> Result<DMatrix<f64>, CalibrateError> {
         let mut j = DMatrix::zeros(points, k);
         for (c, u) in unknowns.iter().enumerate() {
             let (value, h) = (u.get(m), u.step());
@@ -297,7 +296,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
             .clone()
             .svd(true, true)
             .solve(&r, 1e-14)
-            .map_err(|e| StandardsError::Parameter(e.to_string()))?;
+            .map_err(|e| CalibrateError::Parameter(e.to_string()))?;
         for (c, u) in unknowns.iter().enumerate() {
             let value = u.get(&current);
             u.set(&mut current, value + step[c]);
@@ -316,7 +315,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
     let normal = j.transpose() * &j;
     let covariance = normal
         .try_inverse()
-        .ok_or_else(|| StandardsError::Parameter("the normal equations are singular".into()))?
+        .ok_or_else(|| CalibrateError::Parameter("the normal equations are singular".into()))?
         * sigma2;
     let estimates = unknowns
         .iter()
@@ -340,12 +339,12 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, StandardsErro
 }
 
 /// Every unknown must move the measurements, and no two the same way.
-fn check_observable(j: &DMatrix<f64>, unknowns: &[LocationError]) -> Result<(), StandardsError> {
+fn check_observable(j: &DMatrix<f64>, unknowns: &[LocationError]) -> Result<(), CalibrateError> {
     let norms: Vec<f64> = (0..j.ncols()).map(|c| j.column(c).norm()).collect();
     let largest = norms.iter().copied().fold(0.0, f64::max);
     for (c, u) in unknowns.iter().enumerate() {
         if norms[c] <= 1e-12 * largest.max(1e-300) || norms[c] == 0.0 {
-            return Err(StandardsError::Parameter(format!(
+            return Err(CalibrateError::Parameter(format!(
                 "{} does not change any of the given measurements: measure a test that sees it, or leave it out",
                 u.name()
             )));
@@ -367,7 +366,7 @@ fn check_observable(j: &DMatrix<f64>, unknowns: &[LocationError]) -> Result<(), 
             .filter(|(c, _)| v_t[(row, *c)].abs() > 0.1)
             .map(|(_, u)| u.name())
             .collect();
-        return Err(StandardsError::Parameter(format!(
+        return Err(CalibrateError::Parameter(format!(
             "{} cannot be told apart from these measurements (they move them alike): add a test that separates them",
             involved.join(" and ")
         )));
@@ -380,9 +379,9 @@ fn check_observable(j: &DMatrix<f64>, unknowns: &[LocationError]) -> Result<(), 
 pub fn fitted_machine_toml(
     machine: &Machine,
     estimates: &[Estimate],
-) -> Result<String, StandardsError> {
+) -> Result<String, CalibrateError> {
     let mut table: toml::Table = toml::from_str(&machine.source.toml).map_err(|e| {
-        StandardsError::Parameter(format!("the machine's own file does not parse again: {e}"))
+        CalibrateError::Parameter(format!("the machine's own file does not parse again: {e}"))
     })?;
     for e in estimates {
         let axis = e.name.chars().last().expect("four letters").to_string();
@@ -394,9 +393,9 @@ pub fn fitted_machine_toml(
             .and_then(|t| t.get_mut(&axis))
             .and_then(|v| v.as_table_mut())
             .ok_or_else(|| {
-                StandardsError::Parameter(format!("the machine file has no [axes.{axis}] section"))
+                CalibrateError::Parameter(format!("the machine file has no [axes.{axis}] section"))
             })?;
         section.insert(e.name.clone(), toml::Value::Float(e.value));
     }
-    toml::to_string(&table).map_err(|e| StandardsError::Parameter(e.to_string()))
+    toml::to_string(&table).map_err(|e| CalibrateError::Parameter(e.to_string()))
 }

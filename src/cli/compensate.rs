@@ -3,18 +3,16 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
+use volmap::nc::{self, NcError, NcOption, Options, ToolLengths};
 
-use volmap::io::embedded;
-use volmap::nc::{self, Options, ToolLengths};
-
-use super::super::{bad_input, write_atomically, Failure};
+use super::args::{JsonArg, MachineArg};
+use super::failure::{Failure, FlagContext};
+use super::output::{progress, write_file, write_json};
 
 #[derive(clap::Args)]
 pub struct CompensateArgs {
-    /// The machine (embedded name or file).
-    #[arg(long, default_value = embedded::DEFAULT_MACHINE)]
-    machine: String,
+    #[command(flatten)]
+    machine: MachineArg,
     /// The part program (ISO 6983 / Fanuc style).
     #[arg(long)]
     program: PathBuf,
@@ -41,66 +39,40 @@ pub struct CompensateArgs {
     /// Pass blocks volmap does not understand through unchanged instead of stopping.
     #[arg(long)]
     pass_unknown: bool,
-    /// Also write the report as JSON to this file.
-    #[arg(long)]
-    json: Option<PathBuf>,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
-pub fn run_compensate(args: CompensateArgs) -> Result<ExitCode, Failure> {
-    let machine = embedded::load(&args.machine).map_err(bad_input)?;
+pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
+    let machine = args.machine.load()?;
     let same_file = std::fs::canonicalize(&args.out)
         .ok()
         .zip(std::fs::canonicalize(&args.program).ok())
         .is_some_and(|(a, b)| a == b);
     if same_file {
-        return Err(bad_input(anyhow::anyhow!(
+        return Err(Failure::input(format!(
             "--out {} is the input program: volmap never writes over it",
             args.out.display()
         )));
     }
     let mut options = Options {
-        tool_lengths: ToolLengths::parse(&args.tool_length).map_err(bad_input)?,
+        tool_lengths: ToolLengths::parse(&args.tool_length).map_err(option_failure)?,
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
         pass_unknown: args.pass_unknown,
         ..Options::default()
     };
     if let Some(path) = &args.work_offset_file {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("reading {}", path.display()))
-            .map_err(bad_input)?;
-        let table: std::collections::BTreeMap<String, Vec<f64>> = toml::from_str(&text)
-            .map_err(|e| bad_input(anyhow::anyhow!("{}: {e}", path.display())))?;
-        for (key, values) in table {
-            let text = format!(
-                "{key}={}",
-                values
-                    .iter()
-                    .map(f64::to_string)
-                    .collect::<Vec<_>>()
-                    .join(",")
-            );
-            let (n, offset) = nc::parse_work_offset(&text)
-                .map_err(|e| bad_input(anyhow::anyhow!("{}: {e}", path.display())))?;
+        for (n, offset) in nc::read_work_offsets(path).flag("--work-offset-file")? {
             options.work_offsets.insert(n, offset);
         }
     }
     for text in &args.work_offsets {
-        let (n, offset) = nc::parse_work_offset(text).map_err(bad_input)?;
+        let (n, offset) = nc::parse_work_offset(text).map_err(option_failure)?;
         options.work_offsets.insert(n, offset);
     }
-    let program = std::fs::read(&args.program)
-        .with_context(|| format!("reading {}", args.program.display()))
-        .map_err(bad_input)?;
-    let bar =
-        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} compensating [{bar:40}] {percent:>3}% {human_pos}/{human_len} lines, {eta} left",
-        )
-        .expect("valid template")
-        .progress_chars("=> "),
-    );
+    let program = volmap::io::read_bytes(&args.program).flag("--program")?;
+    let bar = progress(None, "compensating", "lines");
     let compensated = nc::compensate_with_progress(
         &machine,
         &program,
@@ -112,9 +84,9 @@ pub fn run_compensate(args: CompensateArgs) -> Result<ExitCode, Failure> {
         },
     );
     bar.finish_and_clear();
-    let compensated = compensated.map_err(bad_input)?;
+    let compensated = compensated.map_err(option_failure)?;
     let (text, report) = (compensated.text, compensated.report);
-    write_atomically(&args.out, |out| out.write_all(text.as_bytes()))?;
+    write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
     println!("{}: compensated for {}", args.out.display(), machine.name);
     println!("  points compensated          {}", report.points);
     println!(
@@ -127,9 +99,45 @@ pub fn run_compensate(args: CompensateArgs) -> Result<ExitCode, Failure> {
         "  largest tool-tip error along the feed moves: {:.4} mm before, {:.4} mm after (chord tolerance {} mm)",
         report.largest_error_before_mm, report.largest_error_after_mm, options.chord_tolerance_mm
     );
-    if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&report).context("encoding the report")?;
-        write_atomically(path, |out| writeln!(out, "{text}"))?;
+    if let Some(path) = &args.json.json {
+        write_json(path, &report)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The flag of each compensation option.
+fn flag_of(option: NcOption) -> &'static str {
+    match option {
+        NcOption::ToolLengths => "--tool-length",
+        NcOption::WorkOffsets => "--work-offset",
+        NcOption::ChordTolerance => "--chord-tolerance",
+    }
+}
+
+/// A compensation error with the flag it concerns: an option's bad value names its flag, a value
+/// the program needs but was not given gets a hint of the flag that gives it.
+fn option_failure(error: NcError) -> Failure {
+    match &error {
+        NcError::Option { option, .. } => {
+            let flag = flag_of(*option);
+            Failure::from(error).context(flag)
+        }
+        NcError::Missing { option, .. } => {
+            let example = match option {
+                NcOption::ToolLengths => "T1=80,T2=120",
+                NcOption::WorkOffsets => "G55=100,50,-200",
+                NcOption::ChordTolerance => "0.001",
+            };
+            let hint = format!(
+                "{} gives it, e.g. {} {example}",
+                flag_of(*option),
+                flag_of(*option)
+            );
+            Failure::from(error).hint(hint)
+        }
+        NcError::Unsupported { .. } => {
+            Failure::from(error).hint("--pass-unknown passes such blocks unchanged")
+        }
+        _ => Failure::from(error),
+    }
 }

@@ -1,5 +1,17 @@
-//! Subcommands with modules of their own.
+//! The command line: one file per subcommand, the arguments they share ([`args`]), the one place
+//! errors become exit codes ([`failure`]) and the one place for output ([`output`]).
 
+pub mod args;
+pub mod bench;
+pub mod build;
 pub mod compensate;
-pub mod plots;
-pub mod standards;
+pub mod failure;
+pub mod features;
+pub mod fit;
+pub mod info;
+pub mod machines;
+pub mod map;
+pub mod output;
+pub mod plot;
+pub mod sample;
+pub mod test;

@@ -1,9 +1,7 @@
-//! The CPU engines, producing chunks in the same layout as the GPU engine:
-//! - [`CpuPlan`], the CPU twin of the GPU's passes in f64: every axis transform once per grid
-//!   value, the products before and after X once per line, two 4×4 products per point, and the
-//!   ideal machine alongside. Used where no adapter exists and with `--device cpu`.
-//! - [`reference_lines`], the f64 reference at every point: ground truth for tests, `--check`
-//!   and the benchmarks' baseline.
+//! The CPU engine, [`CpuPlan`]: the CPU twin of the GPU's passes in f64, producing chunks in the
+//! same layout. Every axis transform once per grid value, the products before and after X once
+//! per line, two 4×4 products per point, and the ideal machine alongside. Used where no adapter
+//! exists and when the CPU is asked for.
 
 use nalgebra::Matrix4;
 use rayon::prelude::*;
@@ -15,40 +13,6 @@ use crate::reference;
 
 /// Lines per CPU chunk are chosen so a chunk holds about this many points.
 pub const CPU_CHUNK_POINTS: u64 = 1 << 18;
-
-/// The six output values of one point, in [`CHANNELS`] order: OE.X OE.Y OE.Z VE.X VE.Y VE.Z.
-pub fn point_values(machine: &Machine, ideal: &Machine, grid: &Grid, ijk: [usize; 3]) -> [f64; 6] {
-    let d = reference::deviation_against(machine, ideal, &grid.command(ijk));
-    let (oe, ve) = (d.orientation_rad, d.volumetric_mm);
-    [oe.x, oe.y, oe.z, ve.x, ve.y, ve.z]
-}
-
-/// Computes lines `first_line .. first_line + lines` into `out` (`lines · 6 · nx` values) with
-/// the reference at every point.
-pub fn reference_lines(
-    machine: &Machine,
-    ideal: &Machine,
-    grid: &Grid,
-    first_line: u64,
-    lines: u64,
-    out: &mut [f32],
-) {
-    let nx = grid.dims[0];
-    let ny = grid.dims[1] as u64;
-    out.par_chunks_mut(CHANNELS.len() * nx)
-        .take(lines as usize)
-        .enumerate()
-        .for_each(|(n, line_out)| {
-            let line = first_line + n as u64;
-            let (j, k) = ((line % ny) as usize, (line / ny) as usize);
-            for i in 0..nx {
-                let values = point_values(machine, ideal, grid, [i, j, k]);
-                for (c, v) in values.iter().enumerate() {
-                    line_out[c * nx + i] = *v as f32;
-                }
-            }
-        });
-}
 
 type Transform = Matrix4<f64>;
 

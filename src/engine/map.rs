@@ -4,23 +4,12 @@
 use std::path::Path;
 use std::time::Instant;
 
-use crate::engine::cpu;
-use crate::engine::Engine;
-use crate::gpu::GpuError;
-use crate::io::field::{FieldError, FieldInfo, FieldWriter};
+use super::reference;
+use super::{Engine, EngineError};
+use crate::io::field::{FieldInfo, FieldWriter};
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
-
-#[derive(Debug, thiserror::Error)]
-pub enum MapError {
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
-    #[error(transparent)]
-    Field(#[from] FieldError),
-    #[error("no GPU adapter found (--device gpu); use --device auto or cpu to compute on the CPU")]
-    NoAdapter,
-}
 
 /// Statistics of a field, accumulated chunk by chunk.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -97,7 +86,7 @@ pub struct MapSummary {
 pub struct MapOptions {
     /// Upper bound of points per chunk (below the device's own limit); `None`: the default.
     pub chunk_points: Option<u64>,
-    /// Points to recompute with the reference afterwards (`--check N`).
+    /// Points to recompute with the reference afterwards (the spot check of a map).
     pub check_points: usize,
 }
 
@@ -149,7 +138,7 @@ pub fn map_to_file(
     out: &Path,
     options: &MapOptions,
     mut on_progress: impl FnMut(u64),
-) -> Result<MapSummary, MapError> {
+) -> Result<MapSummary, EngineError> {
     let device = engine.name();
     let mut writer = FieldWriter::create(out, &field_info(machine, grid, &device))?;
     let nx = grid.dims[0];
@@ -161,7 +150,7 @@ pub fn map_to_file(
         machine,
         grid,
         options.chunk_points,
-        |first_line, lines, data| -> Result<(), MapError> {
+        |first_line, lines, data| -> Result<(), EngineError> {
             writer.write_lines(first_line, lines, data)?;
             stats.add_chunk(first_line, lines, nx, data);
             let first_point = first_line * nx as u64;
@@ -206,7 +195,7 @@ pub fn check_against_reference(
         max_oe_diff_rad: 0.0,
     };
     for (&p, got) in points.iter().zip(values) {
-        let want = cpu::point_values(machine, &ideal, grid, grid.indices(p));
+        let want = reference::point_values(machine, &ideal, grid, grid.indices(p));
         let diff = |range: std::ops::Range<usize>| {
             range
                 .map(|c| (got[c] as f64 - want[c]).powi(2))

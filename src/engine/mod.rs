@@ -1,35 +1,62 @@
-//! The engines and the choice between them: the GPU (`crate::gpu`), the CPU engine ([`cpu`], the
-//! GPU's passes in f64 on all cores) and the reference over a grid. Each computes a map chunk by
-//! chunk of whole grid lines in the layout of [`crate::model::channels`]; [`map`] streams the
-//! chunks into a field file with the statistics and the spot check.
+//! The engines and the choice between them. The GPU ([`crate::gpu`]), the CPU engine ([`cpu`]:
+//! the GPU's passes in f64 on all cores) and the reference over a grid ([`reference`](mod@reference): the f64
+//! truth at every point) each compute a map chunk by chunk of whole grid lines, in the layout of
+//! [`crate::model::channels`], and hand the chunks to a callback; [`map`] is the one map run,
+//! streaming them into a field file with the statistics and the spot check.
 
 pub mod cpu;
 pub mod map;
+pub mod reference;
 
+use crate::error::{Classify, ErrorKind};
 use crate::gpu::{GpuError, GpuMapper};
+use crate::io::field::FieldError;
 use crate::model::grid::Grid;
 use crate::model::Machine;
-use map::MapError;
 
-/// `--device`.
+/// Why a map could not be computed or stored.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Field(#[from] FieldError),
+    #[error("no GPU adapter found")]
+    NoAdapter,
+}
+
+impl Classify for EngineError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            EngineError::Gpu(e) => e.kind(),
+            EngineError::Field(e) => e.kind(),
+            EngineError::NoAdapter => ErrorKind::Work,
+        }
+    }
+}
+
+/// Which engine to compute on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DeviceChoice {
-    /// The GPU when an adapter exists, else the CPU.
+    /// The GPU when an adapter exists, else the CPU engine.
     Auto,
     Gpu,
     Cpu,
 }
 
-/// Where the map is computed.
+/// Where a map is computed.
 pub enum Engine {
     Gpu(Box<GpuMapper>),
+    /// The CPU engine ([`cpu::CpuPlan`]).
     Cpu,
+    /// The f64 reference at every point: the truth, and the slowest.
+    Reference,
 }
 
 impl Engine {
     /// Opens the engine `choice` asks for. With `Auto` and no adapter, falls back to the CPU and
     /// returns a note saying so.
-    pub fn select(choice: DeviceChoice) -> Result<(Engine, Option<String>), MapError> {
+    pub fn select(choice: DeviceChoice) -> Result<(Engine, Option<String>), EngineError> {
         if choice == DeviceChoice::Cpu {
             return Ok((Engine::Cpu, None));
         }
@@ -39,7 +66,7 @@ impl Engine {
                 Engine::Cpu,
                 Some("no GPU adapter found: computing on the CPU (f64, all cores)".into()),
             )),
-            None => Err(MapError::NoAdapter),
+            None => Err(EngineError::NoAdapter),
         }
     }
 
@@ -47,10 +74,14 @@ impl Engine {
         match self {
             Engine::Gpu(g) => g.adapter_name().to_string(),
             Engine::Cpu => format!("CPU, f64 ({} threads)", rayon::current_num_threads()),
+            Engine::Reference => {
+                format!("f64 reference ({} threads)", rayon::current_num_threads())
+            }
         }
     }
 
-    /// Computes the map, handing chunks of whole lines to `on_chunk(first_line, lines, data)`.
+    /// Computes the map, handing chunks of whole lines to `on_chunk(first_line, lines, data)` in
+    /// line order. `chunk_points` caps the points per chunk below the engine's own limit.
     pub fn run<E: From<GpuError>>(
         &self,
         machine: &Machine,
@@ -61,6 +92,7 @@ impl Engine {
         match self {
             Engine::Gpu(g) => g.run(machine, grid, chunk_points, on_chunk),
             Engine::Cpu => cpu::run(machine, grid, chunk_points, on_chunk),
+            Engine::Reference => reference::run(machine, grid, chunk_points, on_chunk),
         }
     }
 }

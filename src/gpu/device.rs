@@ -20,6 +20,20 @@ pub enum GpuError {
     Runtime { adapter: String, message: String },
     #[error("reading a result back from {adapter} failed: {message}")]
     Readback { adapter: String, message: String },
+    /// The machine's error rotations exceed what the kernels' series hold in f32 (a unit mistake
+    /// on a real machine); the CPU engine computes such machines.
+    #[error("the angular errors of {machine} add up to {total_rad:.3} rad over this grid; the GPU kernels take error rotations below {limit_rad} rad (angular errors are in rad: check the units); the CPU engine has no such limit")]
+    ErrorAngles {
+        machine: String,
+        total_rad: f64,
+        limit_rad: f64,
+    },
+}
+
+impl crate::error::Classify for GpuError {
+    fn kind(&self) -> crate::error::ErrorKind {
+        crate::error::ErrorKind::Work
+    }
 }
 
 /// A wgpu error on one line (its description lists the causes on lines of their own).

@@ -115,7 +115,7 @@ pub const MAX_ERROR_ANGLE_RAD: f64 = 0.1;
 /// Checks that the machine's error rotations stay small over the grid: the sum of the magnitudes
 /// of every angular error (component, location, spindle) below [`MAX_ERROR_ANGLE_RAD`]. Real
 /// machines are below 1e-3 rad; larger values are a unit mistake (degrees or µrad for rad).
-pub fn check_error_angles(machine: &Machine, grid: &Grid) -> Result<(), String> {
+pub fn check_error_angles(machine: &Machine, grid: &Grid) -> Result<(), GpuError> {
     let mut total = machine.spindle[3].abs() + machine.spindle[4].abs();
     for axis in &machine.axes {
         total += axis.location[3..].iter().map(|a| a.abs()).sum::<f64>();
@@ -134,10 +134,11 @@ pub fn check_error_angles(machine: &Machine, grid: &Grid) -> Result<(), String> 
     if total < MAX_ERROR_ANGLE_RAD {
         Ok(())
     } else {
-        Err(format!(
-            "the angular errors of {} add up to {total:.3} rad over this grid; the GPU kernels take error rotations below {MAX_ERROR_ANGLE_RAD} rad (angular errors are in rad: check the units), --device cpu has no such limit",
-            machine.name
-        ))
+        Err(GpuError::ErrorAngles {
+            machine: machine.name.clone(),
+            total_rad: total,
+            limit_rad: MAX_ERROR_ANGLE_RAD,
+        })
     }
 }
 
@@ -671,7 +672,7 @@ impl GpuMapper {
         chunk_points: Option<u64>,
         tilings: &[Tiling],
     ) -> Result<Prepared, GpuError> {
-        check_error_angles(machine, grid).map_err(|message| self.error(message))?;
+        check_error_angles(machine, grid)?;
         let packed = pack(machine, grid);
         let nx = grid.dims[0] as u64;
         let gpu = &self.gpu;

@@ -70,7 +70,7 @@ impl GpuSampler {
         if planes < nz && planes < 2 {
             return Err(error(format!(
                 "two z planes of the field ({} bytes) exceed the {limit} bytes one binding holds; \
-                 sample on the CPU (--device cpu)",
+                 the CPU samples any field",
                 2 * plane_bytes
             )));
         }

@@ -1,4 +1,4 @@
-//! Machines built into the binary, chosen by name (`--machine vmc-li2015`). Each is an ordinary
+//! Machines built into the binary, chosen by name (`vmc-li2015`). Each is an ordinary
 //! machine file in `machines/`, so what the binary embeds is what a user can copy and edit.
 
 use std::path::Path;
@@ -34,7 +34,7 @@ pub fn embedded(name: &str) -> Option<Result<Machine, MachineError>> {
         .map(|(n, text)| Machine::from_toml(text, &format!("<embedded {n}>"), None))
 }
 
-/// Resolves `--machine`: an embedded name first, then a path to a machine file.
+/// A machine by name or path: an embedded name first, then a path to a machine file.
 pub fn load(name_or_path: &str) -> Result<Machine, MachineError> {
     if let Some(machine) = embedded(name_or_path) {
         return machine;

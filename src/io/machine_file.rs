@@ -9,6 +9,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use super::csv::{Csv, CsvError};
+use super::{read_text, FileError};
+use crate::error::input_errors;
+
 use crate::model::chain::{AxisLetter, Chain, ChainError};
 use crate::model::errorfn::{ErrorFunction, Interp, Table, TableError};
 use crate::model::{Axis, Machine, MachineSource, COMPONENT_NAMES};
@@ -16,12 +20,8 @@ use crate::model::{Axis, Machine, MachineSource, COMPONENT_NAMES};
 /// What is wrong with a machine file. Each message names the file and the key.
 #[derive(Debug, thiserror::Error)]
 pub enum MachineError {
-    #[error("{file}: cannot read: {source}")]
-    Read {
-        file: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{file}: {message}")]
     Toml { file: String, message: String },
     #[error("{file}: chain: {source}")]
@@ -55,16 +55,25 @@ pub enum MachineError {
         #[source]
         source: TableError,
     },
-    #[error("{csv} (read for {file}: {key}): {message}")]
+    #[error("{file}: {key}: {source}")]
+    CsvFile {
+        file: String,
+        key: String,
+        #[source]
+        source: FileError,
+    },
+    #[error("{file}: {key}: {source}")]
     Csv {
         file: String,
         key: String,
-        csv: String,
-        message: String,
+        #[source]
+        source: CsvError,
     },
     #[error("no embedded machine is called `{name}` and no file `{name}` exists (`volmap machines` lists the embedded ones)")]
     UnknownMachine { name: String },
 }
+
+input_errors!(MachineError);
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -104,10 +113,7 @@ impl Machine {
     /// Reads a machine file; CSV tables are found relative to the file's folder.
     pub fn from_path(path: &Path) -> Result<Machine, MachineError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| MachineError::Read {
-            file: file.clone(),
-            source,
-        })?;
+        let text = read_text(path)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Machine::from_toml(&text, &file, Some(&base))
     }
@@ -444,67 +450,50 @@ impl Reader {
             return Err(self.key_error(key, "CSV tables need a machine file on disk (embedded machines carry their tables inline)"));
         };
         let path = base.join(csv);
-        let csv_name = path.display().to_string();
-        let err = |message: String| MachineError::Csv {
+        let text = read_text(&path).map_err(|source| MachineError::CsvFile {
             file: self.file.clone(),
             key: key.to_string(),
-            csv: csv_name.clone(),
-            message,
-        };
-        let text = std::fs::read_to_string(&path).map_err(|e| err(format!("cannot read: {e}")))?;
-        let mut lines = text
-            .lines()
-            .enumerate()
-            .filter(|(_, l)| !l.trim().is_empty());
-        let (_, header) = lines
-            .next()
-            .ok_or_else(|| err("is empty: expected a header row".into()))?;
-        let names: Vec<&str> = header.split(',').map(str::trim).collect();
-        let index = names.iter().position(|&n| n == column).ok_or_else(|| {
-            err(format!(
-                "has no column `{column}` (its columns: {})",
-                names.join(", ")
-            ))
+            source,
         })?;
-        if index == 0 {
-            return Err(err(format!(
-                "column `{column}` is the position column; name a value column"
-            )));
-        }
-        let mut rows = Vec::new();
-        for (n, line) in lines {
-            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-            let cell = |i: usize| -> Result<f64, MachineError> {
-                let text = fields.get(i).ok_or_else(|| {
-                    err(format!(
-                        "line {}: has {} fields, column `{}` is field {}",
-                        n + 1,
-                        fields.len(),
-                        names[i],
-                        i + 1
-                    ))
-                })?;
-                let v: f64 = text.parse().map_err(|_| {
-                    err(format!(
-                        "line {}: `{text}` in column `{}` is not a number",
-                        n + 1,
-                        names[i]
-                    ))
-                })?;
-                if !v.is_finite() {
-                    return Err(err(format!(
-                        "line {}: value {v} in column `{}` is not finite",
-                        n + 1,
-                        names[i]
-                    )));
-                }
-                Ok(v)
-            };
-            rows.push((cell(0)?, cell(index)?));
-        }
+        let csv_name = path.display().to_string();
+        let rows = read_column(&text, &csv_name, column).map_err(|source| MachineError::Csv {
+            file: self.file.clone(),
+            key: key.to_string(),
+            source,
+        })?;
         if !self.csv_files.iter().any(|(name, _)| name == csv) {
             self.csv_files.push((csv.to_string(), text));
         }
         Ok(rows)
     }
+}
+
+/// The `(position, value)` rows of `column` in a CSV table whose first column is the position.
+fn read_column(text: &str, path: &str, column: &str) -> Result<Vec<(f64, f64)>, CsvError> {
+    let mut csv = Csv::new(text, path);
+    let header = csv.header("naming the position, then the error columns")?;
+    let index = header
+        .names
+        .iter()
+        .position(|n| n == column)
+        .ok_or_else(|| {
+            csv.error(
+                header.line,
+                format!(
+                    "has no column `{column}` (its columns: {})",
+                    header.names.join(", ")
+                ),
+            )
+        })?;
+    if index == 0 {
+        return Err(csv.error(
+            header.line,
+            format!("column `{column}` is the position column; name a value column"),
+        ));
+    }
+    let position = format!("`{}`", header.names[0]);
+    let value = format!("`{column}`");
+    csv.rows()
+        .map(|row| Ok((row.number(0, &position)?, row.number(index, &value)?)))
+        .collect()
 }

@@ -2,19 +2,19 @@
 //! ParaView and MeshLab to colour), as the large-part profile checks of the feature queries need.
 
 use std::collections::HashMap;
-use std::io::Write;
 use std::path::Path;
 
 use nalgebra::Vector3;
 
+use super::atomic::write_atomically;
+use super::{read_bytes, FileError};
+use crate::error::{Classify, ErrorKind};
+
+/// What is wrong with a mesh file, or why the PLY could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{path}: line {line}: {message}")]
     Ascii {
         path: String,
@@ -27,6 +27,15 @@ pub enum MeshError {
     Degenerate { path: String, triangle: usize },
     #[error("{path}: holds no triangle")]
     Empty { path: String },
+}
+
+impl Classify for MeshError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            MeshError::File(e) => e.kind(),
+            _ => ErrorKind::Input,
+        }
+    }
 }
 
 /// An indexed triangle mesh, mm. Corners shared by triangles are one vertex.
@@ -78,12 +87,7 @@ impl Mesh {
 
     /// Reads an STL file, binary or ASCII (told apart by the binary layout's exact size).
     pub fn read_stl(path: &Path) -> Result<Mesh, MeshError> {
-        let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
-            path: name.clone(),
-            source,
-        })?;
-        Mesh::parse_stl(&bytes, &name)
+        Mesh::parse_stl(&read_bytes(path)?, &path.display().to_string())
     }
 
     pub fn parse_stl(bytes: &[u8], path: &str) -> Result<Mesh, MeshError> {
@@ -205,17 +209,11 @@ impl Mesh {
         Mesh::from_triangles(&triangles, path)
     }
 
-    /// Writes the mesh as binary little-endian PLY with one scalar property per vertex, through a
-    /// temporary file renamed into place.
+    /// Writes the mesh as binary little-endian PLY with one scalar property per vertex, whole or
+    /// not at all.
     pub fn write_ply(&self, path: &Path, property: &str, values: &[f32]) -> Result<(), MeshError> {
-        let io = |source| MeshError::Io {
-            path: path.display().to_string(),
-            source,
-        };
         assert_eq!(values.len(), self.vertices.len(), "one value per vertex");
-        let temp = path.with_extension("ply.part");
-        let result = (|| -> std::io::Result<()> {
-            let mut out = std::io::BufWriter::new(std::fs::File::create(&temp)?);
+        write_atomically(path, |out| {
             write!(
                 out,
                 "ply\nformat binary_little_endian 1.0\ncomment written by volmap\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float {property}\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
@@ -233,12 +231,8 @@ impl Mesh {
                     out.write_all(&(i as i32).to_le_bytes())?;
                 }
             }
-            out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-            std::fs::rename(&temp, path)
-        })();
-        if result.is_err() {
-            let _ = std::fs::remove_file(&temp);
-        }
-        result.map_err(io)
+            Ok(())
+        })?;
+        Ok(())
     }
 }

@@ -7,24 +7,22 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
+use super::csv::{Csv, CsvError};
+use super::{read_text, FileError};
+use crate::error::input_errors;
 use crate::model::channels::{Sample, SAMPLE_COLUMNS};
 use crate::model::{AxisLetter, Command};
 
+/// What is wrong with a points file.
 #[derive(Debug, thiserror::Error)]
 pub enum PointsError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{path}: line {line}: {message}")]
-    Csv {
-        path: String,
-        line: usize,
-        message: String,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
+    #[error(transparent)]
+    Csv(#[from] CsvError),
 }
+
+input_errors!(PointsError);
 
 /// One queried position and the CSV line it came from.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,79 +35,47 @@ pub struct QueryPoint {
 
 /// Reads positions from CSV text; `path` names it in errors.
 pub fn parse_points(text: &str, path: &str) -> Result<Vec<QueryPoint>, PointsError> {
-    let csv_error = |line: usize, message: String| PointsError::Csv {
-        path: path.to_string(),
-        line,
-        message,
-    };
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let (header_index, header) = lines.next().ok_or_else(|| {
-        csv_error(
-            1,
-            "empty: expected a header row naming X, Y, Z (and A, B, C)".into(),
-        )
-    })?;
+    let mut csv = Csv::new(text, path);
+    let header = csv.header("naming X, Y, Z (and A, B, C)")?;
     let mut columns = Vec::new();
     let mut given = [false; 6];
-    for name in header.split(',').map(str::trim) {
+    for name in &header.names {
         let letter = match name.chars().collect::<Vec<_>>()[..] {
             [c] => AxisLetter::from_char(c),
             _ => None,
         }
         .ok_or_else(|| {
-            csv_error(
-                header_index + 1,
+            csv.error(
+                header.line,
                 format!("unknown column `{name}` (the columns are X, Y, Z, A, B, C)"),
             )
         })?;
         if std::mem::replace(&mut given[letter.index()], true) {
-            return Err(csv_error(
-                header_index + 1,
-                format!("column {letter} appears twice"),
-            ));
+            return Err(csv
+                .error(header.line, format!("column {letter} appears twice"))
+                .into());
         }
         columns.push(letter);
     }
     for letter in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z] {
         if !given[letter.index()] {
-            return Err(csv_error(
-                header_index + 1,
-                format!("no column {letter}: X, Y and Z are required"),
-            ));
+            return Err(csv
+                .error(
+                    header.line,
+                    format!("no column {letter}: X, Y and Z are required"),
+                )
+                .into());
         }
     }
     let mut points = Vec::new();
-    for (n, row) in lines {
-        let fields: Vec<&str> = row.split(',').map(str::trim).collect();
-        if fields.len() != columns.len() {
-            return Err(csv_error(
-                n + 1,
-                format!(
-                    "{} fields, the header names {}",
-                    fields.len(),
-                    columns.len()
-                ),
-            ));
-        }
+    for row in csv.rows() {
+        row.require_fields(columns.len())?;
         let mut command = [0.0; 6];
-        for (letter, field) in columns.iter().zip(&fields) {
-            let value: f64 = field
-                .parse()
-                .ok()
-                .filter(|v: &f64| v.is_finite())
-                .ok_or_else(|| {
-                    csv_error(
-                        n + 1,
-                        format!("`{field}` in column {letter} is not a finite number"),
-                    )
-                })?;
-            command[letter.index()] = value;
+        for (n, letter) in columns.iter().enumerate() {
+            command[letter.index()] = row.number(n, &letter.to_string())?;
         }
         points.push(QueryPoint {
-            line: n + 1,
+            line: row.line,
             command,
             given,
         });
@@ -118,12 +84,7 @@ pub fn parse_points(text: &str, path: &str) -> Result<Vec<QueryPoint>, PointsErr
 }
 
 pub fn read_points(path: &Path) -> Result<Vec<QueryPoint>, PointsError> {
-    let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| PointsError::Io {
-        path: name.clone(),
-        source,
-    })?;
-    parse_points(&text, &name)
+    parse_points(&read_text(path)?, &path.display().to_string())
 }
 
 /// Writes the positions with their samples as CSV: the position columns the input named, then

@@ -89,6 +89,8 @@ pub enum ChainError {
     Structure { chain: String, what: String },
 }
 
+crate::error::input_errors!(ChainError);
+
 impl Chain {
     /// Parses either notation. Whitespace is ignored in both.
     pub fn parse(text: &str) -> Result<Chain, ChainError> {

@@ -68,6 +68,8 @@ pub enum TableError {
     PeriodicEndMismatch { first: f64, last: f64 },
 }
 
+crate::error::input_errors!(TableError);
+
 impl Table {
     pub fn new(
         nodes: Vec<(f64, f64)>,

@@ -5,21 +5,24 @@
 //! `Z = origin_z + k·spacing_z`. Points are numbered `p = i + nx·(j + ny·k)`; a *line* is the
 //! `nx` points of one `(j, k)`, numbered `line = j + ny·k` (the EXR scanline of that line).
 
+use crate::error::input_errors;
 use crate::model::{AxisLetter, Command, Machine};
 
 #[derive(Debug, thiserror::Error)]
 pub enum GridError {
-    #[error("--grid `{0}`: expected NXxNYxNZ with positive integers, e.g. 64x64x64")]
+    #[error("`{0}`: expected NXxNYxNZ with positive integers, e.g. 64x64x64")]
     Syntax(String),
-    #[error("--grid: {axis} has {n} points but the machine has no {axis} axis: use 1")]
+    #[error("{axis} has {n} points but the machine has no {axis} axis: use 1")]
     AbsentAxis { axis: AxisLetter, n: usize },
-    #[error("--grid: {0} is more than a map can hold (at most 2^21 points along X and 2^31 - 1 along Y times Z)")]
+    #[error("{0} is more than a map can hold (at most 2^21 points along X and 2^31 - 1 along Y times Z)")]
     TooLarge(String),
-    #[error("--pose `{0}`: expected LETTER=DEGREES pairs separated by commas, e.g. B=30,C=-45")]
+    #[error("`{0}`: expected LETTER=DEGREES pairs separated by commas, e.g. B=30,C=-45")]
     PoseSyntax(String),
-    #[error("--pose: {axis} is {what}")]
+    #[error("{axis} is {what}")]
     PoseAxis { axis: String, what: String },
 }
+
+input_errors!(GridError);
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Grid {

@@ -28,6 +28,7 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::io::{read_text, FileError};
 use crate::model::{Command, Machine};
 use crate::reference;
 use parse::{parse_program, Line};
@@ -35,6 +36,25 @@ use path::{arc_path, arc_through, lerp, Path};
 use program::{end_position, starting_position, take_line, Motion, State, Step, XY};
 use write::write_block;
 
+/// Which option of a compensation an error is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NcOption {
+    ToolLengths,
+    WorkOffsets,
+    ChordTolerance,
+}
+
+impl std::fmt::Display for NcOption {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            NcOption::ToolLengths => "tool lengths",
+            NcOption::WorkOffsets => "work offset",
+            NcOption::ChordTolerance => "chord tolerance",
+        })
+    }
+}
+
+/// What is wrong with a program or the options of its compensation.
 #[derive(Debug, thiserror::Error)]
 pub enum NcError {
     #[error("{path}: line {line}: {message}")]
@@ -43,9 +63,36 @@ pub enum NcError {
         line: usize,
         message: String,
     },
-    #[error("{0}")]
-    Options(String),
+    /// The program needs a value of `option` here that was not given.
+    #[error("{path}: line {line}: {message}")]
+    Missing {
+        path: String,
+        line: usize,
+        option: NcOption,
+        message: String,
+    },
+    /// A block with a code volmap does not follow.
+    #[error("{path}: line {line}: {code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G49 G54–G59 G61 G64 G80 G90 G91 G94 G95 G98)")]
+    Unsupported {
+        path: String,
+        line: usize,
+        code: String,
+    },
+    #[error(transparent)]
+    File(#[from] FileError),
+    /// A work offset file that does not hold work offsets.
+    #[error("{path}: {message}")]
+    OffsetFile { path: String, message: String },
+    /// An option's value is wrong.
+    #[error("{option} `{value}`: {message}")]
+    Option {
+        option: NcOption,
+        value: String,
+        message: String,
+    },
 }
+
+crate::error::input_errors!(NcError);
 
 impl NcError {
     pub fn line(path: &str, line: usize, message: String) -> NcError {
@@ -65,13 +112,13 @@ pub struct ToolLengths {
 }
 
 impl ToolLengths {
-    /// `--tool-length 120` or `--tool-length T1=80,T2=120.5` (mm, along the spindle axis).
+    /// One length for every tool, `120`, or lengths per tool, `T1=80,T2=120.5` (mm, along the spindle axis).
     pub fn parse(text: &str) -> Result<ToolLengths, NcError> {
         let mut lengths = ToolLengths::default();
-        let bad = || {
-            NcError::Options(format!(
-                "--tool-length {text}: a length in mm, or T1=80,T2=120 per tool"
-            ))
+        let bad = || NcError::Option {
+            option: NcOption::ToolLengths,
+            value: text.to_string(),
+            message: "a length in mm, or T1=80,T2=120 per tool".into(),
         };
         for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
             match part.split_once('=') {
@@ -119,10 +166,10 @@ impl Default for Options {
 
 /// `G54=100,50,-200` (X, Y, Z mm, then optionally A, B, C degrees).
 pub fn parse_work_offset(text: &str) -> Result<(u32, [f64; 6]), NcError> {
-    let bad = || {
-        NcError::Options(format!(
-            "--work-offset {text}: expected G54=X,Y,Z (mm), e.g. G54=100,50,-200"
-        ))
+    let bad = || NcError::Option {
+        option: NcOption::WorkOffsets,
+        value: text.to_string(),
+        message: "expected G54=X,Y,Z (mm), e.g. G54=100,50,-200".into(),
     };
     let (name, values) = text.split_once('=').ok_or_else(bad)?;
     let number: u32 = name
@@ -144,6 +191,32 @@ pub fn parse_work_offset(text: &str) -> Result<(u32, [f64; 6]), NcError> {
     let mut offset = [0.0; 6];
     offset[..values.len()].copy_from_slice(&values);
     Ok((number, offset))
+}
+
+/// Work offsets from a TOML file: `G54 = [X, Y, Z]` (mm, then optionally A, B, C degrees) per
+/// offset.
+pub fn read_work_offsets(path: &std::path::Path) -> Result<Vec<(u32, [f64; 6])>, NcError> {
+    let name = path.display().to_string();
+    let file_error = |message: String| NcError::OffsetFile {
+        path: name.clone(),
+        message,
+    };
+    let table: std::collections::BTreeMap<String, Vec<f64>> =
+        toml::from_str(&read_text(path)?).map_err(|e| file_error(e.to_string()))?;
+    table
+        .into_iter()
+        .map(|(key, values)| {
+            let text = format!(
+                "{key}={}",
+                values
+                    .iter()
+                    .map(f64::to_string)
+                    .collect::<Vec<_>>()
+                    .join(",")
+            );
+            parse_work_offset(&text).map_err(|e| file_error(e.to_string()))
+        })
+        .collect()
 }
 
 /// What a compensation run did.
@@ -187,18 +260,17 @@ impl Compensator<'_> {
                 Some(&l) => Some(l),
                 None if lengths.per_tool.is_empty() || lengths.all.is_some() => lengths.all,
                 None => {
-                    return Err(NcError::line(
-                        self.path,
+                    return Err(NcError::Missing {
+                        path: self.path.to_string(),
                         line,
-                        match tool {
-                            Some(t) => {
-                                format!("no length for tool T{t}: add T{t}=<mm> to --tool-length")
-                            }
+                        option: NcOption::ToolLengths,
+                        message: match tool {
+                            Some(t) => format!("no length for tool T{t} among the tool lengths"),
                             None => {
-                                "no tool is active yet and --tool-length names tools only".into()
+                                "no tool is active yet and the tool lengths name tools only".into()
                             }
                         },
-                    ))
+                    })
                 }
             };
             let mut real = self.base.clone();
@@ -322,10 +394,11 @@ pub fn compensate_with_progress(
     mut on_progress: impl FnMut(usize, usize),
 ) -> Result<Compensated, NcError> {
     if options.chord_tolerance_mm.is_nan() || options.chord_tolerance_mm <= 0.0 {
-        return Err(NcError::Options(format!(
-            "--chord-tolerance {}: it must be positive",
-            options.chord_tolerance_mm
-        )));
+        return Err(NcError::Option {
+            option: NcOption::ChordTolerance,
+            value: options.chord_tolerance_mm.to_string(),
+            message: "it must be positive".into(),
+        });
     }
     let (lines, mut state, mut compensator) = begin(machine, program, path, options)?;
     let mut report = Report::default();
@@ -432,14 +505,15 @@ fn process_line(
     }
     let offset = *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]);
     if state.offset != 54 && !options.work_offsets.contains_key(&state.offset) {
-        return Err(NcError::line(
-            path,
-            line.number,
-            format!(
-                "G{} is active but its work offset was not given (--work-offset G{}=X,Y,Z)",
-                state.offset, state.offset
+        return Err(NcError::Missing {
+            path: path.to_string(),
+            line: line.number,
+            option: NcOption::WorkOffsets,
+            message: format!(
+                "G{} is active but its work offset was not given",
+                state.offset
             ),
-        ));
+        });
     }
     let tool = state.tool;
     let kin = comp.kinematics(tool, line.number)?;
@@ -564,9 +638,9 @@ fn process_line(
                 &mut pieces,
                 report,
             )
-            .map_err(|e| match e {
-                NcError::Options(message) => NcError::line(path, line.number, message),
-                other => other,
+            .map_err(|message| match message {
+                Split::Pieces(message) => NcError::line(path, line.number, message),
+                Split::Point(e) => e,
             })?;
         }
     }
@@ -578,6 +652,12 @@ fn process_line(
 
 /// Program point to compensated program point.
 type PointCompensation<'a> = dyn Fn(&[f64; 6]) -> Result<[f64; 6], NcError> + 'a;
+
+/// Why a move could not be split: too many pieces, or a point that does not compensate.
+enum Split {
+    Pieces(String),
+    Point(NcError),
+}
 
 /// Recursive bisection of the intended path on `[ta, tb]` with compensated ends `a`, `b`:
 /// accepts the straight piece when the real tip along it stays within the tolerance of the
@@ -596,7 +676,7 @@ fn split(
     depth: usize,
     pieces: &mut Vec<[f64; 6]>,
     report: &mut Report,
-) -> Result<(), NcError> {
+) -> Result<(), Split> {
     let length = (0..3).map(|d| (b[d] - a[d]).powi(2)).sum::<f64>().sqrt();
     let n = ((length / 0.5).ceil() as usize).clamp(8, 64);
     let worst = (1..n)
@@ -610,7 +690,7 @@ fn split(
         })
         .fold(0.0, f64::max);
     if pieces.len() >= MAX_PIECES {
-        return Err(NcError::Options(format!(
+        return Err(Split::Pieces(format!(
             "a move needs more than {MAX_PIECES} pieces to stay within the chord tolerance of {tolerance} mm"
         )));
     }
@@ -620,7 +700,7 @@ fn split(
         return Ok(());
     }
     let tm = 0.5 * (ta + tb);
-    let m = compensate_point(&intended.at(tm))?;
+    let m = compensate_point(&intended.at(tm)).map_err(Split::Point)?;
     split(
         intended,
         ta,

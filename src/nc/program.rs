@@ -274,11 +274,11 @@ pub(super) fn take_line(
     }
     if let Some(code) = unknown_code(line) {
         if !pass_unknown {
-            return Err(NcError::line(
-                path,
-                line.number,
-                format!("{code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G49 G54–G59 G61 G64 G80 G90 G91 G94 G95 G98); --pass-unknown passes such blocks unchanged"),
-            ));
+            return Err(NcError::Unsupported {
+                path: path.to_string(),
+                line: line.number,
+                code: code.to_string(),
+            });
         }
         apply_modals(line, state, path)?;
         let end = end_position(line, state);

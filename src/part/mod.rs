@@ -40,18 +40,15 @@ use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::io::field::LoadedField;
+use crate::io::{read_text, FileError};
 use crate::model::{AxisLetter, Command, Machine};
 use crate::reference;
 use tolerance::ToleranceError;
 
 #[derive(Debug, thiserror::Error)]
 pub enum FeatureError {
-    #[error("{file}: {source}")]
-    Io {
-        file: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{file}: {message}")]
     Toml { file: String, message: String },
     #[error("{file}: feature `{feature}`: {message}")]
@@ -68,6 +65,8 @@ pub enum FeatureError {
         source: ToleranceError,
     },
 }
+
+crate::error::input_errors!(FeatureError);
 
 /// The part file (TOML).
 #[derive(Debug, Clone, Deserialize)]
@@ -321,10 +320,7 @@ impl Cut {
 impl PartFile {
     pub fn read(path: &Path) -> Result<PartFile, FeatureError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| FeatureError::Io {
-            file: file.clone(),
-            source,
-        })?;
+        let text = read_text(path)?;
         let mut part = PartFile::parse(&text, &file)?;
         part.base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Ok(part)
@@ -523,7 +519,7 @@ impl Evaluator<'_> {
                     file: self.file.to_string(),
                     feature: feature.to_string(),
                     message: format!(
-                        "the cutter position {}={:.3} mm lies outside the mapped grid ({lo} to {hi}): map a larger grid or use --machine",
+                        "the cutter position {}={:.3} mm lies outside the mapped grid ({lo} to {hi}): map a larger grid, or take the errors from the machine model",
                         ['X', 'Y', 'Z'][d],
                         tip[d]
                     ),

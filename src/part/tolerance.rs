@@ -40,6 +40,8 @@ pub enum ToleranceError {
     },
 }
 
+crate::error::input_errors!(ToleranceError);
+
 /// Two parallel planes holding every point.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlaneZone {

@@ -10,24 +10,34 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::sync::OnceLock;
 
+use crate::error::{Classify, ErrorKind};
+use crate::io::atomic::write_atomically;
+use crate::io::FileError;
+
 mod charts;
 
 pub use charts::{colour, colour_map, deformed_grid, line_chart, polar_chart, ticks, Series};
 
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{path}: the plot format is chosen by the extension: .svg or .png")]
     Format { path: String },
     #[error("drawing the PNG: {0}")]
     Raster(String),
     #[error("nothing to plot: {0}")]
     Empty(String),
+}
+
+impl Classify for PlotError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            PlotError::File(e) => e.kind(),
+            PlotError::Format { .. } | PlotError::Empty(_) => ErrorKind::Input,
+            PlotError::Raster(_) => ErrorKind::Work,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -409,28 +419,14 @@ impl Drawing {
             .map_err(|e| PlotError::Raster(e.to_string()))
     }
 
-    /// Writes SVG or PNG by the file's extension, through a temporary file renamed into place.
+    /// Writes SVG or PNG by the file's extension, whole or not at all.
     pub fn write(&self, path: &Path) -> Result<(), PlotError> {
-        let name = path.display().to_string();
         let bytes = match format_of(path)? {
             Format::Svg => self.svg()?.into_bytes(),
             Format::Png => self.png()?,
         };
-        let temp = path.with_file_name(format!(
-            ".{}.part",
-            path.file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default()
-        ));
-        let io = |source| PlotError::Io {
-            path: name.clone(),
-            source,
-        };
-        std::fs::write(&temp, bytes).map_err(io)?;
-        std::fs::rename(&temp, path).map_err(|e| {
-            let _ = std::fs::remove_file(&temp);
-            io(e)
-        })
+        write_atomically(path, |out| out.write_all(&bytes))?;
+        Ok(())
     }
 }
 

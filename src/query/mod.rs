@@ -8,12 +8,14 @@ mod slice;
 
 pub use deformed::{deformed_grid, DeformedGrid};
 pub use sample::{open_sampler, sample_exact, sample_field, sample_field_gpu};
-pub use slice::{field_slice, FieldSlice};
+pub use slice::{field_slice, FieldSlice, Quantity};
 
+use crate::error::{Classify, ErrorKind};
 use crate::gpu::GpuError;
 use crate::io::field::FieldError;
 use crate::io::points::PointsError;
 
+/// Why a query could not be answered.
 #[derive(Debug, thiserror::Error)]
 pub enum QueryError {
     #[error(transparent)]
@@ -41,8 +43,28 @@ pub enum QueryError {
     Field(#[from] FieldError),
     #[error(transparent)]
     Gpu(#[from] GpuError),
-    #[error("no GPU adapter found (--device gpu); use --device auto or cpu to sample on the CPU")]
+    #[error("no GPU adapter found")]
     NoAdapter,
-    #[error("{0}")]
-    Slice(String),
+    #[error("normal `{0}`: x, y or z")]
+    SliceNormal(String),
+    #[error("quantity `{0}`: {choices}", choices = slice::Quantity::choices())]
+    SliceQuantity(String),
+    #[error("{axis}={at} mm is outside the field's grid along {axis} ({lo} to {hi})")]
+    SliceOutside {
+        axis: char,
+        at: f64,
+        lo: f64,
+        hi: f64,
+    },
+}
+
+impl Classify for QueryError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            QueryError::Field(e) => e.kind(),
+            QueryError::Gpu(e) => e.kind(),
+            QueryError::NoAdapter => ErrorKind::Work,
+            _ => ErrorKind::Input,
+        }
+    }
 }

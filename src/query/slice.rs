@@ -21,6 +21,45 @@ pub struct FieldSlice {
     pub unit: String,
 }
 
+/// What a slice shows at each point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quantity {
+    /// |VE|, mm.
+    VolumetricMagnitude,
+    /// |OE|, rad.
+    OrientationMagnitude,
+    /// One channel of [`CHANNELS`] (`VE.X` … `OE.Z`).
+    Channel(usize),
+}
+
+impl Quantity {
+    /// `VE`, `OE` or a channel name.
+    pub fn parse(text: &str) -> Option<Quantity> {
+        match text.trim() {
+            "VE" => Some(Quantity::VolumetricMagnitude),
+            "OE" => Some(Quantity::OrientationMagnitude),
+            other => CHANNELS
+                .iter()
+                .position(|c| *c == other)
+                .map(Quantity::Channel),
+        }
+    }
+
+    /// What can be asked for, in words.
+    pub fn choices() -> String {
+        format!("VE, OE or one of {}", CHANNELS.join(", "))
+    }
+
+    /// The channels that make the quantity, whether it is their magnitude, and the unit.
+    fn channels(self) -> (Vec<usize>, bool, &'static str) {
+        match self {
+            Quantity::VolumetricMagnitude => (vec![3, 4, 5], true, "|VE| (mm)"),
+            Quantity::OrientationMagnitude => (vec![0, 1, 2], true, "|OE| (rad)"),
+            Quantity::Channel(c) => (vec![c], false, if c < 3 { "rad" } else { "mm" }),
+        }
+    }
+}
+
 /// Reads the grid plane across axis `normal` (`x`, `y` or `z`) nearest to `at` (mm; default the
 /// middle) and takes `quantity` there: `VE` (|VE|, mm), `OE` (|OE|, rad) or one channel
 /// (`VE.X` … `OE.Z`). Only the lines the plane crosses are read.
@@ -34,22 +73,11 @@ pub fn field_slice(
         "x" | "X" => 0,
         "y" | "Y" => 1,
         "z" | "Z" => 2,
-        other => return Err(QueryError::Slice(format!("--normal {other}: x, y or z"))),
+        other => return Err(QueryError::SliceNormal(other.to_string())),
     };
-    // Which channels make the quantity, and the unit.
-    let (channels, magnitude, unit): (Vec<usize>, bool, &str) = match quantity.trim() {
-        "VE" => (vec![3, 4, 5], true, "|VE| (mm)"),
-        "OE" => (vec![0, 1, 2], true, "|OE| (rad)"),
-        other => match CHANNELS.iter().position(|c| *c == other) {
-            Some(c) => (vec![c], false, if c < 3 { "rad" } else { "mm" }),
-            None => {
-                return Err(QueryError::Slice(format!(
-                    "--quantity {other}: VE, OE or one of {}",
-                    CHANNELS.join(", ")
-                )))
-            }
-        },
-    };
+    let parsed = Quantity::parse(quantity)
+        .ok_or_else(|| QueryError::SliceQuantity(quantity.trim().to_string()))?;
+    let (channels, magnitude, unit) = parsed.channels();
     let mut reader = FieldReader::open(path)?;
     let info = reader.info().clone();
     let [nx, ny, nz] = info.dims;
@@ -60,10 +88,12 @@ pub fn field_slice(
             let (origin, step) = (info.origin_mm[d], info.spacing_mm[d]);
             let end = origin + (n - 1) as f64 * step;
             if q < origin.min(end) - 1e-9 || q > origin.max(end) + 1e-9 {
-                return Err(QueryError::Slice(format!(
-                    "--at {q}: outside the field's grid along {} ({origin} to {end})",
-                    ['X', 'Y', 'Z'][d]
-                )));
+                return Err(QueryError::SliceOutside {
+                    axis: ['X', 'Y', 'Z'][d],
+                    at: q,
+                    lo: origin,
+                    hi: end,
+                });
             }
             if step > 0.0 {
                 ((q - origin) / step).round() as usize

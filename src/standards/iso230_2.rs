@@ -235,14 +235,13 @@ fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
     for up in directions {
         let runs: Vec<&Run> = groups.iter().filter(|g| g.0 == up).collect();
         if runs.is_empty() {
-            return Err(StandardsError::Csv {
-                path: m.path.clone(),
-                line: m.lines[0],
-                message: format!(
+            return Err(m.error(
+                0,
+                format!(
                     "no run in the {} direction: ISO 230-2 approaches every target from both sides",
                     if up { "+" } else { "-" }
                 ),
-            });
+            ));
         }
         let mut by_target = vec![Vec::new(); targets.len()];
         for run in runs {
@@ -254,15 +253,14 @@ fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
                     .zip(&targets)
                     .any(|(a, b)| (a - b).abs() > 1e-9 * (1.0 + b.abs()))
             {
-                return Err(StandardsError::Csv {
-                    path: m.path.clone(),
-                    line: m.lines[0],
-                    message: format!(
+                return Err(m.error(
+                    0,
+                    format!(
                         "run {} ({}) does not visit the same targets as the first run",
                         run.1,
                         if up { "+" } else { "-" }
                     ),
-                });
+                ));
             }
             for &(t, x) in &run.2 {
                 let i = targets

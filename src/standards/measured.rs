@@ -6,6 +6,8 @@
 use std::path::Path;
 
 use super::StandardsError;
+use crate::io::csv::{Csv, CsvError};
+use crate::io::read_text;
 
 /// The unit a column is read in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,49 +31,12 @@ pub struct Measured {
     pub text: Vec<Vec<String>>,
 }
 
-/// A measurement file's name (for errors) and text.
-pub(crate) fn read_text(path: &Path) -> Result<(String, String), StandardsError> {
-    let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| StandardsError::Io {
-        path: name.clone(),
-        source,
-    })?;
-    Ok((name, text))
-}
-
-/// The lines of a measurement CSV that hold its header and rows: 1-based line numbers, trimmed;
-/// blank lines and `#` comments skipped.
-pub(crate) fn csv_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
-    text.lines()
-        .enumerate()
-        .map(|(n, l)| (n + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
-}
-
-/// A row's fields, as many as the header has columns (else the message why not).
-pub(crate) fn csv_fields(row: &str, columns: usize) -> Result<Vec<&str>, String> {
-    let fields: Vec<&str> = row.split(',').map(str::trim).collect();
-    if fields.len() != columns {
-        return Err(format!("{} fields, the header has {columns}", fields.len()));
-    }
-    Ok(fields)
-}
-
-/// A finite number from a field of `column` (else the message why not).
-pub(crate) fn csv_number(field: &str, column: &str) -> Result<f64, String> {
-    field
-        .parse::<f64>()
-        .ok()
-        .filter(|v| v.is_finite())
-        .ok_or_else(|| format!("`{field}` in column `{column}` is not a number"))
-}
-
 impl Measured {
     /// Reads `path` and picks the columns `wanted` (`(name, unit)`), each required. Columns not
     /// asked for are an error, so a misspelt name does not pass silently.
     pub fn read(path: &Path, wanted: &[(&str, Unit)]) -> Result<Measured, StandardsError> {
-        let (name, text) = read_text(path)?;
-        Self::parse(&text, &name, wanted)
+        let text = read_text(path)?;
+        Self::parse(&text, &path.display().to_string(), wanted)
     }
 
     pub fn parse(
@@ -79,67 +44,57 @@ impl Measured {
         path: &str,
         wanted: &[(&str, Unit)],
     ) -> Result<Measured, StandardsError> {
-        let csv_error = |line: usize, message: String| StandardsError::Csv {
-            path: path.to_string(),
-            line,
-            message,
-        };
-        let mut rows = csv_lines(text);
-        let expected = || {
-            wanted
-                .iter()
-                .map(|(c, u)| match u {
-                    Unit::Length => format!("{c}_mm (or {c}_um)"),
-                    Unit::Angle => format!("{c}_deg"),
-                    Unit::None => c.to_string(),
-                })
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        let (header_line, header) = rows.next().ok_or_else(|| {
-            csv_error(
-                1,
-                format!("empty file; expected a header row: {}", expected()),
-            )
-        })?;
+        let expected = wanted
+            .iter()
+            .map(|(c, u)| match u {
+                Unit::Length => format!("{c}_mm (or {c}_um)"),
+                Unit::Angle => format!("{c}_deg"),
+                Unit::None => c.to_string(),
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        let mut csv = Csv::new(text, path);
+        let header = csv.header(&format!("naming {expected}"))?;
         // For each header column: which wanted column it is and the factor to mm.
         let mut source: Vec<(usize, f64)> = Vec::new();
         let mut found = vec![false; wanted.len()];
-        for column in header.split(',').map(str::trim) {
+        for column in &header.names {
             let matched = wanted.iter().enumerate().find_map(|(n, (c, unit))| {
                 let factor = match unit {
-                    Unit::Length if column == format!("{c}_mm") => Some(1.0),
-                    Unit::Length if column == format!("{c}_um") => Some(1e-3),
-                    Unit::Angle if column == format!("{c}_deg") => Some(1.0),
-                    Unit::None if column == *c => Some(1.0),
+                    Unit::Length if *column == format!("{c}_mm") => Some(1.0),
+                    Unit::Length if *column == format!("{c}_um") => Some(1e-3),
+                    Unit::Angle if *column == format!("{c}_deg") => Some(1.0),
+                    Unit::None if column == c => Some(1.0),
                     _ => None,
                 };
                 factor.map(|f| (n, f))
             });
             let Some((n, factor)) = matched else {
-                return Err(csv_error(
-                    header_line,
-                    format!("unknown column `{column}`; the columns are: {}", expected()),
-                ));
+                return Err(csv
+                    .error(
+                        header.line,
+                        format!("unknown column `{column}`; the columns are: {expected}"),
+                    )
+                    .into());
             };
             if found[n] {
-                return Err(csv_error(
-                    header_line,
-                    format!("column `{column}` appears twice"),
-                ));
+                return Err(csv
+                    .error(header.line, format!("column `{column}` appears twice"))
+                    .into());
             }
             found[n] = true;
             source.push((n, factor));
         }
         if let Some(n) = found.iter().position(|f| !f) {
-            return Err(csv_error(
-                header_line,
-                format!(
-                    "missing column `{}`; the columns are: {}",
-                    wanted[n].0,
-                    expected()
-                ),
-            ));
+            return Err(csv
+                .error(
+                    header.line,
+                    format!(
+                        "missing column `{}`; the columns are: {expected}",
+                        wanted[n].0
+                    ),
+                )
+                .into());
         }
         let mut measured = Measured {
             path: path.to_string(),
@@ -147,24 +102,23 @@ impl Measured {
             columns: vec![Vec::new(); wanted.len()],
             text: vec![Vec::new(); wanted.len()],
         };
-        for (line, row) in rows {
-            let fields = csv_fields(row, source.len()).map_err(|m| csv_error(line, m))?;
-            for (field, &(n, factor)) in fields.iter().zip(&source) {
+        for row in csv.rows() {
+            row.require_fields(source.len())?;
+            for (field, &(n, factor)) in source.iter().enumerate() {
                 if wanted[n].1 == Unit::None {
-                    measured.text[n].push(field.to_string());
+                    measured.text[n].push(row.fields[field].to_string());
                     measured.columns[n].push(f64::NAN);
                     continue;
                 }
-                let value = csv_number(field, wanted[n].0).map_err(|m| csv_error(line, m))?;
+                let value = row.number(field, &format!("`{}`", wanted[n].0))?;
                 measured.columns[n].push(value * factor);
             }
-            measured.lines.push(line);
+            measured.lines.push(row.line);
         }
         if measured.lines.is_empty() {
-            return Err(csv_error(
-                header_line,
-                "no measurements after the header".into(),
-            ));
+            return Err(csv
+                .error(header.line, "no measurements after the header")
+                .into());
         }
         Ok(measured)
     }
@@ -179,11 +133,11 @@ impl Measured {
 
     /// An error at row `row` of this file.
     pub fn error(&self, row: usize, message: String) -> StandardsError {
-        StandardsError::Csv {
+        StandardsError::Csv(CsvError {
             path: self.path.clone(),
             line: self.lines[row],
             message,
-        }
+        })
     }
 
     /// Checks that column `n` rises strictly from row to row (positions and angles must come in

@@ -36,24 +36,19 @@ pub use rtest::{rtest, RTestSpec};
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::error::input_errors;
+use crate::io::csv::CsvError;
+use crate::io::FileError;
 use crate::model::grid::{self, GridError};
 use crate::model::{AxisLetter, Command, Machine};
 use crate::reference;
 
 #[derive(Debug, thiserror::Error)]
 pub enum StandardsError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{path}: line {line}: {message}")]
-    Csv {
-        path: String,
-        line: usize,
-        message: String,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
+    #[error(transparent)]
+    Csv(#[from] CsvError),
     #[error("{0}")]
     Parameter(String),
     #[error("{what}: {axis}={value} lies outside the travel of {axis} ({lo} to {hi})")]
@@ -67,6 +62,8 @@ pub enum StandardsError {
     #[error(transparent)]
     Pose(#[from] GridError),
 }
+
+input_errors!(StandardsError);
 
 fn parameter(message: impl Into<String>) -> StandardsError {
     StandardsError::Parameter(message.into())

@@ -177,6 +177,32 @@ fn without_an_adapter_auto_says_so_once_and_maps_on_the_cpu() {
 }
 
 #[test]
+fn a_unit_mistake_the_gpu_refuses_points_to_the_cpu_engine() {
+    // The library says why (error rotations beyond the kernels' series); the command line adds
+    // the flag that maps such a machine anyway.
+    if super::common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let machine = dir.path().join("degrees.toml");
+    std::fs::write(
+        &machine,
+        "name = \"5 degrees written as rad\"\nchain = \"FYXFZ\"\n[axes.X]\nrange = [0, 100]\n[axes.Y]\nrange = [0, 100]\nEC0Y = 5.0\n[axes.Z]\nrange = [0, 100]\n",
+    )
+    .unwrap();
+    volmap()
+        .args(["map", "--grid", "4x4x4", "--device", "gpu", "--machine"])
+        .arg(&machine)
+        .arg("--out")
+        .arg(dir.path().join("f.exr"))
+        .assert()
+        .code(1)
+        .stderr(
+            predicate::str::contains("below 0.1 rad").and(predicate::str::contains("--device cpu")),
+        );
+}
+
+#[test]
 fn bench_prints_a_table_and_writes_json() {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("bench.json");

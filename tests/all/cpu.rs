@@ -1,7 +1,8 @@
 //! The CPU engine (the f64 twin of the GPU passes) against the reference at every point: equal
 //! up to the rounding of the f32 output.
 
-use volmap::engine::cpu::{point_values, CpuPlan};
+use volmap::engine::cpu::CpuPlan;
+use volmap::engine::reference::point_values;
 use volmap::io::embedded;
 use volmap::model::channels::CHANNELS;
 use volmap::model::grid::Grid;

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use volmap::io::csv::CsvError;
 use volmap::model::{AxisLetter, ErrorFunction, Machine};
 use volmap::standards::{
     self, CircularSpec, DiagonalSpec, PositioningSpec, RTestSpec, Setup, StandardsError,
@@ -307,19 +308,42 @@ fn r_test_of_an_offset_axis_line() {
     );
 }
 
-fn expect_csv_error(
-    result: Result<impl std::fmt::Debug, StandardsError>,
+fn expect_csv_error<E: CsvCause + std::fmt::Debug>(
+    result: Result<impl std::fmt::Debug, E>,
     line: usize,
     words: &str,
 ) {
-    match result {
-        Err(StandardsError::Csv {
+    match result.as_ref().map_err(|e| e.csv()) {
+        Err(Some(CsvError {
             line: l, message, ..
-        }) => {
-            assert_eq!(l, line, "{message}");
+        })) => {
+            assert_eq!(*l, line, "{message}");
             assert!(message.contains(words), "{message}");
         }
-        other => panic!("expected a CSV error at line {line}, got {other:?}"),
+        _ => panic!("expected a CSV error at line {line}, got {result:?}"),
+    }
+}
+
+/// The CSV error behind a standards or calibration error.
+trait CsvCause {
+    fn csv(&self) -> Option<&CsvError>;
+}
+
+impl CsvCause for StandardsError {
+    fn csv(&self) -> Option<&CsvError> {
+        match self {
+            StandardsError::Csv(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl CsvCause for volmap::calibrate::CalibrateError {
+    fn csv(&self) -> Option<&CsvError> {
+        match self {
+            volmap::calibrate::CalibrateError::Csv(e) => Some(e),
+            _ => None,
+        }
     }
 }
 

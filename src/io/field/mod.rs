@@ -15,16 +15,14 @@ pub use loaded::{GridCell, LoadedField};
 pub use read::FieldReader;
 pub use write::FieldWriter;
 
+use super::FileError;
+use crate::error::{Classify, ErrorKind};
 use crate::model::grid::Grid;
 
 #[derive(Debug, thiserror::Error)]
 pub enum FieldError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    File(#[from] FileError),
     #[error("{path}: not a volmap field: {what}")]
     Format { path: String, what: String },
     #[error("{path}: lines must arrive in order: expected line {expected}, got {got}")]
@@ -39,6 +37,18 @@ pub enum FieldError {
         written: u64,
         total: u64,
     },
+}
+
+impl Classify for FieldError {
+    /// A field that cannot be read or is not volmap's is bad input; a field that could not be
+    /// written whole is the work's failure.
+    fn kind(&self) -> ErrorKind {
+        match self {
+            FieldError::File(e) => e.kind(),
+            FieldError::Format { .. } => ErrorKind::Input,
+            FieldError::OutOfOrder { .. } | FieldError::Incomplete { .. } => ErrorKind::Work,
+        }
+    }
 }
 
 /// What a field file says about itself, stored as header attributes.

@@ -6,6 +6,7 @@ use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use super::{FieldError, FieldInfo, FLAG_DEEP, FLAG_MULTIPART, FLAG_TILED, MAGIC, PIXEL_FLOAT};
+use crate::io::FileError;
 use crate::model::channels::CHANNELS;
 
 /// Reads fields written by volmap (single-part, scanline, uncompressed) line by line.
@@ -69,10 +70,7 @@ fn f64s<const N: usize>(b: &[u8]) -> [f64; N] {
 impl FieldReader {
     pub fn open(path: &Path) -> Result<FieldReader, FieldError> {
         let display = path.display().to_string();
-        let file = File::open(path).map_err(|source| FieldError::Io {
-            path: display.clone(),
-            source,
-        })?;
+        let file = File::open(path).map_err(|e| FileError::read(path, e))?;
         let mut reader = BufReader::with_capacity(1 << 20, file);
         let mut c = Cursor {
             path: &display,
@@ -250,7 +248,7 @@ impl FieldReader {
             .offsets
             .get(line as usize)
             .ok_or_else(|| format(format!("line {line} is past the last line")))?;
-        let io = |source| FieldError::Io {
+        let io = |source| FileError::Read {
             path: self.path.clone(),
             source,
         };

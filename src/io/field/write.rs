@@ -1,13 +1,13 @@
 //! Writing a field: the header, the offset table (known before any pixel is computed, since
 //! uncompressed scanline chunks have a fixed size), then the lines as they arrive.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io::Write;
+use std::path::Path;
 
 use super::{
     grid_text, FieldError, FieldInfo, FLAG_LONG_NAMES, MAGIC, PIXEL_FLOAT, UNITS, VERSION,
 };
+use crate::io::atomic::AtomicFile;
 use crate::model::channels::CHANNELS;
 
 struct HeaderBuilder {
@@ -95,59 +95,39 @@ fn encode_header(info: &FieldInfo) -> Vec<u8> {
     out
 }
 
-/// Streams a field into a temporary file, renamed into place by [`FieldWriter::finish`].
+/// Streams a field into a temporary file, renamed into place by [`FieldWriter::finish`];
+/// dropped before that, it leaves nothing behind.
 pub struct FieldWriter {
-    out: Option<BufWriter<File>>,
-    temp_path: PathBuf,
-    final_path: PathBuf,
+    out: AtomicFile,
     nx: usize,
     total_lines: u64,
     next_line: u64,
     line_bytes: Vec<u8>,
-    /// Set once the file is renamed into place; until then dropping removes the temporary file.
-    saved: bool,
 }
 
 impl FieldWriter {
     pub fn create(path: &Path, info: &FieldInfo) -> Result<FieldWriter, FieldError> {
-        let io = |source| FieldError::Io {
-            path: path.display().to_string(),
-            source,
-        };
-        let file_name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let temp_path = path.with_file_name(format!(".{file_name}.{}.part", std::process::id()));
-        let file = File::create(&temp_path).map_err(io)?;
-        let mut writer = FieldWriter {
-            out: Some(BufWriter::with_capacity(8 << 20, file)),
-            temp_path,
-            final_path: path.to_path_buf(),
-            nx: info.dims[0],
-            total_lines: (info.dims[1] * info.dims[2]) as u64,
+        let mut out = AtomicFile::create(path, 8 << 20)?;
+        let nx = info.dims[0];
+        let total_lines = (info.dims[1] * info.dims[2]) as u64;
+        let header = encode_header(info);
+        let chunk_bytes = 8 + (CHANNELS.len() * 4 * nx) as u64;
+        let first_chunk = header.len() as u64 + 8 * total_lines;
+        let written = (|| -> std::io::Result<()> {
+            out.write_all(&header)?;
+            for line in 0..total_lines {
+                out.write_all(&(first_chunk + line * chunk_bytes).to_le_bytes())?;
+            }
+            Ok(())
+        })();
+        written.map_err(|e| out.error(e))?;
+        Ok(FieldWriter {
+            out,
+            nx,
+            total_lines,
             next_line: 0,
             line_bytes: Vec::new(),
-            saved: false,
-        };
-        let header = encode_header(info);
-        let chunk_bytes = 8 + (CHANNELS.len() * 4 * writer.nx) as u64;
-        let table_start = header.len() as u64;
-        let first_chunk = table_start + 8 * writer.total_lines;
-        let out = writer.out.as_mut().expect("open until finish");
-        out.write_all(&header).map_err(io)?;
-        for line in 0..writer.total_lines {
-            out.write_all(&(first_chunk + line * chunk_bytes).to_le_bytes())
-                .map_err(io)?;
-        }
-        Ok(writer)
-    }
-
-    fn io_error(&self, source: std::io::Error) -> FieldError {
-        FieldError::Io {
-            path: self.final_path.display().to_string(),
-            source,
-        }
+        })
     }
 
     /// Appends `lines` lines starting at `first_line` (which must follow the last line written):
@@ -160,13 +140,13 @@ impl FieldWriter {
     ) -> Result<(), FieldError> {
         if first_line != self.next_line {
             return Err(FieldError::OutOfOrder {
-                path: self.final_path.display().to_string(),
+                path: self.out.path().display().to_string(),
                 expected: self.next_line,
                 got: first_line,
             });
         }
         let values_per_line = CHANNELS.len() * self.nx;
-        let mut out = self.out.take().expect("open until finish");
+        let (out, line_bytes) = (&mut self.out, &mut self.line_bytes);
         let result = (|| -> std::io::Result<()> {
             for (n, line) in data
                 .chunks_exact(values_per_line)
@@ -178,46 +158,27 @@ impl FieldWriter {
                 if cfg!(target_endian = "little") {
                     out.write_all(bytemuck::cast_slice(line))?;
                 } else {
-                    self.line_bytes.clear();
-                    self.line_bytes
-                        .extend(line.iter().flat_map(|v| v.to_le_bytes()));
-                    out.write_all(&self.line_bytes)?;
+                    line_bytes.clear();
+                    line_bytes.extend(line.iter().flat_map(|v| v.to_le_bytes()));
+                    out.write_all(line_bytes)?;
                 }
             }
             Ok(())
         })();
-        self.out = Some(out);
-        result.map_err(|e| self.io_error(e))?;
+        result.map_err(|e| self.out.error(e))?;
         self.next_line += lines;
         Ok(())
     }
 
-    /// Flushes, checks that every line was written, and renames the file into place.
-    pub fn finish(mut self) -> Result<(), FieldError> {
+    /// Checks that every line was written, and puts the file in place.
+    pub fn finish(self) -> Result<(), FieldError> {
         if self.next_line != self.total_lines {
             return Err(FieldError::Incomplete {
-                path: self.final_path.display().to_string(),
+                path: self.out.path().display().to_string(),
                 written: self.next_line,
                 total: self.total_lines,
             });
         }
-        let out = self.out.take().expect("open until finish");
-        let file = out
-            .into_inner()
-            .map_err(|e| self.io_error(e.into_error()))?;
-        file.sync_all().map_err(|e| self.io_error(e))?;
-        drop(file);
-        std::fs::rename(&self.temp_path, &self.final_path).map_err(|e| self.io_error(e))?;
-        self.saved = true;
-        Ok(())
-    }
-}
-
-impl Drop for FieldWriter {
-    fn drop(&mut self) {
-        if !self.saved {
-            self.out = None;
-            let _ = std::fs::remove_file(&self.temp_path);
-        }
+        Ok(self.out.commit()?)
     }
 }

@@ -1,14 +1,15 @@
-//! `volmap test`, `volmap fit`, `volmap build`: standard tests from a model, measured data in.
+//! `volmap test`: the standard tests predicted from a machine model, against measured results
+//! where given.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::Context;
-
-use volmap::io::embedded;
 use volmap::standards::{self, Setup, TestResult};
 
-use super::super::{bad_input, write_atomically, Failure};
+use super::args::{JsonArg, MachineArg, PoseArg};
+use super::failure::{Failure, FlagContext};
+use super::output::{check_plot_paths, write_json};
+use super::plot::write_test_plot;
 
 /// Three numbers `X,Y,Z` in mm.
 fn parse_xyz(text: &str) -> Result<[f64; 3], String> {
@@ -29,21 +30,18 @@ pub struct TestArgs {
 /// What every test takes besides its own parameters.
 #[derive(clap::Args)]
 struct Common {
-    /// An embedded machine's name (see `volmap machines`) or a machine file (TOML).
-    #[arg(long, default_value = embedded::DEFAULT_MACHINE)]
-    machine: String,
-    /// Positions of rotary axes not under test, degrees, e.g. `B=30,C=0` (not named: 0).
-    #[arg(long, default_value = "")]
-    pose: String,
+    #[command(flatten)]
+    machine: MachineArg,
+    #[command(flatten)]
+    pose: PoseArg,
     /// Measured results to compare with (CSV; the layout of each test is in the README).
     #[arg(long)]
     measured: Option<PathBuf>,
     /// Draw the error curve, predicted and measured, into this file (.svg or .png).
     #[arg(long)]
     plot: Vec<PathBuf>,
-    /// Also write the result (curves and figures, mm) as JSON to this file.
-    #[arg(long)]
-    json: Option<PathBuf>,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
 #[derive(clap::Subcommand)]
@@ -130,16 +128,14 @@ enum TestKind {
     },
 }
 
-pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
+pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
     let plots = match &args.kind {
         TestKind::Positioning { common, .. }
         | TestKind::Diagonal { common, .. }
         | TestKind::Circular { common, .. }
         | TestKind::Rtest { common, .. } => &common.plot,
     };
-    for path in plots {
-        volmap::plot::format_of(path).map_err(bad_input)?;
-    }
+    check_plot_paths(plots, "--plot")?;
     let (common, result) = match args.kind {
         TestKind::Positioning {
             axis,
@@ -153,7 +149,7 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 targets,
                 runs,
                 at_mm: at,
-                pose: common.pose.clone(),
+                pose: common.pose.pose.clone(),
                 csv: common.measured.clone(),
             };
             let result = run_on_machine(&common, |setup| standards::positioning(setup, &spec))?;
@@ -171,7 +167,7 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 from_mm: from,
                 to_mm: to,
                 points,
-                pose: common.pose.clone(),
+                pose: common.pose.pose.clone(),
                 csv: common.measured.clone(),
             };
             let result = run_on_machine(&common, |setup| standards::diagonal(setup, &spec))?;
@@ -193,7 +189,7 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 points,
                 direction,
                 start_deg: start,
-                pose: common.pose.clone(),
+                pose: common.pose.pose.clone(),
                 csv: common.measured.clone(),
             };
             let result = run_on_machine(&common, |setup| standards::circular(setup, &spec))?;
@@ -213,7 +209,7 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
                 from_deg: from,
                 to_deg: to,
                 step_deg: step,
-                pose: common.pose.clone(),
+                pose: common.pose.pose.clone(),
                 csv: common.measured.clone(),
             };
             let result = run_on_machine(&common, |setup| standards::rtest(setup, &spec))?;
@@ -222,11 +218,10 @@ pub fn run_test(args: TestArgs) -> Result<ExitCode, Failure> {
     };
     print_result(&result);
     for path in &common.plot {
-        super::plots::write_test_plot(path, &result)?;
+        write_test_plot(path, &result)?;
     }
-    if let Some(path) = &common.json {
-        let text = serde_json::to_string_pretty(&result).context("encoding the result")?;
-        write_atomically(path, |out| writeln!(out, "{text}"))?;
+    if let Some(path) = &common.json.json {
+        write_json(path, &result)?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -236,9 +231,9 @@ fn run_on_machine(
     common: &Common,
     test: impl FnOnce(&Setup) -> Result<TestResult, standards::StandardsError>,
 ) -> Result<TestResult, Failure> {
-    let machine = embedded::load(&common.machine).map_err(bad_input)?;
-    let setup = Setup::new(&machine, &common.pose).map_err(bad_input)?;
-    test(&setup).map_err(bad_input)
+    let machine = common.machine.load()?;
+    let setup = Setup::new(&machine, &common.pose.pose).flag("--pose")?;
+    Ok(test(&setup)?)
 }
 
 const UM_PER_MM: f64 = 1000.0;
@@ -299,148 +294,4 @@ fn print_result(result: &TestResult) {
             d * UM_PER_MM
         );
     }
-}
-
-#[derive(clap::Args)]
-pub struct FitArgs {
-    /// The machine whose location errors are estimated (embedded name or file); its other
-    /// errors are taken as they are.
-    #[arg(long, default_value = embedded::DEFAULT_MACHINE)]
-    machine: String,
-    /// The measurements file (TOML): `estimate = [...]` and the tests with their CSV files.
-    #[arg(long)]
-    measurements: PathBuf,
-    /// Write the machine file with the estimates in.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Also write the estimates as JSON to this file.
-    #[arg(long)]
-    json: Option<PathBuf>,
-}
-
-pub fn run_fit(args: FitArgs) -> Result<ExitCode, Failure> {
-    use volmap::calibrate::fit;
-    let machine = embedded::load(&args.machine).map_err(bad_input)?;
-    let file = fit::FitFile::read(&args.measurements).map_err(bad_input)?;
-    let report = fit::fit(&machine, &file).map_err(bad_input)?;
-    println!(
-        "least-squares fit of {} location error(s) to {} measured points ({} degrees of freedom)",
-        report.estimates.len(),
-        report.points,
-        report.degrees_of_freedom
-    );
-    println!(
-        "  {:<6} {:>14} {:>14} {:>14}  unit",
-        "error", "as given", "estimate", "uncertainty"
-    );
-    for e in &report.estimates {
-        println!(
-            "  {:<6} {:>14.6e} {:>14.6e} {:>14.3e}  {}",
-            e.name, e.initial, e.value, e.uncertainty, e.unit
-        );
-    }
-    println!(
-        "  RMS residual: {:.3} µm with the machine as given, {:.3} µm with the estimates",
-        report.rms_before_mm * UM_PER_MM,
-        report.rms_after_mm * UM_PER_MM
-    );
-    println!("  (uncertainty: one standard uncertainty, from the residuals)");
-    if let Some(path) = &args.out {
-        let text = fit::fitted_machine_toml(&machine, &report.estimates).map_err(bad_input)?;
-        write_atomically(path, |out| out.write_all(text.as_bytes()))?;
-        println!("  machine with the estimates: {}", path.display());
-    }
-    if let Some(path) = &args.json {
-        let text = serde_json::to_string_pretty(&report).context("encoding the report")?;
-        write_atomically(path, |out| writeln!(out, "{text}"))?;
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-#[derive(clap::Args)]
-pub struct BuildArgs {
-    /// The machine whose chain, travels, offsets and unmeasured errors the new file keeps
-    /// (embedded name or file).
-    #[arg(long)]
-    base: String,
-    /// A measured axis and its CSV, `X=x.csv` (repeat per axis).
-    #[arg(long = "axis", required = true)]
-    axes: Vec<String>,
-    /// Interpolation per component instead of the automatic choice, `EZZ=quadratic,EXX=linear`.
-    #[arg(long, default_value = "")]
-    interp: String,
-    /// The machine file to write.
-    #[arg(long)]
-    out: PathBuf,
-}
-
-pub fn run_build(args: BuildArgs) -> Result<ExitCode, Failure> {
-    use volmap::calibrate::build;
-    use volmap::model::AxisLetter;
-    let base = embedded::load(&args.base).map_err(bad_input)?;
-    let mut axes = Vec::new();
-    for pair in &args.axes {
-        let (letter, path) = pair
-            .split_once('=')
-            .and_then(|(l, p)| {
-                let mut chars = l.trim().chars();
-                let letter = chars.next().and_then(AxisLetter::from_char);
-                (chars.next().is_none())
-                    .then_some(letter)
-                    .flatten()
-                    .map(|l| (l, p))
-            })
-            .ok_or_else(|| {
-                bad_input(anyhow::anyhow!(
-                    "--axis {pair}: expected AXIS=FILE.csv, e.g. X=x.csv"
-                ))
-            })?;
-        axes.push((letter, PathBuf::from(path.trim())));
-    }
-    let asked = build::parse_interp_choices(&args.interp).map_err(bad_input)?;
-    let axes_ref: Vec<_> = axes.iter().map(|(l, p)| (*l, p.as_path())).collect();
-    let (text, built) = build::build(&base, &axes_ref, &asked).map_err(bad_input)?;
-    // The new file must read back as a machine before it replaces anything.
-    let folder = args
-        .out
-        .parent()
-        .map(std::path::Path::to_path_buf)
-        .unwrap_or_default();
-    volmap::model::Machine::from_toml(&text, &args.out.display().to_string(), Some(&folder))
-        .map_err(bad_input)?;
-    write_atomically(&args.out, |out| out.write_all(text.as_bytes()))?;
-    println!(
-        "{}: {} component table(s) from measurements",
-        args.out.display(),
-        built.len()
-    );
-    println!(
-        "  {:<5} {:>5}  {:<10} {:>32}  why",
-        "error", "nodes", "interp", "leave-one-out RMS (µm or µrad)"
-    );
-    for c in &built {
-        let scores: Vec<String> = c
-            .leave_one_out
-            .iter()
-            .map(|(name, s)| {
-                format!(
-                    "{name} {:.3}",
-                    s * 1e3_f64.powi(if c.index < 3 { 1 } else { 2 })
-                )
-            })
-            .collect();
-        println!(
-            "  {:<5} {:>5}  {:<10} {:>32}  {}",
-            c.name,
-            c.nodes.len(),
-            c.interp,
-            if scores.is_empty() {
-                "-".to_string()
-            } else {
-                scores.join(", ")
-            },
-            c.reason
-        );
-    }
-    Ok(ExitCode::SUCCESS)
 }

@@ -1,22 +1,16 @@
-//! `--plot` of the tests and `volmap plot`: drawings written to the files the command line names.
+//! `volmap plot` (a field slice as a colour map, the deformed workspace grid) and the `--plot`
+//! of the standard tests.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use volmap::plot::{self, Color, Series};
+use volmap::query::{self, Quantity, QueryError};
 use volmap::standards::TestResult;
 
-use super::super::{bad_input, Failure};
-
-/// A plot written to its file: an unknown extension is bad input, a failed write a failure.
-fn write(drawing: &plot::Drawing, path: &Path) -> Result<(), Failure> {
-    drawing.write(path).map_err(|e| match e {
-        plot::PlotError::Format { .. } => bad_input(e),
-        other => other.into(),
-    })?;
-    eprintln!("plot: {}", path.display());
-    Ok(())
-}
+use super::args::{full_travel, GridArg, MachineArg, PoseArg};
+use super::failure::Failure;
+use super::output::{check_plot_paths, write_plot};
 
 const CURVE_COLOURS: [Color; 3] = [Color::BLUE, Color::ORANGE, Color::GREEN];
 
@@ -54,9 +48,8 @@ pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> 
             &series,
         ),
         None => plot::line_chart(&result.title, &result.position_label, "error (µm)", &series),
-    }
-    .map_err(bad_input)?;
-    write(&drawing, path)
+    }?;
+    write_plot(&drawing, path)
 }
 
 #[derive(clap::Args)]
@@ -86,16 +79,14 @@ enum PlotKind {
         out: Vec<PathBuf>,
     },
     /// The workspace grid displaced by the magnified volumetric error (Hwang et al., Fig. 9).
+    #[command(mut_arg("grid", |a| a.default_value("5x5x5").help("Grid lines along X, Y and Z, `NXxNYxNZ`")))]
     Grid {
-        /// An embedded machine's name or a machine file.
-        #[arg(long, default_value = volmap::io::embedded::DEFAULT_MACHINE)]
-        machine: String,
-        /// Grid lines along X, Y, Z.
-        #[arg(long, default_value = "5x5x5")]
-        grid: String,
-        /// Rotary axes' positions, degrees.
-        #[arg(long, default_value = "")]
-        pose: String,
+        #[command(flatten)]
+        machine: MachineArg,
+        #[command(flatten)]
+        grid: GridArg,
+        #[command(flatten)]
+        pose: PoseArg,
         /// Magnification of the error (default: the largest error drawn as 8% of the workspace).
         #[arg(long)]
         scale: Option<f64>,
@@ -105,24 +96,34 @@ enum PlotKind {
     },
 }
 
-pub fn run_plot(args: PlotArgs) -> Result<ExitCode, Failure> {
+pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
     let outputs = match &args.kind {
-        PlotKind::Slice { out, .. } | PlotKind::Grid { out, .. } => out,
+        PlotKind::Slice { out, .. } | PlotKind::Grid { out, .. } => out.clone(),
     };
-    for path in outputs {
-        plot::format_of(path).map_err(bad_input)?;
-    }
-    match args.kind {
+    check_plot_paths(&outputs, "--out")?;
+    let drawing = match args.kind {
         PlotKind::Slice {
             field,
             normal,
             at,
             quantity,
-            out,
+            ..
         } => {
-            let slice =
-                volmap::query::field_slice(&field, &normal, at, &quantity).map_err(bad_input)?;
-            let drawing = plot::colour_map(
+            if Quantity::parse(&quantity).is_none() {
+                return Err(Failure::input(format!(
+                    "--quantity {quantity}: {}",
+                    Quantity::choices()
+                )));
+            }
+            let slice = query::field_slice(&field, &normal, at, &quantity).map_err(|e| {
+                let flag = match e {
+                    QueryError::SliceNormal(_) => "--normal",
+                    QueryError::SliceOutside { .. } => "--at",
+                    _ => "--field",
+                };
+                Failure::from(e).context(flag)
+            })?;
+            plot::colour_map(
                 &slice.title,
                 (&slice.labels[0], &slice.labels[1]),
                 slice.extent,
@@ -130,26 +131,19 @@ pub fn run_plot(args: PlotArgs) -> Result<ExitCode, Failure> {
                 slice.rows,
                 &slice.values,
                 &slice.unit,
-            )
-            .map_err(bad_input)?;
-            for path in &out {
-                write(&drawing, path)?;
-            }
+            )?
         }
         PlotKind::Grid {
             machine,
             grid,
             pose,
             scale,
-            out,
+            ..
         } => {
-            let machine = volmap::io::embedded::load(&machine).map_err(bad_input)?;
-            let dims = volmap::model::grid::parse_dims(&grid).map_err(bad_input)?;
-            let pose = volmap::model::grid::parse_pose(&pose, &machine).map_err(bad_input)?;
-            let grid =
-                volmap::model::grid::Grid::full_travel(&machine, dims, pose).map_err(bad_input)?;
-            let deformed = volmap::query::deformed_grid(&machine, &grid, scale);
-            let drawing = plot::deformed_grid(
+            let machine = machine.load()?;
+            let grid = full_travel(&machine, &grid, &pose)?;
+            let deformed = query::deformed_grid(&machine, &grid, scale);
+            plot::deformed_grid(
                 &format!(
                     "{}: the workspace deformed by its volumetric error",
                     machine.name
@@ -161,12 +155,11 @@ pub fn run_plot(args: PlotArgs) -> Result<ExitCode, Failure> {
                 ),
                 &deformed.nominal,
                 &deformed.deformed,
-            )
-            .map_err(bad_input)?;
-            for path in &out {
-                write(&drawing, path)?;
-            }
+            )?
         }
+    };
+    for path in &outputs {
+        write_plot(&drawing, path)?;
     }
     Ok(ExitCode::SUCCESS)
 }

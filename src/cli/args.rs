@@ -1,0 +1,117 @@
+//! The arguments several commands share, defined once and flattened into each: the machine, the
+//! grid, the pose, the device, the JSON output. Each resolves itself and names its own flag in
+//! any error.
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use volmap::engine::{DeviceChoice, Engine, EngineError};
+use volmap::io::embedded;
+use volmap::model::grid::{self, Grid};
+use volmap::model::{Command, Machine};
+
+use super::failure::{Failure, FlagContext};
+
+/// `--machine` where a command has a default machine.
+#[derive(clap::Args)]
+pub struct MachineArg {
+    /// An embedded machine's name (see `volmap machines`) or a machine file (TOML).
+    #[arg(long, default_value = embedded::DEFAULT_MACHINE)]
+    pub machine: String,
+}
+
+impl MachineArg {
+    pub fn load(&self) -> Result<Machine, Failure> {
+        load_machine(&self.machine)
+    }
+}
+
+/// `--machine` where a command may take its machine from elsewhere (a field).
+#[derive(clap::Args)]
+pub struct OptionalMachineArg {
+    /// An embedded machine's name (see `volmap machines`) or a machine file (TOML).
+    #[arg(long)]
+    pub machine: Option<String>,
+}
+
+/// The machine `--machine` names.
+pub fn load_machine(name_or_path: &str) -> Result<Machine, Failure> {
+    embedded::load(name_or_path).flag("--machine")
+}
+
+/// `--grid`.
+#[derive(clap::Args)]
+pub struct GridArg {
+    /// Grid points along X, Y and Z, spanning each linear axis's full travel, `NXxNYxNZ`.
+    #[arg(long, default_value = "64x64x64", value_parser = grid::parse_dims)]
+    pub grid: [usize; 3],
+}
+
+/// `--pose`.
+#[derive(clap::Args)]
+pub struct PoseArg {
+    /// Positions of the rotary axes in degrees, e.g. `B=30,C=-45`; axes not named are at 0.
+    #[arg(long, default_value = "", allow_hyphen_values = true)]
+    pub pose: String,
+}
+
+impl PoseArg {
+    /// The pose on `machine`.
+    pub fn on(&self, machine: &Machine) -> Result<Command, Failure> {
+        grid::parse_pose(&self.pose, machine).flag("--pose")
+    }
+}
+
+/// The grid of `--grid` over the machine's travels, with the rotary axes at `--pose`.
+pub fn full_travel(machine: &Machine, grid: &GridArg, pose: &PoseArg) -> Result<Grid, Failure> {
+    let pose = pose.on(machine)?;
+    Grid::full_travel(machine, grid.grid, pose).flag("--grid")
+}
+
+/// `--device`.
+#[derive(clap::Args)]
+pub struct DeviceArg {
+    /// Where to compute: `auto` uses the GPU when an adapter exists and the CPU otherwise (to
+    /// sample a field, a hardware GPU only: a CPU adapter such as lavapipe is slower at it than
+    /// the CPU).
+    #[arg(long, value_enum, default_value_t = Device::Auto)]
+    pub device: Device,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Device {
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+impl DeviceArg {
+    pub fn choice(&self) -> DeviceChoice {
+        match self.device {
+            Device::Auto => DeviceChoice::Auto,
+            Device::Gpu => DeviceChoice::Gpu,
+            Device::Cpu => DeviceChoice::Cpu,
+        }
+    }
+
+    /// The engine `--device` asks for, with a note when `auto` falls back to the CPU.
+    pub fn engine(&self) -> Result<(Engine, Option<String>), Failure> {
+        Engine::select(self.choice()).map_err(|e| {
+            let no_adapter = matches!(e, EngineError::NoAdapter);
+            let failure = Failure::from(e).context("--device gpu");
+            if no_adapter {
+                failure.hint("--device auto or --device cpu computes on the CPU")
+            } else {
+                failure
+            }
+        })
+    }
+}
+
+/// `--json`.
+#[derive(clap::Args)]
+pub struct JsonArg {
+    /// Also write the result as JSON to this file.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}

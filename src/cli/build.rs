@@ -1,0 +1,96 @@
+//! `volmap build`: a machine file from component errors measured at sparse positions.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use volmap::calibrate::build;
+use volmap::io::embedded;
+use volmap::model::AxisLetter;
+
+use super::failure::{Failure, FlagContext};
+use super::output::write_file;
+
+#[derive(clap::Args)]
+pub struct BuildArgs {
+    /// The machine whose chain, travels, offsets and unmeasured errors the new file keeps
+    /// (embedded name or file).
+    #[arg(long)]
+    base: String,
+    /// A measured axis and its CSV, `X=x.csv` (repeat per axis).
+    #[arg(long = "axis", required = true)]
+    axes: Vec<String>,
+    /// Interpolation per component instead of the automatic choice, `EZZ=quadratic,EXX=linear`.
+    #[arg(long, default_value = "")]
+    interp: String,
+    /// The machine file to write.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
+    let base = embedded::load(&args.base).flag("--base")?;
+    let mut axes = Vec::new();
+    for pair in &args.axes {
+        let (letter, path) = pair
+            .split_once('=')
+            .and_then(|(l, p)| {
+                let mut chars = l.trim().chars();
+                let letter = chars.next().and_then(AxisLetter::from_char);
+                (chars.next().is_none())
+                    .then_some(letter)
+                    .flatten()
+                    .map(|l| (l, p))
+            })
+            .ok_or_else(|| {
+                Failure::input(format!(
+                    "--axis {pair}: expected AXIS=FILE.csv, e.g. X=x.csv"
+                ))
+            })?;
+        axes.push((letter, PathBuf::from(path.trim())));
+    }
+    let asked = build::parse_interp_choices(&args.interp).flag("--interp")?;
+    let axes_ref: Vec<_> = axes.iter().map(|(l, p)| (*l, p.as_path())).collect();
+    let (text, built) = build::build(&base, &axes_ref, &asked)?;
+    // The new file must read back as a machine before it replaces anything.
+    let folder = args
+        .out
+        .parent()
+        .map(std::path::Path::to_path_buf)
+        .unwrap_or_default();
+    volmap::model::Machine::from_toml(&text, &args.out.display().to_string(), Some(&folder))?;
+    write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
+    println!(
+        "{}: {} component table(s) from measurements",
+        args.out.display(),
+        built.len()
+    );
+    println!(
+        "  {:<5} {:>5}  {:<10} {:>32}  why",
+        "error", "nodes", "interp", "leave-one-out RMS (µm or µrad)"
+    );
+    for c in &built {
+        let scores: Vec<String> = c
+            .leave_one_out
+            .iter()
+            .map(|(name, s)| {
+                format!(
+                    "{name} {:.3}",
+                    s * 1e3_f64.powi(if c.index < 3 { 1 } else { 2 })
+                )
+            })
+            .collect();
+        println!(
+            "  {:<5} {:>5}  {:<10} {:>32}  {}",
+            c.name,
+            c.nodes.len(),
+            c.interp,
+            if scores.is_empty() {
+                "-".to_string()
+            } else {
+                scores.join(", ")
+            },
+            c.reason
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}

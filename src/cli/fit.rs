@@ -1,0 +1,63 @@
+//! `volmap fit`: location errors estimated from standard-test measurements by least squares.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use volmap::calibrate::fit;
+
+use super::args::{JsonArg, MachineArg};
+use super::failure::{Failure, FlagContext};
+use super::output::{write_file, write_json};
+
+const UM_PER_MM: f64 = 1000.0;
+
+#[derive(clap::Args)]
+pub struct FitArgs {
+    #[command(flatten)]
+    machine: MachineArg,
+    /// The measurements file (TOML): `estimate = [...]` and the tests with their CSV files.
+    #[arg(long)]
+    measurements: PathBuf,
+    /// Write the machine file with the estimates in.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    json: JsonArg,
+}
+
+pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
+    let machine = args.machine.load()?;
+    let file = fit::FitFile::read(&args.measurements).flag("--measurements")?;
+    let report = fit::fit(&machine, &file)?;
+    println!(
+        "least-squares fit of {} location error(s) to {} measured points ({} degrees of freedom)",
+        report.estimates.len(),
+        report.points,
+        report.degrees_of_freedom
+    );
+    println!(
+        "  {:<6} {:>14} {:>14} {:>14}  unit",
+        "error", "as given", "estimate", "uncertainty"
+    );
+    for e in &report.estimates {
+        println!(
+            "  {:<6} {:>14.6e} {:>14.6e} {:>14.3e}  {}",
+            e.name, e.initial, e.value, e.uncertainty, e.unit
+        );
+    }
+    println!(
+        "  RMS residual: {:.3} µm with the machine as given, {:.3} µm with the estimates",
+        report.rms_before_mm * UM_PER_MM,
+        report.rms_after_mm * UM_PER_MM
+    );
+    println!("  (uncertainty: one standard uncertainty, from the residuals)");
+    if let Some(path) = &args.out {
+        let text = fit::fitted_machine_toml(&machine, &report.estimates)?;
+        write_file(path, |out| out.write_all(text.as_bytes())).flag("--out")?;
+        println!("  machine with the estimates: {}", path.display());
+    }
+    if let Some(path) = &args.json.json {
+        write_json(path, &report)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,147 @@
+//! `volmap map`: a machine's volumetric and orientation error over its linear travels, into an
+//! OpenEXR field.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use volmap::engine::map::{self, FieldStats, MapOptions};
+use volmap::gpu::GpuError;
+use volmap::io::field::FieldInfo;
+
+use super::args::{full_travel, DeviceArg, GridArg, MachineArg, PoseArg};
+use super::failure::Failure;
+use super::output::progress;
+
+#[derive(clap::Args)]
+pub struct MapArgs {
+    #[command(flatten)]
+    machine: MachineArg,
+    #[command(flatten)]
+    grid: GridArg,
+    #[command(flatten)]
+    pose: PoseArg,
+    /// The field file to write.
+    #[arg(long, default_value = "volmap-field.exr")]
+    out: PathBuf,
+    #[command(flatten)]
+    device: DeviceArg,
+    /// Recompute N random grid points with the f64 reference and report the largest difference
+    /// (exit code 4 when it exceeds 1e-6 mm or 1e-9 rad).
+    #[arg(long, default_value_t = 0)]
+    check: usize,
+    /// At most this many points per chunk (the device's limits apply anyway).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    chunk_points: Option<u64>,
+}
+
+pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
+    let machine = args.machine.load()?;
+    let grid = full_travel(&machine, &args.grid, &args.pose)?;
+    if args
+        .out
+        .extension()
+        .is_none_or(|e| !e.eq_ignore_ascii_case("exr"))
+    {
+        return Err(Failure::input(format!(
+            "--out {}: a field file ends in .exr",
+            args.out.display()
+        )));
+    }
+    let (engine, note) = args.device.engine()?;
+    if let Some(note) = note {
+        eprintln!("volmap: {note}");
+    }
+    let bar = progress(Some(grid.points()), "mapping", "points");
+    let options = MapOptions {
+        chunk_points: args.chunk_points,
+        check_points: args.check,
+    };
+    let summary = map::map_to_file(&machine, &grid, &engine, &args.out, &options, |done| {
+        bar.set_position(done)
+    });
+    bar.finish_and_clear();
+    let summary = summary.map_err(|e| {
+        let angles = matches!(
+            e,
+            volmap::engine::EngineError::Gpu(GpuError::ErrorAngles { .. })
+        );
+        let failure = Failure::from(e).context(format!(
+            "mapping {} into {}",
+            machine.name,
+            args.out.display()
+        ));
+        if angles {
+            failure.hint("--device cpu maps it")
+        } else {
+            failure
+        }
+    })?;
+
+    let info = map::field_info(&machine, &grid, &summary.device);
+    print_summary(&info, &summary.stats);
+    println!(
+        "  time        {:.3} s, {:.2} Mpts/s",
+        summary.seconds,
+        summary.stats.points as f64 / summary.seconds.max(1e-9) / 1e6
+    );
+    println!("  field       {}", args.out.display());
+    if let Some(check) = &summary.check {
+        println!(
+            "  check       {} points against the f64 reference: max ΔVE {:.3e} mm, max ΔOE {:.3e} rad (tolerance {:e} mm, {:e} rad): {}",
+            check.points,
+            check.max_ve_diff_mm,
+            check.max_oe_diff_rad,
+            map::VE_TOLERANCE_MM,
+            map::OE_TOLERANCE_RAD,
+            if check.passed() { "ok" } else { "FAILED" }
+        );
+        if !check.passed() {
+            return Ok(ExitCode::from(4));
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The closing summary of a map or a field file: the machine, the grid, where the largest error
+/// is, the RMS and the largest orientation error.
+pub fn print_summary(info: &FieldInfo, stats: &FieldStats) {
+    let grid = info.grid();
+    let ijk = grid.indices(stats.max_ve_point);
+    let command = grid.command(ijk);
+    let at: Vec<String> = (0..3)
+        .map(|d| format!("{}={:.3}", ["X", "Y", "Z"][d], command[d]))
+        .collect();
+    let pose: Vec<String> = info
+        .pose_axes
+        .chars()
+        .map(|a| {
+            let index = "ABC".find(a).unwrap_or(0);
+            format!("{a}={}°", info.pose_deg[index])
+        })
+        .collect();
+    println!(
+        "volmap: {} ({}), grid {}x{}x{} = {} points{}",
+        info.machine_name,
+        info.chain,
+        info.dims[0],
+        info.dims[1],
+        info.dims[2],
+        stats.points,
+        if pose.is_empty() {
+            String::new()
+        } else {
+            format!(", pose {}", pose.join(" "))
+        }
+    );
+    println!("  device      {}", info.device);
+    println!(
+        "  max |VE|    {:.6} mm at point ({}, {}, {}): {} mm",
+        stats.max_ve_mm,
+        ijk[0],
+        ijk[1],
+        ijk[2],
+        at.join(" ")
+    );
+    println!("  RMS |VE|    {:.6} mm", stats.rms_ve_mm());
+    println!("  max |OE|    {:.3e} rad", stats.max_oe_rad);
+}

@@ -1,0 +1,54 @@
+//! Everything a command puts out besides its printed table: files written whole or not at all,
+//! JSON, plots, progress bars on standard error.
+
+use std::io::Write;
+use std::path::Path;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use volmap::io::atomic::write_atomically;
+use volmap::plot::Drawing;
+
+use super::failure::{Failure, FlagContext};
+
+/// The progress bar of long work, on standard error: `verb` (`mapping`) and what is counted
+/// (`points`). `len` may be set later, when the work knows it.
+pub fn progress(len: Option<u64>, verb: &str, unit: &str) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(len, ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template(&format!(
+            "{{spinner}} {verb} [{{bar:40}}] {{percent:>3}}% {{human_pos}}/{{human_len}} {unit}, {{eta}} left"
+        ))
+        .expect("a valid template")
+        .progress_chars("=> "),
+    );
+    bar
+}
+
+/// Writes a file whole or not at all.
+pub fn write_file(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), Failure> {
+    Ok(write_atomically(path, write)?)
+}
+
+/// Writes `value` as pretty JSON to the file `--json` names.
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), Failure> {
+    let text = serde_json::to_string_pretty(value).map_err(Failure::work)?;
+    write_file(path, |out| writeln!(out, "{text}")).flag("--json")
+}
+
+/// Writes a plot (SVG or PNG by the extension) and says where.
+pub fn write_plot(drawing: &Drawing, path: &Path) -> Result<(), Failure> {
+    drawing.write(path)?;
+    eprintln!("plot: {}", path.display());
+    Ok(())
+}
+
+/// Checks, before any work, that every plot file asked for has a format volmap writes.
+pub fn check_plot_paths(paths: &[impl AsRef<Path>], flag: &str) -> Result<(), Failure> {
+    for path in paths {
+        volmap::plot::format_of(path.as_ref()).flag(flag)?;
+    }
+    Ok(())
+}

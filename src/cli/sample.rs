@@ -1,0 +1,108 @@
+//! `volmap sample`: VE and OE at arbitrary commanded positions, CSV in and CSV out, interpolated
+//! in a field or computed exactly from the machine model.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use volmap::io::field::LoadedField;
+use volmap::io::points::{self, QueryPoint};
+use volmap::query::{self, QueryError};
+
+use super::args::{load_machine, DeviceArg, OptionalMachineArg, PoseArg};
+use super::failure::{Failure, FlagContext};
+use super::output::write_file;
+
+#[derive(clap::Args)]
+#[command(mut_arg("pose", |a| a.requires("exact")))]
+pub struct SampleArgs {
+    /// Positions: CSV with a header row naming X, Y, Z (mm) and optionally A, B, C (degrees).
+    #[arg(long)]
+    points: PathBuf,
+    /// Interpolate (trilinear) in this field file; positions outside its grid are an error.
+    #[arg(long, conflicts_with = "exact")]
+    field: Option<PathBuf>,
+    /// Compute exactly from the machine model (the f64 reference) instead of a field.
+    #[arg(long, requires = "machine")]
+    exact: bool,
+    #[command(flatten)]
+    machine: OptionalMachineArg,
+    #[command(flatten)]
+    pose: PoseArg,
+    /// Where to write the result (CSV); standard output when left out.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    device: DeviceArg,
+}
+
+pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
+    // The points and the field are read side by side: both are mostly parsing.
+    let (points, loaded) = rayon::join(
+        || points::read_points(&args.points),
+        || args.field.as_deref().map(LoadedField::open).transpose(),
+    );
+    let points = points.flag("--points")?;
+    let loaded = loaded.flag("--field")?;
+    let samples = match (&loaded, &args.machine.machine) {
+        (Some(loaded), _) => {
+            let path = args.points.display().to_string();
+            let (sampler, note) = query::open_sampler(args.device.choice()).map_err(device)?;
+            if let Some(note) = note {
+                eprintln!("note: {note}");
+            }
+            match &sampler {
+                Some(sampler) => query::sample_field_gpu(loaded, &points, &path, sampler),
+                None => query::sample_field(loaded, &points, &path),
+            }?
+        }
+        (None, Some(machine)) if args.exact => {
+            let machine = load_machine(machine)?;
+            let pose = args.pose.on(&machine)?;
+            let points: Vec<QueryPoint> = points
+                .iter()
+                .map(|p| {
+                    let mut p = p.clone();
+                    for ((value, given), posed) in
+                        p.command.iter_mut().zip(p.given).zip(pose).skip(3)
+                    {
+                        if !given {
+                            *value = posed;
+                        }
+                    }
+                    p
+                })
+                .collect();
+            query::sample_exact(&machine, &points)
+        }
+        _ => {
+            return Err(Failure::input(
+                "say where the values come from: --field FILE.exr, or --exact --machine M",
+            ))
+        }
+    };
+    match &args.out {
+        None => {
+            let stdout = std::io::stdout();
+            let mut out = std::io::BufWriter::new(stdout.lock());
+            points::write_samples(&mut out, &points, &samples)
+                .and_then(|()| out.flush())
+                .map_err(|e| Failure::work(e).context("writing to standard output"))?;
+        }
+        Some(path) => {
+            write_file(path, |out| points::write_samples(out, &points, &samples)).flag("--out")?
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A failure to open the sampler, said to come from `--device`.
+fn device(error: QueryError) -> Failure {
+    let no_adapter = matches!(error, QueryError::NoAdapter);
+    let failure = Failure::from(error).context("--device gpu");
+    if no_adapter {
+        failure.hint("--device auto or --device cpu samples on the CPU")
+    } else {
+        failure
+    }
+}
