@@ -16,6 +16,7 @@ use crate::io::field::{FieldError, FieldWriter};
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
+use crate::reference::Twin;
 
 /// One measured path.
 #[derive(Debug, Clone, Serialize)]
@@ -226,16 +227,11 @@ fn bench_cpu_paths(
     let points = grid.points();
     let mut rows: Vec<Row> = Vec::new();
     on_step("f64 reference, 1 thread");
-    let ideal = machine.without_errors();
+    let twin = Twin::of(machine);
     let sample = reference_points.min(points);
     let (_, seconds) = timed(|| {
         for p in 0..sample {
-            std::hint::black_box(reference::point_values(
-                machine,
-                &ideal,
-                grid,
-                grid.indices(p),
-            ));
+            std::hint::black_box(reference::point_values(&twin, grid, grid.indices(p)));
         }
     });
     rows.push(("f64 reference, 1 thread".into(), sample, seconds));

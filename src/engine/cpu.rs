@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
-use crate::reference;
+use crate::reference::{self, Twin};
 
 /// Lines per CPU chunk are chosen so a chunk holds about this many points.
 pub const CPU_CHUNK_POINTS: u64 = 1 << 18;
@@ -44,14 +44,14 @@ pub struct CpuPlan {
 
 impl CpuPlan {
     pub fn new(machine: &Machine, grid: &Grid) -> CpuPlan {
-        let ideal_machine = machine.without_errors();
+        let twin = Twin::of(machine);
         let mut x_position = None;
         let axes: Vec<AxisTable> = machine
             .axes_in_product_order()
             .into_iter()
             .enumerate()
             .map(|(n, axis)| {
-                let ideal_axis = ideal_machine.axis(axis.letter).expect("same axes");
+                let ideal_axis = twin.ideal().axis(axis.letter).expect("same axes");
                 let dimension = axis
                     .letter
                     .is_linear()
@@ -73,17 +73,12 @@ impl CpuPlan {
                 }
             })
             .collect();
-        let tail = |m: &Machine| {
-            let [exs, eys, ezs, eas, ebs] = m.spindle;
-            reference::error_transform([exs, eys, ezs, eas, ebs, 0.0])
-                * reference::trans(nalgebra::Vector3::from(m.tool_offset_mm))
-        };
         CpuPlan {
             grid: grid.clone(),
             x_position: x_position.unwrap_or(axes.len()),
             axes,
-            tail_real: tail(machine),
-            tail_ideal: tail(&ideal_machine),
+            tail_real: reference::spindle_and_tool(machine),
+            tail_ideal: reference::spindle_and_tool(twin.ideal()),
         }
     }
 

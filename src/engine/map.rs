@@ -10,6 +10,7 @@ use crate::io::field::{FieldInfo, FieldWriter};
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
+use crate::reference::Twin;
 
 /// Statistics of a field, accumulated chunk by chunk.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -188,14 +189,14 @@ pub fn check_against_reference(
     points: &[u64],
     values: &[[f32; 6]],
 ) -> CheckResult {
-    let ideal = machine.without_errors();
+    let twin = Twin::of(machine);
     let mut result = CheckResult {
         points: points.len(),
         max_ve_diff_mm: 0.0,
         max_oe_diff_rad: 0.0,
     };
     for (&p, got) in points.iter().zip(values) {
-        let want = reference::point_values(machine, &ideal, grid, grid.indices(p));
+        let want = reference::point_values(&twin, grid, grid.indices(p));
         let diff = |range: std::ops::Range<usize>| {
             range
                 .map(|c| (got[c] as f64 - want[c]).powi(2))

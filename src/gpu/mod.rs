@@ -12,12 +12,12 @@ pub mod sample;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Matrix3;
 
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::{Axis, AxisLetter, Machine};
-use crate::reference;
+use crate::reference::{self, Twin};
 pub use device::GpuError;
 use device::{Buffer, Gpu, Pass, Readback};
 use layout::{AxisData, DevData, Factor, Function, Group, Mat4, Params, Piece};
@@ -243,7 +243,7 @@ fn x_polynomials(x: &Axis, grid: &Grid, centre: f64) -> [Option<[f64; 4]>; 6] {
 
 /// Packs the machine and the grid for the chain kernel.
 pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
-    let ideal = machine.without_errors();
+    let twin = Twin::of(machine);
     let mut functions = Vec::new();
     let mut pieces = Vec::new();
     let mut flat: Vec<f32> = Vec::new();
@@ -320,7 +320,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
         });
         if letter == AxisLetter::X {
             x_seen = true;
-            let ideal_x = ideal.axis(AxisLetter::X).expect("same axes");
+            let ideal_x = twin.ideal().axis(AxisLetter::X).expect("same axes");
             pre.push(constant_factor(deviation_form(
                 &reference::location(axis),
                 &reference::location(ideal_x),
@@ -348,14 +348,9 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
     }
     let coefficients = flat.chunks(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
 
-    let tail = |m: &Machine| {
-        let [exs, eys, ezs, eas, ebs] = m.spindle;
-        reference::error_transform([exs, eys, ezs, eas, ebs, 0.0])
-            * reference::trans(Vector3::from(m.tool_offset_mm))
-    };
     post.push(constant_factor(deviation_form(
-        &tail(machine),
-        &tail(&ideal),
+        &reference::spindle_and_tool(machine),
+        &reference::spindle_and_tool(twin.ideal()),
     )));
 
     // PA, PB from Pre, QA, QB from Post; a side with one run leaves its second slot unused.

@@ -30,7 +30,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::io::{read_text, FileError};
 use crate::model::{Command, Machine};
-use crate::reference;
+use crate::reference::Twin;
 use parse::{parse_program, Line};
 use path::{arc_path, arc_through, lerp, Path};
 use program::{end_position, starting_position, take_line, Motion, State, Step, XY};
@@ -238,8 +238,7 @@ const MAX_PIECES: usize = 100_000;
 
 /// The machine as one tool sees it, with its ideal twin.
 struct Kinematics {
-    real: Machine,
-    ideal: Machine,
+    twin: Twin,
     /// The inverse of the ideal tip's Jacobian in X, Y, Z at the last rotary positions it was
     /// asked for: the same for every point until the rotary axes move.
     inverse: std::cell::RefCell<Option<([f64; 3], Matrix3<f64>)>>,
@@ -277,12 +276,10 @@ impl Compensator<'_> {
             if let Some(l) = length {
                 real.tool_offset_mm = [0.0, 0.0, -l];
             }
-            let ideal = real.without_errors();
             self.tools.insert(
                 tool,
                 Kinematics {
-                    real,
-                    ideal,
+                    twin: Twin::new(real),
                     inverse: Default::default(),
                 },
             );
@@ -292,10 +289,6 @@ impl Compensator<'_> {
 }
 
 impl Kinematics {
-    fn tip(machine: &Machine, q: &Command) -> Vector3<f64> {
-        reference::tool_pose(machine, q).0
-    }
-
     /// The inverse of the ideal tip's derivative in X, Y, Z at `q` (constant at fixed rotary
     /// positions, so kept until they change); `None` where the linear axes do not span X, Y, Z.
     fn inverse_jacobian(&self, q: &Command) -> Option<Matrix3<f64>> {
@@ -304,7 +297,7 @@ impl Kinematics {
         match *cache {
             Some((at, inverse)) if at == rotary => Some(inverse),
             _ => {
-                let inverse = reference::tip_jacobian(&self.ideal, q).try_inverse()?;
+                let inverse = self.twin.ideal_jacobian(q).try_inverse()?;
                 *cache = Some((rotary, inverse));
                 Some(inverse)
             }
@@ -313,25 +306,14 @@ impl Kinematics {
 
     /// The command whose real tip lands on the ideal tip of `q`.
     fn compensate(&self, q: &Command) -> Option<Command> {
-        let target = Self::tip(&self.ideal, q);
         let inverse = self.inverse_jacobian(q)?;
-        let mut c = *q;
-        for _ in 0..50 {
-            let r = Self::tip(&self.real, &c) - target;
-            if r.norm() < 1e-10 {
-                return Some(c);
-            }
-            let step = inverse * r;
-            for d in 0..3 {
-                c[d] -= step[d];
-            }
-        }
-        None
+        self.twin
+            .real_command_for(self.twin.ideal_tip(q), q, &inverse)
     }
 
     /// Distance of the real tip at command `c` from the ideal tip at command `q`.
     fn miss(&self, c: &Command, q: &Command) -> f64 {
-        (Self::tip(&self.real, c) - Self::tip(&self.ideal, q)).norm()
+        (self.twin.real_tip(c) - self.twin.ideal_tip(q)).norm()
     }
 }
 
@@ -473,8 +455,8 @@ pub fn trace(
             line: line.number,
             program: end,
             command,
-            ideal: Kinematics::tip(&kin.ideal, &command),
-            real: Kinematics::tip(&kin.real, &command),
+            ideal: kin.twin.ideal_tip(&command),
+            real: kin.twin.real_tip(&command),
         });
         state.position = end;
     }
@@ -520,7 +502,7 @@ fn process_line(
     let command = |p: &[f64; 6]| -> Command { std::array::from_fn(|d| p[d] + offset[d]) };
     let travel = |p: &[f64; 6], what: &str| -> Result<(), NcError> {
         let q = command(p);
-        for axis in &kin.real.axes {
+        for axis in &kin.twin.real().axes {
             let value = q[axis.letter.index()];
             let [lo, hi] = axis.range;
             if value < lo - 1e-6 || value > hi + 1e-6 {

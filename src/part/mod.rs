@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::io::field::LoadedField;
 use crate::io::{read_text, FileError};
 use crate::model::{AxisLetter, Command, Machine};
-use crate::reference;
+use crate::reference::Twin;
 use tolerance::ToleranceError;
 
 #[derive(Debug, thiserror::Error)]
@@ -489,9 +489,15 @@ struct Evaluator<'a> {
     part: &'a PartFile,
     /// The part's rotary pose, as a command with X Y Z to fill in.
     pose: Command,
-    source: ErrorSource<'a>,
-    ideal: Option<Machine>,
+    errors: Errors<'a>,
     file: &'a str,
+}
+
+/// Where the evaluator takes the machine's error from: the machine with its ideal twin, or a
+/// field.
+enum Errors<'a> {
+    Exact(Box<Twin>),
+    Field(&'a LoadedField),
 }
 
 impl Evaluator<'_> {
@@ -505,16 +511,12 @@ impl Evaluator<'_> {
         command[0] = tip.x;
         command[1] = tip.y;
         command[2] = tip.z;
-        match &self.source {
-            ErrorSource::Exact(machine) => {
-                let d = reference::deviation_against(
-                    machine,
-                    self.ideal.as_ref().expect("exact has an ideal"),
-                    &command,
-                );
+        match &self.errors {
+            Errors::Exact(twin) => {
+                let d = twin.deviation(&command);
                 Ok((d.volumetric_mm, d.orientation_rad))
             }
-            ErrorSource::Field(field) => {
+            Errors::Field(field) => {
                 let s = field.sample(&command).map_err(|(d, lo, hi)| FeatureError::Feature {
                     file: self.file.to_string(),
                     feature: feature.to_string(),
@@ -890,10 +892,6 @@ pub fn evaluate(
     source: ErrorSource,
     file: &str,
 ) -> Result<Vec<FeatureResult>, FeatureError> {
-    let ideal = match &source {
-        ErrorSource::Exact(machine) => Some(machine.without_errors()),
-        ErrorSource::Field(_) => None,
-    };
     let pose = part.pose();
     if let ErrorSource::Field(field) = &source {
         if let Some((n, value, held)) = field.pose_mismatch(&pose, [true; 3]) {
@@ -907,11 +905,14 @@ pub fn evaluate(
             });
         }
     }
+    let errors = match source {
+        ErrorSource::Exact(machine) => Errors::Exact(Box::new(Twin::of(machine))),
+        ErrorSource::Field(field) => Errors::Field(field),
+    };
     let evaluator = Evaluator {
         part,
         pose,
-        source,
-        ideal,
+        errors,
         file,
     };
     let mut medians: HashMap<String, Vec<Vector3<f64>>> = HashMap::new();

@@ -2,7 +2,7 @@
 
 use crate::model::grid::Grid;
 use crate::model::Machine;
-use crate::reference;
+use crate::reference::Twin;
 
 /// The grid lines of a workspace, nominal and with the magnified error added.
 #[derive(Debug, Clone, PartialEq)]
@@ -20,7 +20,7 @@ pub struct DeformedGrid {
 /// largest error as 8% of the workspace's diagonal.
 pub fn deformed_grid(machine: &Machine, grid: &Grid, scale: Option<f64>) -> DeformedGrid {
     const CUTS: usize = 8;
-    let ideal = machine.without_errors();
+    let twin = Twin::of(machine);
     let position = |d: usize, t: f64| grid.origin_mm[d] + t * grid.spacing_mm[d];
     let mut nominal = Vec::new();
     for along in 0..3 {
@@ -51,7 +51,7 @@ pub fn deformed_grid(machine: &Machine, grid: &Grid, scale: Option<f64>) -> Defo
                 .map(|p| {
                     let mut command = grid.pose;
                     command[..3].copy_from_slice(p);
-                    let ve = reference::deviation_against(machine, &ideal, &command).volumetric_mm;
+                    let ve = twin.deviation(&command).volumetric_mm;
                     [ve.x, ve.y, ve.z]
                 })
                 .collect()

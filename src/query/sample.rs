@@ -10,7 +10,7 @@ use crate::io::field::{GridCell, LoadedField};
 use crate::io::points::QueryPoint;
 use crate::model::channels::Sample;
 use crate::model::Machine;
-use crate::reference;
+use crate::reference::Twin;
 
 /// Samples the field at every point, in parallel, visiting the points in grid order (a random
 /// order would miss the cache at nearly every corner). Rotary columns, where given, must name
@@ -127,11 +127,11 @@ pub fn sample_field_gpu(
 
 /// The f64 reference at every point, in parallel.
 pub fn sample_exact(machine: &Machine, points: &[QueryPoint]) -> Vec<Sample> {
-    let ideal = machine.without_errors();
+    let twin = Twin::of(machine);
     points
         .par_iter()
         .map(|p| {
-            let d = reference::deviation_against(machine, &ideal, &p.command);
+            let d = twin.deviation(&p.command);
             let (ve, oe) = (d.volumetric_mm, d.orientation_rad);
             [ve.x, ve.y, ve.z, oe.x, oe.y, oe.z]
         })

@@ -1,9 +1,15 @@
 //! The CPU reference: MODEL.md in f64 with nalgebra, exact transforms, written for clarity rather
-//! than speed. It is the ground truth every other path is tested against.
+//! than speed. It is the ground truth every other path is tested against, and [`Twin`], a machine
+//! with its ideal twin, is how every part of volmap asks what the machine does against what it
+//! should do.
 //!
 //! Frames: every transform maps coordinates of a child frame into its parent; products compose
 //! from the workpiece outward, `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn · S · Trans(tool)`, and the
 //! result is the tool tip frame expressed in the workpiece frame.
+
+mod twin;
+
+pub use twin::Twin;
 
 use nalgebra::{Matrix3, Matrix4, Rotation3, Unit, Vector3};
 
@@ -53,6 +59,22 @@ pub fn axis_transform(axis: &Axis, q: f64) -> Transform {
     }
 }
 
+/// The spindle error `S = E(EXS, EYS, EZS, EAS, EBS, 0)`.
+pub fn spindle_error(machine: &Machine) -> Transform {
+    let [exs, eys, ezs, eas, ebs] = machine.spindle;
+    error_transform([exs, eys, ezs, eas, ebs, 0.0])
+}
+
+/// `Trans(tool)`: the tool tip in the spindle frame.
+pub fn tool_translation(machine: &Machine) -> Transform {
+    trans(Vector3::from(machine.tool_offset_mm))
+}
+
+/// `S · Trans(tool)`, the last factors of every chain, as one transform.
+pub fn spindle_and_tool(machine: &Machine) -> Transform {
+    spindle_error(machine) * tool_translation(machine)
+}
+
 /// `E_rel(q)` of MODEL.md for the machine at the commanded positions.
 pub fn relative_transform(machine: &Machine, command: &Command) -> Transform {
     let chain = machine
@@ -61,9 +83,7 @@ pub fn relative_transform(machine: &Machine, command: &Command) -> Transform {
         .fold(Transform::identity(), |acc, axis| {
             acc * axis_transform(axis, command[axis.letter.index()])
         });
-    let [exs, eys, ezs, eas, ebs] = machine.spindle;
-    let spindle = error_transform([exs, eys, ezs, eas, ebs, 0.0]);
-    chain * spindle * trans(Vector3::from(machine.tool_offset_mm))
+    chain * spindle_error(machine) * tool_translation(machine)
 }
 
 /// The tool pose at a commanded position: tip position and orientation in the workpiece frame.
@@ -116,13 +136,17 @@ pub fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
 }
 
 /// VE and OE at one commanded position: the machine against the same machine with every error
-/// value zero.
+/// value zero (for many positions, build a [`Twin`] once).
 pub fn deviation(machine: &Machine, command: &Command) -> Deviation {
-    deviation_against(machine, &machine.without_errors(), command)
+    Twin::of(machine).deviation(command)
 }
 
-/// [`deviation`] with the ideal machine built once by the caller (for loops over many points).
-pub fn deviation_against(machine: &Machine, ideal: &Machine, command: &Command) -> Deviation {
+/// [`deviation`] against an ideal machine the caller holds (see [`Twin::deviation`]).
+pub(crate) fn deviation_against(
+    machine: &Machine,
+    ideal: &Machine,
+    command: &Command,
+) -> Deviation {
     let (p_real, r_real) = tool_pose(machine, command);
     let (p_ideal, r_ideal) = tool_pose(ideal, command);
     Deviation {

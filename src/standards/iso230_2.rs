@@ -321,7 +321,7 @@ pub(crate) fn positioning_with(
         p[d] = t;
         let command = setup.command(p);
         setup.check_travel(&command, &format!("positioning of {letter}, target {t}"))?;
-        deviations.push(setup.deviation(&command).volumetric_mm[d]);
+        deviations.push(setup.twin().deviation(&command).volumetric_mm[d]);
     }
     // The laser is zeroed at the first target.
     let zero = deviations[0];

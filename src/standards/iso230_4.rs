@@ -150,7 +150,7 @@ pub(crate) fn circular_with(
         let p = centre + radius * (c * e1 + s * e2);
         let command = setup.command(p);
         setup.check_travel(&command, &format!("circle in {plane} at {t}°"))?;
-        let ve = setup.deviation(&command).volumetric_mm;
+        let ve = setup.twin().deviation(&command).volumetric_mm;
         predicted.push((p + ve - centre).norm() - radius);
     }
     let figures_of = |radial: &[f64]| -> Result<[f64; 3], StandardsError> {

@@ -178,6 +178,7 @@ pub(crate) fn diagonal_with(
     };
     let along = |s: f64| {
         setup
+            .twin()
             .deviation(&setup.command(from + s * direction))
             .volumetric_mm
             .dot(&direction)

@@ -34,14 +34,14 @@ pub use iso230_4::{circular, least_squares_circle, plane_axes, CircularSpec};
 pub use iso230_6::{diagonal, diagonal_ends, read_profile, DiagonalSpec};
 pub use rtest::{rtest, RTestSpec};
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 use crate::error::input_errors;
 use crate::io::csv::CsvError;
 use crate::io::FileError;
 use crate::model::grid::{self, GridError};
 use crate::model::{AxisLetter, Command, Machine};
-use crate::reference;
+use crate::reference::Twin;
 
 #[derive(Debug, thiserror::Error)]
 pub enum StandardsError {
@@ -69,25 +69,29 @@ fn parameter(message: impl Into<String>) -> StandardsError {
     StandardsError::Parameter(message.into())
 }
 
-/// The machine under test, its ideal twin, and the positions of the rotary axes not tested.
-pub struct Setup<'a> {
-    pub machine: &'a Machine,
-    ideal: Machine,
+/// The machine under test with its ideal twin, and the positions of the rotary axes not tested.
+pub struct Setup {
+    twin: Twin,
     pub pose: Command,
 }
 
-impl<'a> Setup<'a> {
+impl Setup {
     /// `pose`: positions of rotary axes, `B=30,C=60` (degrees; not named: 0).
-    pub fn new(machine: &'a Machine, pose: &str) -> Result<Setup<'a>, StandardsError> {
+    pub fn new(machine: &Machine, pose: &str) -> Result<Setup, StandardsError> {
         Ok(Setup {
-            machine,
-            ideal: machine.without_errors(),
             pose: grid::parse_pose(pose, machine)?,
+            twin: Twin::of(machine),
         })
     }
 
-    pub fn deviation(&self, command: &Command) -> reference::Deviation {
-        reference::deviation_against(self.machine, &self.ideal, command)
+    /// The machine under test.
+    pub fn machine(&self) -> &Machine {
+        self.twin.real()
+    }
+
+    /// The machine under test with its ideal twin.
+    pub fn twin(&self) -> &Twin {
+        &self.twin
     }
 
     /// The commanded position with X Y Z at `xyz` and the rotary axes at the pose.
@@ -98,10 +102,10 @@ impl<'a> Setup<'a> {
     }
 
     fn linear_axis(&self, letter: AxisLetter) -> Result<&crate::model::Axis, StandardsError> {
-        self.machine.axis(letter).ok_or_else(|| {
+        self.machine().axis(letter).ok_or_else(|| {
             parameter(format!(
                 "the machine (chain {}) has no {letter} axis",
-                self.machine.chain.hwang_notation()
+                self.machine().chain.hwang_notation()
             ))
         })
     }
@@ -123,7 +127,7 @@ impl<'a> Setup<'a> {
 
     /// Checks every axis position of `command` against its travel.
     pub fn check_travel(&self, command: &Command, what: &str) -> Result<(), StandardsError> {
-        for axis in &self.machine.axes {
+        for axis in &self.machine().axes {
             let value = command[axis.letter.index()];
             let [lo, hi] = axis.range;
             let slack = 1e-9 * (1.0 + lo.abs().max(hi.abs()));
@@ -141,31 +145,17 @@ impl<'a> Setup<'a> {
     }
 
     /// The commanded X Y Z at which the ideal machine puts the tool tip at `tip` (workpiece
-    /// frame), rotary axes as in `command`: one exact step with the ideal machine's
-    /// [`reference::tip_jacobian`].
+    /// frame), rotary axes as in `command`.
     pub fn nominal_command_for_tip(
         &self,
         tip: Vector3<f64>,
         command: &Command,
     ) -> Result<Command, StandardsError> {
-        let base = reference::tool_pose(&self.ideal, command).0;
-        let step = reference::tip_jacobian(&self.ideal, command)
-            .lu()
-            .solve(&(tip - base))
-            .ok_or_else(|| {
-                parameter(
-                    "the machine's linear axes do not span X, Y and Z: no position reaches the tip",
-                )
-            })?;
-        let xyz = Vector3::new(command[0], command[1], command[2]) + step;
-        let mut c = *command;
-        c[..3].copy_from_slice(xyz.as_slice());
-        Ok(c)
-    }
-
-    /// The ideal tool orientation (spindle frame → workpiece frame) at `command`.
-    pub fn ideal_rotation(&self, command: &Command) -> Matrix3<f64> {
-        reference::tool_pose(&self.ideal, command).1
+        self.twin.ideal_command_for(tip, command).ok_or_else(|| {
+            parameter(
+                "the machine's linear axes do not span X, Y and Z: no position reaches the tip",
+            )
+        })
     }
 }
 

@@ -10,7 +10,6 @@ use super::{
     default_pose, figure, parameter, range_of, read_profile, Setup, StandardsError, TestResult,
 };
 use crate::model::AxisLetter;
-use crate::reference;
 
 /// The R-test of a rotary axis.
 #[derive(Debug, Clone, Deserialize)]
@@ -65,10 +64,10 @@ pub(crate) fn rtest_with(
             )))
         }
     };
-    let axis = setup.machine.axis(letter).ok_or_else(|| {
+    let axis = setup.machine().axis(letter).ok_or_else(|| {
         parameter(format!(
             "the machine (chain {}) has no {letter} axis",
-            setup.machine.chain.hwang_notation()
+            setup.machine().chain.hwang_notation()
         ))
     })?;
     let (lo, hi) = setup.travel_box()?;
@@ -76,7 +75,7 @@ pub(crate) fn rtest_with(
         Some(s) => Vector3::from(s),
         None => {
             let mid = setup.command((lo + hi) / 2.0);
-            reference::tool_pose(&setup.ideal, &mid).0
+            setup.twin().ideal_tip(&mid)
         }
     };
     let angles: Vec<f64> = match measured {
@@ -105,8 +104,8 @@ pub(crate) fn rtest_with(
             &command,
             &format!("R-test of {letter} at {letter}={angle}°"),
         )?;
-        let ve = setup.deviation(&command).volumetric_mm;
-        let reading = -(setup.ideal_rotation(&command).transpose() * ve);
+        let ve = setup.twin().deviation(&command).volumetric_mm;
+        let reading = -(setup.twin().ideal_rotation(&command).transpose() * ve);
         for d in 0..3 {
             curves[d].push(reading[d]);
         }

@@ -11,13 +11,13 @@ use volmap::model::{AxisLetter, Chain, Machine};
 use super::common::{ranges, with_random_errors, Rng};
 
 fn assert_plan_matches_reference(machine: &Machine, grid: &Grid) {
-    let ideal = machine.without_errors();
+    let twin = volmap::reference::Twin::of(machine);
     let mut field = vec![0.0f32; grid.points() as usize * CHANNELS.len()];
     CpuPlan::new(machine, grid).compute_lines(0, grid.lines(), &mut field);
     let nx = grid.dims[0];
     for p in 0..grid.points() {
         let [i, j, k] = grid.indices(p);
-        let want = point_values(machine, &ideal, grid, [i, j, k]);
+        let want = point_values(&twin, grid, [i, j, k]);
         let line = j + k * grid.dims[1];
         for c in 0..6 {
             let got = field[(line * 6 + c) * nx + i] as f64;

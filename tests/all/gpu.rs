@@ -49,15 +49,14 @@ fn field_with(
 
 /// The largest VE and OE differences between a GPU field and the reference at every point.
 fn max_differences(machine: &Machine, grid: &Grid, field: &[f32]) -> (f64, f64) {
-    let ideal = machine.without_errors();
+    let twin = volmap::reference::Twin::of(machine);
     let nx = grid.dims[0];
     let (mut ve, mut oe) = (0.0f64, 0.0f64);
     for line in 0..grid.lines() as usize {
         let base = line * CHANNELS.len() * nx;
         for i in 0..nx {
             let want = volmap::engine::reference::point_values(
-                machine,
-                &ideal,
+                &twin,
                 grid,
                 grid.indices((line * nx + i) as u64),
             );

@@ -186,13 +186,13 @@ fn the_deformed_grid_is_the_nominal_grid_plus_the_magnified_error() {
     let deformed = volmap::query::deformed_grid(&machine, &grid, None);
     // Lines along X: 3·2, along Y: 2·3, along Z: 3·3.
     assert_eq!(deformed.nominal.len(), 6 + 6 + 9);
-    let ideal = machine.without_errors();
+    let twin = volmap::reference::Twin::of(&machine);
     let mut largest: f64 = 0.0;
     for (line, moved) in deformed.nominal.iter().zip(&deformed.deformed) {
         for (p, q) in line.iter().zip(moved) {
             let mut command = pose;
             command[..3].copy_from_slice(p);
-            let ve = volmap::reference::deviation_against(&machine, &ideal, &command).volumetric_mm;
+            let ve = twin.deviation(&command).volumetric_mm;
             largest = largest.max(ve.norm());
             for d in 0..3 {
                 assert!((q[d] - (p[d] + deformed.scale * ve[d])).abs() < 1e-9);

@@ -275,3 +275,37 @@ fn rotation_vector_is_accurate_for_tiny_rotations() {
     let v = reference::rotation_vector(r.matrix());
     assert!((v - Vector3::new(3e-9, -2e-7, 5e-6)).norm() < 1e-20);
 }
+
+#[test]
+fn a_twin_commands_the_tip_where_it_is_asked_for() {
+    // A five-axis machine with errors of every kind, at a pose: the ideal command is one exact
+    // step, the real one lands the real tip on the target, and the deviation is the difference
+    // of the two tips.
+    let chain = "FYXCFZB";
+    let letters: Vec<AxisLetter> = Chain::parse(chain).unwrap().axes().collect();
+    let machine = with_random_errors(
+        Machine::nominal("five", chain, &ranges(&letters)).unwrap(),
+        &mut Rng(41),
+    );
+    let twin = reference::Twin::of(&machine);
+    let start = [100.0, -200.0, 50.0, 0.0, 30.0, -60.0];
+    let target = Vector3::new(250.0, 120.0, -80.0);
+    let ideal = twin.ideal_command_for(target, &start).unwrap();
+    assert!(close(twin.ideal_tip(&ideal), target, 1e-9));
+    assert_eq!(ideal[3..], start[3..], "rotary axes stay");
+    let inverse = twin.ideal_jacobian(&start).try_inverse().unwrap();
+    let real = twin.real_command_for(target, &ideal, &inverse).unwrap();
+    assert!(close(twin.real_tip(&real), target, 1e-9));
+    assert_eq!(real[3..], start[3..], "rotary axes stay");
+    let d = twin.deviation(&ideal).volumetric_mm;
+    assert!(close(
+        d,
+        twin.real_tip(&ideal) - twin.ideal_tip(&ideal),
+        1e-12
+    ));
+    assert!(close(real_minus_ideal(&twin, &ideal), d, 1e-12));
+}
+
+fn real_minus_ideal(twin: &reference::Twin, command: &[f64; 6]) -> Vector3<f64> {
+    deviation(twin.real(), command).volumetric_mm
+}
