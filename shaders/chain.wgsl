@@ -4,14 +4,9 @@
 //   linear axis: A_k(q) = L_k · Trans(q·u_k) · E_k(q)
 //   rotary axis: A_k(q) = L_k · E_k(q) · Rot_u(q)
 //
-// In f32 the real and the ideal tool tip (up to 2 m from the origin) cannot be subtracted without
-// losing 0.2–0.4 µm, so every transform is carried as a nominal part and its deviation:
-//
-//   T = [(I + M)·R0,  t0 + d]
-//
-// R0, t0 are the ideal (error-free) transform; M and d are small and are composed exactly, so the
-// volumetric error VE = d and the orientation error is the rotation vector of I + M, both in the
-// workpiece frame, never formed as a difference of large numbers.
+// Every transform is carried in deviation form, T = [(I + M)·R0, t0 + d] (deviation.wgsl, joined in
+// front of this file): VE = d and OE the rotation vector of I + M, never differences of large
+// numbers.
 //
 // The product is split at X, the axis the grid's lines run along: E_rel = Pre · X(i) · Post, where
 // Pre (the axes before X, then X's location L_X) and Post (the axes after X, then S·Trans(tool))
@@ -36,7 +31,7 @@
 // p_a the columns of I + Ma and q_b the rows of I + Mb. Nothing here drops a term: it is the exact
 // product, rearranged so that a point costs a few small products and its six stores.
 //
-// Host mirrors: src/gpu/layout.rs. Keep in sync with that file.
+// Host mirrors: src/gpu/layout.rs; a test holds the constants and struct sizes both declare to it.
 
 struct Params {
     origin: vec4<f32>,       // commanded X, Y, Z of grid point (0, 0, 0), mm
@@ -44,7 +39,7 @@ struct Params {
     grid: vec4<u32>,         // nx, ny, nz, number of axes
     counts: vec4<u32>,       // axis-value entries, group entries, -, -
     chunk: vec4<u32>,        // first line of the chunk, lines in the chunk, points per lane, lanes per line group
-    slots: vec4<u32>,        // first group entry of PA, PB, QA, QB
+    group_starts: vec4<u32>, // first entry of PA, PB, QA, QB in the group values
     x_motion: vec4<f32>,     // tq at the centre index, tq per index step, centre index (t = i − centre), -
     x_translation: array<vec4<f32>, 4>,  // EXX EYX EZX as polynomials in t: c0..c3 (xyz)
     x_rotation: array<vec4<f32>, 4>,     // EAX EBX ECX likewise
@@ -79,18 +74,19 @@ struct DevData {
     m_d: array<vec4<f32>, 3>,
 }
 
-// One factor of a group: an axis-value entry (source 0: the axis's first entry, plus j or k
-// when the axis runs along the group's dimension) or the constant transform it carries (source
-// 1: X's location, S·Trans(tool)).
+// One factor of a group: an axis-value entry (FACTOR_AXIS_ENTRY: the axis's first entry, plus j
+// or k when it is indexed by them) or the constant transform it carries (FACTOR_CONSTANT: X's
+// location, S·Trans(tool)).
 struct Factor {
-    info: vec4<u32>,  // source, first axis-value entry, dimension (0 fixed, 1 j, 2 k), -
+    info: vec4<u32>,  // source, first axis-value entry, index (INDEX_ONE, INDEX_J, INDEX_K), -
     value: DevData,
 }
 
-// One of PA, PB, QA, QB: the product of factors [first, first + count), tabulated over its
-// dimension (0: one entry, 1: each j, 2: each k) from group entry `info.w` on.
+// One of the GROUP_TABLES tables PA, PB, QA, QB: the product of factors [first, first + count),
+// tabulated over its index (INDEX_ONE: one entry, INDEX_J: each j, INDEX_K: each k) from group
+// entry `info.w` on.
 struct Group {
-    info: vec4<u32>,  // first factor, factor count, dimension, first group entry
+    info: vec4<u32>,  // first factor, factor count, index, first group entry
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -109,7 +105,8 @@ struct Group {
 
 // The point pass is compiled per tiling and per shape of machine, so that its loop has no
 // branches on either (a CPU adapter runs both sides of a branch it cannot prove uniform):
-// lines per invocation (1, 2 or 4), where each of PA, PB, QA, QB comes from (SLOT_*), whether Pre
+// lines per invocation (1, 2 or 4), how each of PA, PB, QA, QB is indexed (INDEX_* or
+// TABLE_ABSENT), whether Pre
 // changes from line to line, and whether X's translations and rotations come from the axis
 // pass's table instead of their polynomials in Params.
 override LINES_PER_LANE: u32 = 1u;
@@ -121,122 +118,22 @@ override PRE_VARIES: bool = false;
 override X_TRANSLATION_TABLE: bool = false;
 override X_ROTATION_TABLE: bool = false;
 
+const WORKGROUP_SIZE: u32 = 64u;
 const NO_FUNCTION: u32 = 0xffffffffu;
 const KIND_LINEAR: u32 = 0u;
+const KIND_ROTARY: u32 = 1u;
+// An axis's driver: the grid dimension 0, 1, 2, or held at its fixed position.
 const SOURCE_FIXED: u32 = 3u;
-const SOURCE_CONSTANT: u32 = 1u;
-const DIM_J: u32 = 1u;
-const DIM_K: u32 = 2u;
-// Where a group slot's entry comes from (PRE_A ...): its one entry, the entry of the line's j or
-// k, or nowhere (the slot is the identity).
-const SLOT_ONE: u32 = 0u;
-const SLOT_J: u32 = 1u;
-const SLOT_K: u32 = 2u;
-const SLOT_ABSENT: u32 = 3u;
-const WORKGROUP: u32 = 64u;
+const FACTOR_AXIS_ENTRY: u32 = 0u;
+const FACTOR_CONSTANT: u32 = 1u;
+// How a table's entry is found for a line (j, k): its one entry, the entry of the line's j or k;
+// a group table may be absent (the identity).
+const INDEX_ONE: u32 = 0u;
+const INDEX_J: u32 = 1u;
+const INDEX_K: u32 = 2u;
+const TABLE_ABSENT: u32 = 3u;
+const GROUP_TABLES: u32 = 4u;
 const PERIOD_DEG: f32 = 360.0;
-const HALF_PI_HI: f32 = 1.5707963705062866;     // f32(π/2)
-const HALF_PI_LO: f32 = -4.371139000186243e-8;  // π/2 − HALF_PI_HI
-const RAD_PER_DEG: f32 = 0.017453292519943295;
-
-// A transform as nominal part and deviation: [(I + m)·r0, t0 + d].
-struct Dev {
-    r0: mat3x3<f32>,
-    t0: vec3<f32>,
-    m: mat3x3<f32>,
-    d: vec3<f32>,
-}
-
-const ZERO3: mat3x3<f32> = mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-const IDENTITY3: mat3x3<f32> = mat3x3<f32>(
-    vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
-
-// a·b, with (I + a.m) a.r0 (I + b.m) b.r0 = (I + m) a.r0 b.r0 where m = a.m + b.m' + a.m b.m',
-// b.m' = a.r0 b.m a.r0ᵀ; and the translation deviation δ1 + R01 δ2 + M1 R01 (t02 + δ2).
-fn compose(a: Dev, b: Dev) -> Dev {
-    let rt = a.r0 * b.t0;
-    let rd = a.r0 * b.d;
-    let bm = a.r0 * b.m * transpose(a.r0);
-    return Dev(a.r0 * b.r0, a.t0 + rt, a.m + bm + a.m * bm, a.d + rd + a.m * (rt + rd));
-}
-
-// sin and cos of |x| ≤ π/4 by Taylor series: WGSL's built-ins may be off by 2^-11, far too much.
-fn sincos_reduced(x: f32) -> vec2<f32> {
-    let x2 = x * x;
-    let s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362880.0)))));
-    let c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0 + x2 * (-1.0 / 3628800.0)))));
-    return vec2<f32>(s, c);
-}
-
-// (sin, cos) of r + n·π/2 by quadrant.
-fn sincos_quadrant(sc: vec2<f32>, n: f32) -> vec2<f32> {
-    let quadrant = ((i32(n) % 4) + 4) % 4;
-    switch quadrant {
-        case 1: { return vec2<f32>(sc.y, -sc.x); }
-        case 2: { return vec2<f32>(-sc.x, -sc.y); }
-        case 3: { return vec2<f32>(-sc.y, sc.x); }
-        default: { return sc; }
-    }
-}
-
-fn sincos_deg(q: f32) -> vec2<f32> {
-    let n = round(q / 90.0);
-    return sincos_quadrant(sincos_reduced((q - n * 90.0) * RAD_PER_DEG), n);
-}
-
-fn sincos_rad(x: f32) -> vec2<f32> {
-    let n = round(x / HALF_PI_HI);
-    let r = (x - n * HALF_PI_HI) - n * HALF_PI_LO;
-    return sincos_quadrant(sincos_reduced(r), n);
-}
-
-// The elementary rotation about coordinate axis `axis` (0 x, 1 y, 2 z) minus I, from (sin, cos − 1).
-fn rot_minus_identity_about(axis: u32, s: f32, cm1: f32) -> mat3x3<f32> {
-    switch axis {
-        case 0u: { return mat3x3<f32>(vec3<f32>(0.0), vec3<f32>(0.0, cm1, s), vec3<f32>(0.0, -s, cm1)); }
-        case 1u: { return mat3x3<f32>(vec3<f32>(cm1, 0.0, -s), vec3<f32>(0.0), vec3<f32>(s, 0.0, cm1)); }
-        default: { return mat3x3<f32>(vec3<f32>(cm1, s, 0.0), vec3<f32>(-s, cm1, 0.0), vec3<f32>(0.0)); }
-    }
-}
-
-// Rx(angle) − I etc. with cos − 1 = −2 sin²(angle/2), exact for tiny angles.
-fn small_rotation(axis: u32, angle: f32) -> mat3x3<f32> {
-    let half = sincos_rad(0.5 * angle).x;
-    return rot_minus_identity_about(axis, sincos_rad(angle).x, -2.0 * half * half);
-}
-
-// Rot(a, b, c) − I = (I + Mx)(I + My)(I + Mz) − I, kept small.
-fn rot_deviation(e: vec3<f32>) -> mat3x3<f32> {
-    let mx = small_rotation(0u, e.x);
-    let my = small_rotation(1u, e.y);
-    let mz = small_rotation(2u, e.z);
-    let mxy = mx + my + mx * my;
-    return mxy + mz + mxy * mz;
-}
-
-// (sin x, cos x − 1) for error angles below 0.1 rad (checked on the host), by Taylor series that
-// are exact in f32 there: sin x = x(1 − x²/6(1 − x²/20(1 − x²/42))),
-// cos x − 1 = −x²/2 (1 − x²/12 (1 − x²/30)).
-fn tiny_sincos(x: vec3<f32>) -> array<vec3<f32>, 2> {
-    let x2 = x * x;
-    let s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0)));
-    let cm1 = -0.5 * x2 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0));
-    return array<vec3<f32>, 2>(s, cm1);
-}
-
-// Rot(a, b, c) − I = Rx(a)·Ry(b)·Rz(c) − I in closed form, the diagonal from cos − 1 so that
-// nothing cancels.
-fn tiny_rot_deviation(e: vec3<f32>) -> mat3x3<f32> {
-    let sc = tiny_sincos(e);
-    let s = sc[0];
-    let c1 = sc[1];
-    let c = 1.0 + c1;
-    return mat3x3<f32>(
-        vec3<f32>(c1.y + c1.z + c1.y * c1.z, s.x * s.y * c.z + c.x * s.z, s.x * s.z - c.x * s.y * c.z),
-        vec3<f32>(-c.y * s.z, c1.x + c1.z + c1.x * c1.z - s.x * s.y * s.z, c.x * s.y * s.z + s.x * c.z),
-        vec3<f32>(s.y, -s.x * c.y, c1.x + c1.y + c1.x * c1.y));
-}
-
 // Evaluates error function `index` at position q: wrap (periodic) and clamp into the domain, find
 // the last piece starting at or before q, Horner in q − start.
 fn eval_function(index: u32, q_in: f32) -> f32 {
@@ -271,11 +168,6 @@ fn eval_function(index: u32, q_in: f32) -> f32 {
     return acc;
 }
 
-fn nominal_rotation(axis: u32, degrees: f32) -> mat3x3<f32> {
-    let sc = sincos_deg(degrees);
-    return IDENTITY3 + rot_minus_identity_about(axis, sc.x, sc.y - 1.0);
-}
-
 // A_k(q) as nominal part and deviation.
 fn axis_transform(a: AxisData, q: f32) -> Dev {
     let errors_t = vec3<f32>(
@@ -296,20 +188,6 @@ fn axis_transform(a: AxisData, q: f32) -> Dev {
     let direction = a.unit[a.info.z];
     let motion = Dev(nominal_rotation(a.info.z, direction * q), vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
     return compose(compose(location, errors), motion);
-}
-
-// twice the axial vector of the skew part of m: (m21 − m12, m02 − m20, m10 − m01).
-fn skew(m: mat3x3<f32>) -> vec3<f32> {
-    return vec3<f32>(m[1].z - m[2].y, m[2].x - m[0].z, m[0].y - m[1].x);
-}
-
-// The rotation vector of a small rotation from s, the axial vector of the half skew part of its
-// matrix (|s| = sin θ, θ < 0.1 rad): θ/sin θ = asin(|s|)/|s| as a series in |s|², so neither sqrt
-// nor atan2 (whose WGSL accuracy is loose) enters.
-fn rotation_vector_of_half_skew(s: vec3<f32>) -> vec3<f32> {
-    let s2 = dot(s, s);
-    let factor = 1.0 + s2 * (1.0 / 6.0 + s2 * (3.0 / 40.0 + s2 * (5.0 / 112.0 + s2 * (35.0 / 1152.0))));
-    return s * factor;
 }
 
 fn dev_of(v: DevData) -> Dev {
@@ -337,7 +215,7 @@ fn entry_count(a: AxisData) -> u32 {
     return params.grid[a.info.y];
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let entry = gid.x;
     if entry >= params.counts.x {
@@ -375,30 +253,30 @@ fn group_entries(g: Group) -> u32 {
     if g.info.y == 0u {
         return 0u;
     }
-    if g.info.z == 0u {
+    if g.info.z == INDEX_ONE {
         return 1u;
     }
     return params.grid[g.info.z];
 }
 
 fn factor_at(f: Factor, index: u32) -> Dev {
-    if f.info.x == SOURCE_CONSTANT {
+    if f.info.x == FACTOR_CONSTANT {
         return dev_of(f.value);
     }
     var entry = f.info.y;
-    if f.info.z != 0u {
+    if f.info.z != INDEX_ONE {
         entry = entry + index;
     }
     return dev_of(axis_values[entry]);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn groups_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let entry = gid.x;
     if entry >= params.counts.y {
         return;
     }
-    for (var s = 0u; s < 4u; s = s + 1u) {
+    for (var s = 0u; s < GROUP_TABLES; s = s + 1u) {
         let g = groups[s];
         let first = g.info.w;
         if entry >= first && entry < first + group_entries(g) {
@@ -414,29 +292,29 @@ fn groups_main(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 // ---- point pass (per chunk) ----
 
-// Group slot `slot` (0 PA, 1 PB, 2 QA, 3 QB) at line (j, k), from where `source` says.
-fn slot_value(slot: u32, source: u32, j: u32, k: u32) -> Dev {
-    var entry = params.slots[slot];
-    if source == SLOT_J {
+// Group table `table` (0 PA, 1 PB, 2 QA, 3 QB) at line (j, k), indexed as `index` says.
+fn group_value(table: u32, index: u32, j: u32, k: u32) -> Dev {
+    var entry = params.group_starts[table];
+    if index == INDEX_J {
         entry = entry + j;
-    } else if source == SLOT_K {
+    } else if index == INDEX_K {
         entry = entry + k;
     }
     return dev_of(group_values[entry]);
 }
 
 fn pre_at(j: u32, k: u32) -> Dev {
-    var pre = slot_value(0u, PRE_A, j, k);
-    if PRE_B != SLOT_ABSENT {
-        pre = compose(pre, slot_value(1u, PRE_B, j, k));
+    var pre = group_value(0u, PRE_A, j, k);
+    if PRE_B != TABLE_ABSENT {
+        pre = compose(pre, group_value(1u, PRE_B, j, k));
     }
     return pre;
 }
 
 fn post_at(j: u32, k: u32) -> Dev {
-    var post = slot_value(2u, POST_A, j, k);
-    if POST_B != SLOT_ABSENT {
-        post = compose(post, slot_value(3u, POST_B, j, k));
+    var post = group_value(2u, POST_A, j, k);
+    if POST_B != TABLE_ABSENT {
+        post = compose(post, group_value(3u, POST_B, j, k));
     }
     return post;
 }
@@ -548,11 +426,11 @@ fn store_point(base: u32, nx: u32, line: LineTerms, x: XValues) {
 // params.chunk.w apart. Returns (first line of the group in the chunk, first i).
 fn point_tile(wid: vec3<u32>, lid: vec3<u32>) -> vec2<u32> {
     let lanes = params.chunk.w;
-    let group = wid.y * (WORKGROUP / lanes) + lid.x / lanes;
+    let group = wid.y * (WORKGROUP_SIZE / lanes) + lid.x / lanes;
     return vec2<u32>(group * LINES_PER_LANE, wid.x * lanes * params.chunk.z + lid.x % lanes);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;
     let lines = params.chunk.y;
@@ -618,7 +496,7 @@ fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_
 
 // The ceiling `volmap bench` measures the chain kernel against: the same dispatch, the same
 // invocations writing the same values of the output with the same stores, computing nothing.
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
     let nx = params.grid.x;
     let lines = params.chunk.y;

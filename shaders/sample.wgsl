@@ -1,5 +1,5 @@
 // Trilinear samples of a field at arbitrary commanded positions: the GPU twin of
-// `LoadedField::sample` in src/query.rs.
+// `LoadedField::sample` in src/io/field/loaded.rs.
 //
 // The host finds each position's grid cell and its fractions in f64 (rejecting positions outside
 // the grid, with the CSV line), so this kernel only blends the cell's eight corners:
@@ -10,7 +10,8 @@
 // point with the six values of a grid point side by side in the column order of `volmap sample`
 // (VE.X VE.Y VE.Z OE.X OE.Y OE.Z).
 //
-// Host mirrors: SampleParams and SamplePoint in src/gpu/layout.rs. Keep in sync with that file.
+// Host mirrors: SampleParams and SamplePoint in src/gpu/layout.rs; a test holds the constants and
+// struct sizes both declare to it.
 
 struct SampleParams {
     dims: vec4<u32>,   // nx, ny, nz of the whole grid, -
@@ -27,12 +28,14 @@ struct SamplePoint {
 @group(0) @binding(2) var<storage, read> points: array<SamplePoint>;
 @group(0) @binding(3) var<storage, read_write> samples: array<f32>;
 
-const VALUES: u32 = 6u;
+const WORKGROUP_SIZE: u32 = 64u;
+// Values per grid point and per sample.
+const SAMPLE_VALUES: u32 = 6u;
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP_SIZE)
 fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let n = gid.x;
-    if n >= params.range.z || n >= arrayLength(&points) || VALUES * n + 5u >= arrayLength(&samples) {
+    if n >= params.range.z || n >= arrayLength(&points) || SAMPLE_VALUES * n + 5u >= arrayLength(&samples) {
         return;
     }
     let p = points[n];
@@ -46,15 +49,15 @@ fn sample_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let w = select(vec3<f32>(1.0) - p.t.xyz, p.t.xyz, is_upper);
         let weight = w.x * w.y * w.z;
         // The host puts every point's cell inside the slab; the check keeps a wrong one in bounds.
-        let base = VALUES * (ijk.x + dims.x * (ijk.y + dims.y * (ijk.z - params.range.x)));
+        let base = SAMPLE_VALUES * (ijk.x + dims.x * (ijk.y + dims.y * (ijk.z - params.range.x)));
         if ijk.z < params.range.x || base + 5u >= arrayLength(&field) {
             continue;
         }
-        for (var c = 0u; c < VALUES; c = c + 1u) {
+        for (var c = 0u; c < SAMPLE_VALUES; c = c + 1u) {
             acc[c] = acc[c] + weight * field[base + c];
         }
     }
-    for (var c = 0u; c < VALUES; c = c + 1u) {
-        samples[VALUES * n + c] = acc[c];
+    for (var c = 0u; c < SAMPLE_VALUES; c = c + 1u) {
+        samples[SAMPLE_VALUES * n + c] = acc[c];
     }
 }

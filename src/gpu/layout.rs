@@ -1,23 +1,81 @@
-//! Host mirrors of the WGSL structs in `shaders/chain.wgsl` and `shaders/sample.wgsl`. Keep in
-//! sync with those files: one `#[repr(C)]` Pod struct per WGSL struct, vec4/mat4 fields only (no
-//! vec3 in buffers), explicit padding, and a compile-time size check for each.
+//! Host mirrors of the WGSL structs in `shaders/chain.wgsl` and `shaders/sample.wgsl`, and the
+//! constants both sides share: one `#[repr(C)]` Pod struct per WGSL struct, vec4/mat4 fields
+//! only (no vec3 in buffers), explicit padding, a compile-time size check for each. A test reads
+//! the shaders with naga and holds every name in [`SHARED_CONSTANTS`] and [`STRUCT_SIZES`] to the
+//! WGSL side.
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::model::errorfn::PERIOD_DEG;
+
+/// Invocations per workgroup of every kernel (`@workgroup_size`).
+pub const WORKGROUP_SIZE: u32 = 64;
 /// Function index meaning "this error is zero": the shader skips it.
 pub const NO_FUNCTION: u32 = u32::MAX;
 /// The domain bound of functions without one (constants and polynomials).
 pub const UNBOUNDED: f32 = f32::MAX;
-/// `AxisData::info[0]` values.
+/// The kind of an axis, [`AxisData::kind`].
 pub const KIND_LINEAR: u32 = 0;
 pub const KIND_ROTARY: u32 = 1;
-/// `AxisData::info[1]` for an axis held at a fixed position (the pose); 0..3 name a grid dimension.
+/// The driver of an axis held at a fixed position (the pose), [`AxisData::driver`]; 0, 1, 2
+/// name the grid dimension that drives it.
 pub const SOURCE_FIXED: u32 = 3;
+/// What a factor is (`Factor::info[0]`): an entry of the axis-value table or a constant.
+pub const FACTOR_AXIS_ENTRY: u32 = 0;
+pub const FACTOR_CONSTANT: u32 = 1;
+/// How the entries of a table are indexed along a chunk's lines: one entry for every line, one
+/// per j or one per k. A group table may also be absent (the identity).
+pub const INDEX_ONE: u32 = 0;
+pub const INDEX_J: u32 = 1;
+pub const INDEX_K: u32 = 2;
+pub const TABLE_ABSENT: u32 = 3;
+/// The group tables: PA, PB (Pre) and QA, QB (Post).
+pub const GROUP_TABLES: u32 = 4;
+/// Values per grid point and per sample in the sampling kernel: VE.X VE.Y VE.Z OE.X OE.Y OE.Z.
+pub const SAMPLE_VALUES: u32 = 6;
+
+/// A value WGSL declares as a `const` of the same name.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shared {
+    U32(u32),
+    F32(f32),
+}
+
+/// Every constant the shaders share with this file, by its WGSL name.
+pub const SHARED_CONSTANTS: [(&str, Shared); 14] = [
+    ("WORKGROUP_SIZE", Shared::U32(WORKGROUP_SIZE)),
+    ("NO_FUNCTION", Shared::U32(NO_FUNCTION)),
+    ("KIND_LINEAR", Shared::U32(KIND_LINEAR)),
+    ("KIND_ROTARY", Shared::U32(KIND_ROTARY)),
+    ("SOURCE_FIXED", Shared::U32(SOURCE_FIXED)),
+    ("FACTOR_AXIS_ENTRY", Shared::U32(FACTOR_AXIS_ENTRY)),
+    ("FACTOR_CONSTANT", Shared::U32(FACTOR_CONSTANT)),
+    ("INDEX_ONE", Shared::U32(INDEX_ONE)),
+    ("INDEX_J", Shared::U32(INDEX_J)),
+    ("INDEX_K", Shared::U32(INDEX_K)),
+    ("TABLE_ABSENT", Shared::U32(TABLE_ABSENT)),
+    ("SAMPLE_VALUES", Shared::U32(SAMPLE_VALUES)),
+    ("PERIOD_DEG", Shared::F32(PERIOD_DEG as f32)),
+    ("GROUP_TABLES", Shared::U32(GROUP_TABLES)),
+];
+
+/// The size of every struct a shader reads or writes through a buffer, by its WGSL name.
+pub const STRUCT_SIZES: [(&str, usize); 9] = [
+    ("Params", std::mem::size_of::<Params>()),
+    ("AxisData", std::mem::size_of::<AxisData>()),
+    ("Function", std::mem::size_of::<Function>()),
+    ("Piece", std::mem::size_of::<Piece>()),
+    ("DevData", std::mem::size_of::<DevData>()),
+    ("Factor", std::mem::size_of::<Factor>()),
+    ("Group", std::mem::size_of::<Group>()),
+    ("SampleParams", std::mem::size_of::<SampleParams>()),
+    ("SamplePoint", std::mem::size_of::<SamplePoint>()),
+];
 
 /// A 3×3 matrix in the upper-left of a WGSL `mat4x4<f32>`, column-major.
 pub type Mat4 = [[f32; 4]; 4];
 
-/// Keep in sync with `struct Params` in `shaders/chain.wgsl`.
+/// `struct Params` in `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct Params {
@@ -32,8 +90,8 @@ pub struct Params {
     /// First line of this chunk, lines in this chunk, points per invocation of the point pass,
     /// invocations per group of lines (the point pass's tiling, see `shaders/chain.wgsl`).
     pub chunk: [u32; 4],
-    /// First group entry of each slot: PA, PB (Pre), QA, QB (Post).
-    pub slots: [u32; 4],
+    /// First entry of each group table in the group values: PA, PB (Pre), QA, QB (Post).
+    pub group_starts: [u32; 4],
     /// X's nominal motion along x̂ (`q` times X's sense) at the centre index, its step per index,
     /// the centre index (X's polynomials are in `t = i − centre`); w unused.
     pub x_motion: [f32; 4],
@@ -44,8 +102,7 @@ pub struct Params {
 }
 const _: () = assert!(std::mem::size_of::<Params>() == 7 * 16 + 8 * 16);
 
-/// One axis of the chain, in product order. Keep in sync with `struct AxisData` in
-/// `shaders/chain.wgsl`.
+/// One axis of the chain, in product order: `struct AxisData` in `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct AxisData {
@@ -57,10 +114,10 @@ pub struct AxisData {
     pub location_m: Mat4,
     /// `u_k`: unit direction times sense.
     pub unit: [f32; 4],
-    /// Kind (`KIND_*`), source (grid dimension 0..3 or `SOURCE_FIXED`), rotation axis index
+    /// Kind (`KIND_*`), driver (grid dimension 0..3 or `SOURCE_FIXED`), rotation axis index
     /// (0 = x, 1 = y, 2 = z), index of the axis's first entry in the axis-value table.
     pub info: [u32; 4],
-    /// x: the commanded position when the source is fixed (mm or degrees).
+    /// x: the commanded position when the driver is fixed (mm or degrees).
     pub fixed_q: [f32; 4],
     /// Function indices of `EXk EYk EZk EAk`.
     pub functions_a: [u32; 4],
@@ -69,7 +126,24 @@ pub struct AxisData {
 }
 const _: () = assert!(std::mem::size_of::<AxisData>() == 176);
 
-/// One error function. Keep in sync with `struct Function` in `shaders/chain.wgsl`.
+impl AxisData {
+    /// `KIND_LINEAR` or `KIND_ROTARY`.
+    pub fn kind(&self) -> u32 {
+        self.info[0]
+    }
+
+    /// The grid dimension that drives the axis, or `SOURCE_FIXED`.
+    pub fn driver(&self) -> u32 {
+        self.info[1]
+    }
+
+    /// The axis's first entry in the axis-value table.
+    pub fn first_entry(&self) -> u32 {
+        self.info[3]
+    }
+}
+
+/// One error function: `struct Function` in `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct Function {
@@ -80,7 +154,7 @@ pub struct Function {
 }
 const _: () = assert!(std::mem::size_of::<Function>() == 32);
 
-/// One polynomial piece. Keep in sync with `struct Piece` in `shaders/chain.wgsl`.
+/// One polynomial piece: `struct Piece` in `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct Piece {
@@ -95,8 +169,8 @@ pub struct Piece {
 const _: () = assert!(std::mem::size_of::<Piece>() == 16);
 
 /// A transform in deviation form `[(I + M)·R0, t0 + d]`: columns of `R0` with `t0` in w,
-/// columns of `M` with `d` in w. Written by the `axis_values` pass. Keep in sync with
-/// `struct DevData` in `shaders/chain.wgsl`.
+/// columns of `M` with `d` in w. Written by the `axis_values` pass: `struct DevData` in
+/// `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct DevData {
@@ -106,35 +180,83 @@ pub struct DevData {
 const _: () = assert!(std::mem::size_of::<DevData>() == 96);
 
 /// One factor of a group: an axis-value entry or a constant transform (X's location,
-/// `S·Trans(tool)`). Keep in sync with `struct Factor` in `shaders/chain.wgsl`.
+/// `S·Trans(tool)`): `struct Factor` in `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct Factor {
     /// Source (`FACTOR_AXIS_ENTRY` or `FACTOR_CONSTANT`), the axis's first axis-value entry,
-    /// the dimension that indexes it (0 fixed, 1 j, 2 k), unused.
+    /// how it is indexed (`INDEX_ONE`, `INDEX_J`, `INDEX_K`), unused.
     pub info: [u32; 4],
     /// The transform itself when the source is `FACTOR_CONSTANT`.
     pub value: DevData,
 }
 const _: () = assert!(std::mem::size_of::<Factor>() == 16 + 96);
 
-/// `Factor::info[0]` values.
-pub const FACTOR_AXIS_ENTRY: u32 = 0;
-pub const FACTOR_CONSTANT: u32 = 1;
+impl Factor {
+    /// An axis's entries of the axis-value table from `first_entry` on, indexed by `index`.
+    pub fn axis_entry(first_entry: u32, index: u32) -> Factor {
+        Factor {
+            info: [FACTOR_AXIS_ENTRY, first_entry, index, 0],
+            value: Zeroable::zeroed(),
+        }
+    }
+
+    /// A constant transform.
+    pub fn constant(value: DevData) -> Factor {
+        Factor {
+            info: [FACTOR_CONSTANT, 0, INDEX_ONE, 0],
+            value,
+        }
+    }
+
+    /// How the factor's entries are indexed: `INDEX_ONE`, `INDEX_J` or `INDEX_K`.
+    pub fn index(&self) -> u32 {
+        self.info[2]
+    }
+}
 
 /// One of the four group tables PA, PB, QA, QB: the product of a run of factors, tabulated
-/// over its dimension. Keep in sync with `struct Group` in `shaders/chain.wgsl`.
+/// over its index: `struct Group` in `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, Pod, Zeroable)]
 pub struct Group {
-    /// First factor, factor count (0: the slot is unused), dimension (0: one entry, 1: one per
-    /// j, 2: one per k), first entry in the group table.
+    /// First factor, factor count (0: the table is unused), how it is indexed (`INDEX_*`), first
+    /// entry in the group values.
     pub info: [u32; 4],
 }
 const _: () = assert!(std::mem::size_of::<Group>() == 16);
 
-/// What the sampling kernel needs to know of the field and the dispatch. Keep in sync with
-/// `struct SampleParams` in `shaders/sample.wgsl`.
+impl Group {
+    pub fn new(first_factor: u32, factors: u32, index: u32, first_entry: u32) -> Group {
+        Group {
+            info: [first_factor, factors, index, first_entry],
+        }
+    }
+
+    /// An unused table whose entries (none) would start at `first_entry`.
+    pub fn unused(first_entry: u32) -> Group {
+        Group::new(0, 0, INDEX_ONE, first_entry)
+    }
+
+    pub fn first_factor(&self) -> u32 {
+        self.info[0]
+    }
+
+    pub fn factors(&self) -> u32 {
+        self.info[1]
+    }
+
+    pub fn index(&self) -> u32 {
+        self.info[2]
+    }
+
+    pub fn first_entry(&self) -> u32 {
+        self.info[3]
+    }
+}
+
+/// What the sampling kernel needs to know of the field and the dispatch: `struct SampleParams`
+/// in `shaders/sample.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct SampleParams {
@@ -145,8 +267,8 @@ pub struct SampleParams {
 }
 const _: () = assert!(std::mem::size_of::<SampleParams>() == 32);
 
-/// One position to sample: its grid cell and the fractions within it, found on the host in f64.
-/// Keep in sync with `struct SamplePoint` in `shaders/sample.wgsl`.
+/// One position to sample: its grid cell and the fractions within it, found on the host in f64:
+/// `struct SamplePoint` in `shaders/sample.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct SamplePoint {

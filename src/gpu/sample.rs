@@ -4,17 +4,15 @@
 //! corners of every cell.
 
 use super::device::{self, Gpu, Pass, Readback};
-use super::layout::{SampleParams, SamplePoint};
+use super::layout::{SampleParams, SamplePoint, SAMPLE_VALUES, WORKGROUP_SIZE};
 use super::GpuError;
 use crate::io::field::GridCell;
 
 /// The sampling kernel's WGSL source.
 pub const SAMPLE_WGSL: &str = include_str!("../../shaders/sample.wgsl");
-/// Invocations per workgroup; keep in sync with `@workgroup_size` in `shaders/sample.wgsl`.
-const WORKGROUP_SIZE: u64 = 64;
-/// Values per grid point and per sample: VE.X VE.Y VE.Z OE.X OE.Y OE.Z.
-pub const SAMPLE_VALUES: usize = 6;
-const SAMPLE_BYTES: u64 = (SAMPLE_VALUES * 4) as u64;
+const VALUES: usize = SAMPLE_VALUES as usize;
+const SAMPLE_BYTES: u64 = (VALUES * 4) as u64;
+const WORKGROUP: u64 = WORKGROUP_SIZE as u64;
 
 pub struct GpuSampler {
     gpu: Gpu,
@@ -47,10 +45,10 @@ impl GpuSampler {
     pub fn sample(
         &self,
         dims: [usize; 3],
-        field: &[[f32; SAMPLE_VALUES]],
+        field: &[[f32; VALUES]],
         cells: &[GridCell],
         max_slab_bytes: Option<u64>,
-    ) -> Result<Vec<[f32; SAMPLE_VALUES]>, GpuError> {
+    ) -> Result<Vec<[f32; VALUES]>, GpuError> {
         let points: Vec<SamplePoint> = cells.iter().map(sample_point).collect();
         let [nx, ny, nz] = dims.map(|n| n as u64);
         let error = |message: String| GpuError::Runtime {
@@ -87,11 +85,11 @@ impl GpuSampler {
             }
             by_slab[slab].push(n);
         }
-        let per_dispatch = (self.gpu.max_workgroups_per_dimension() as u64 * WORKGROUP_SIZE)
+        let per_dispatch = (self.gpu.max_workgroups_per_dimension() as u64 * WORKGROUP)
             .min(binding / std::mem::size_of::<SamplePoint>() as u64)
             .min(binding / SAMPLE_BYTES)
             .max(1) as usize;
-        let mut samples = vec![[0.0f32; SAMPLE_VALUES]; points.len()];
+        let mut samples = vec![[0.0f32; VALUES]; points.len()];
         for (slab, members) in by_slab.iter().enumerate() {
             if members.is_empty() {
                 continue;
@@ -131,7 +129,7 @@ impl GpuSampler {
                     &[Pass {
                         kernel: &self.kernel,
                         bindings: &bindings,
-                        workgroups: [(batch.len() as u64).div_ceil(WORKGROUP_SIZE) as u32, 1, 1],
+                        workgroups: [(batch.len() as u64).div_ceil(WORKGROUP) as u32, 1, 1],
                     }],
                     Some(Readback {
                         from: &output,
@@ -140,7 +138,7 @@ impl GpuSampler {
                     }),
                 );
                 self.gpu.read(submission, &staging, bytes, |data| {
-                    let values: &[[f32; SAMPLE_VALUES]] = bytemuck::cast_slice(data);
+                    let values: &[[f32; VALUES]] = bytemuck::cast_slice(data);
                     for (&n, v) in batch.iter().zip(values) {
                         samples[n] = *v;
                     }
