@@ -1,0 +1,314 @@
+//! Every feature of a part evaluated against its tolerance: the cuts of each feature, the GD&T
+//! error they leave, and the rating. Holes come first (the datums of parallel holes), positions
+//! last (after their datum planes); the rows come back in the order of the file.
+
+use std::collections::HashMap;
+
+use nalgebra::{Vector2, Vector3};
+
+use super::cuts::{Cut, Errors, Evaluator};
+use super::file::{FeatureSpec, PartFile};
+use super::geometry::{datum_shift, enclosing_diameter, median_line, worst};
+use super::{tolerance, ErrorSource, FeatureError, FeatureResult, Verdict};
+use crate::io::mesh::Mesh;
+use crate::reference::Twin;
+
+/// What the features evaluated so far leave for the datums of later ones.
+#[derive(Default)]
+struct Datums {
+    /// Each hole's derived median line.
+    medians: HashMap<String, Vec<Vector3<f64>>>,
+    /// Each plane's outward normal and mean deviation along it: where it moves a datum frame.
+    planes: HashMap<String, (Vector3<f64>, f64)>,
+}
+
+/// A feature's error (mm), the commanded position of the cutter where its worst point was cut,
+/// and, for profiles, the fraction of the area outside the zone.
+type Evaluated = (f64, [f64; 3], Option<f64>);
+
+/// Evaluates every feature of the part.
+pub fn evaluate(
+    part: &PartFile,
+    source: ErrorSource,
+    file: &str,
+) -> Result<Vec<FeatureResult>, FeatureError> {
+    let pose = part.pose();
+    if let ErrorSource::Field(field) = &source {
+        if let Some((n, value, held)) = field.pose_mismatch(&pose, [true; 3]) {
+            let axis = ['A', 'B', 'C'][n];
+            return Err(FeatureError::Feature {
+                file: file.to_string(),
+                feature: "(placement)".into(),
+                message: format!(
+                    "the part is machined at {axis}={value}°, the field holds {axis}={held}°"
+                ),
+            });
+        }
+    }
+    let errors = match source {
+        ErrorSource::Exact(machine) => Errors::Exact(Box::new(Twin::of(machine))),
+        ErrorSource::Field(field) => Errors::Field(field),
+    };
+    let evaluator = Evaluator {
+        part,
+        pose,
+        errors,
+        file,
+    };
+    let mut order: Vec<&FeatureSpec> = part.features.iter().collect();
+    order.sort_by_key(|f| match f {
+        FeatureSpec::Hole { .. } => 0,
+        FeatureSpec::HolePosition { .. } | FeatureSpec::RibPosition { .. } => 2,
+        _ => 1,
+    });
+    let mut datums = Datums::default();
+    let mut results = Vec::new();
+    for feature in order {
+        let (error_mm, worst_point, area_outside) = evaluator.feature(feature, &mut datums)?;
+        let tolerance_mm = feature.tolerance();
+        let safety = (error_mm > 0.0).then(|| tolerance_mm / error_mm);
+        results.push(FeatureResult {
+            name: feature.name().to_string(),
+            kind: feature.kind().to_string(),
+            error_mm,
+            tolerance_mm,
+            safety,
+            verdict: safety.map_or(Verdict::Fit, Verdict::of),
+            worst_point,
+            area_outside,
+        });
+    }
+    results.sort_by_key(|r| part.features.iter().position(|f| f.name() == r.name));
+    Ok(results)
+}
+
+/// The mean deviation of a surface's cuts along its normal.
+fn mean_deviation(cuts: &[Cut]) -> f64 {
+    cuts.iter().map(|c| c.deviation).sum::<f64>() / cuts.len() as f64
+}
+
+impl Evaluator<'_> {
+    fn feature(
+        &self,
+        feature: &FeatureSpec,
+        datums: &mut Datums,
+    ) -> Result<Evaluated, FeatureError> {
+        let name = feature.name();
+        Ok(match feature {
+            FeatureSpec::Profile {
+                mesh,
+                tolerance_mm,
+                ply,
+                ..
+            } => self.profile_error(name, mesh, *tolerance_mm, ply.as_deref())?,
+            FeatureSpec::HolePosition {
+                centre_mm,
+                diameter_mm,
+                depth_mm,
+                datums: planes,
+                ..
+            } => {
+                let shift = datum_shift(planes.iter().map(|d| datums.planes[d]));
+                self.hole_position(name, *centre_mm, *diameter_mm, *depth_mm, shift)?
+            }
+            FeatureSpec::RibPosition {
+                start_mm,
+                direction_deg,
+                length_mm,
+                depth_mm,
+                normal_left,
+                datums: planes,
+                ..
+            } => {
+                let shift = datum_shift(planes.iter().map(|d| datums.planes[d]));
+                let (normal, cuts) = self.wall_cuts(
+                    name,
+                    *start_mm,
+                    *direction_deg,
+                    *length_mm,
+                    *depth_mm,
+                    *normal_left,
+                )?;
+                rib_position(&cuts, normal.dot(&shift))
+            }
+            FeatureSpec::EndMilledPlane {
+                corner_mm, size_mm, ..
+            } => {
+                let cuts = self.floor_cuts(name, *corner_mm, *size_mm)?;
+                datums
+                    .planes
+                    .insert(name.to_string(), (Vector3::z(), mean_deviation(&cuts)));
+                self.flatness(name, &cuts, &Vector3::z())?
+            }
+            FeatureSpec::RibHeight {
+                corner_mm, size_mm, ..
+            } => {
+                let cuts = self.floor_cuts(name, *corner_mm, *size_mm)?;
+                let c = cuts
+                    .iter()
+                    .max_by(|a, b| a.deviation.abs().total_cmp(&b.deviation.abs()))
+                    .expect("cuts");
+                (c.deviation.abs(), c.cutter.into(), None)
+            }
+            FeatureSpec::FlankMilledPlane {
+                start_mm,
+                direction_deg,
+                length_mm,
+                depth_mm,
+                normal_left,
+                ..
+            } => {
+                let (normal, cuts) = self.wall_cuts(
+                    name,
+                    *start_mm,
+                    *direction_deg,
+                    *length_mm,
+                    *depth_mm,
+                    *normal_left,
+                )?;
+                datums
+                    .planes
+                    .insert(name.to_string(), (normal, mean_deviation(&cuts)));
+                self.flatness(name, &cuts, &normal)?
+            }
+            FeatureSpec::Hole {
+                centre_mm,
+                diameter_mm,
+                depth_mm,
+                ..
+            }
+            | FeatureSpec::ParallelHole {
+                centre_mm,
+                diameter_mm,
+                depth_mm,
+                ..
+            } => {
+                let datum = match feature {
+                    FeatureSpec::ParallelHole { datum, .. } => Some(datum.as_str()),
+                    _ => None,
+                };
+                self.hole(name, *centre_mm, *diameter_mm, *depth_mm, datum, datums)?
+            }
+        })
+    }
+
+    /// A hole's cylindricity, or with a datum hole its parallelism to it; its median line is kept
+    /// for the holes that take it as their datum.
+    fn hole(
+        &self,
+        name: &str,
+        centre: [f64; 3],
+        diameter: f64,
+        depth: f64,
+        parallel_to: Option<&str>,
+        datums: &mut Datums,
+    ) -> Result<Evaluated, FeatureError> {
+        let levels = self.hole_cuts(name, centre, diameter, depth)?;
+        let cuts: Vec<&Cut> = levels.iter().flatten().collect();
+        let axis = median_line(&levels);
+        datums.medians.insert(name.to_string(), axis.clone());
+        let error = match parallel_to {
+            Some(datum) => {
+                let datum_axis = datums.medians.get(datum).expect("holes come first");
+                parallelism(&axis, datum_axis)
+            }
+            None => {
+                let points: Vec<_> = cuts.iter().map(|c| c.actual).collect();
+                let top = self.part.commanded(centre);
+                tolerance::cylindricity_min_zone(&points, &top, &Vector3::z())
+                    .map_err(self.tolerance_error(name))?
+                    .width_mm
+            }
+        };
+        Ok((error, worst(&cuts), None))
+    }
+
+    /// The position of a hole whose true position the datums shift by `shift`: the diameter of
+    /// the cylinder about the true position that holds its derived median line.
+    fn hole_position(
+        &self,
+        name: &str,
+        centre: [f64; 3],
+        diameter: f64,
+        depth: f64,
+        shift: Vector3<f64>,
+    ) -> Result<Evaluated, FeatureError> {
+        let levels = self.hole_cuts(name, centre, diameter, depth)?;
+        let true_position = self.part.commanded(centre) + shift;
+        let (distance, at) = median_line(&levels)
+            .into_iter()
+            .map(|c| ((c - true_position).xy().norm(), c))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .expect("levels");
+        Ok((2.0 * distance, at.into(), None))
+    }
+
+    /// The flatness of a surface's cuts about the surface's normal, by the minimum zone.
+    fn flatness(
+        &self,
+        name: &str,
+        cuts: &[Cut],
+        normal: &Vector3<f64>,
+    ) -> Result<Evaluated, FeatureError> {
+        let points: Vec<_> = cuts.iter().map(|c| c.actual).collect();
+        let zone =
+            tolerance::flatness_min_zone(&points, normal).map_err(self.tolerance_error(name))?;
+        Ok((zone.width_mm, worst(&cuts.iter().collect::<Vec<_>>()), None))
+    }
+
+    /// A meshed surface's profile error, with the PLY of its vertices' deviations where asked.
+    fn profile_error(
+        &self,
+        name: &str,
+        mesh: &str,
+        tolerance_mm: f64,
+        ply: Option<&str>,
+    ) -> Result<Evaluated, FeatureError> {
+        let mesh_error = |source| FeatureError::Mesh {
+            file: self.file.to_string(),
+            feature: name.to_string(),
+            source,
+        };
+        let mesh = Mesh::read_stl(&self.part.base.join(mesh)).map_err(mesh_error)?;
+        let profile = self.profile(name, &mesh, tolerance_mm)?;
+        if let Some(ply) = ply {
+            mesh.write_ply(
+                &self.part.base.join(ply),
+                "deviation_mm",
+                &profile.vertex_deviation,
+            )
+            .map_err(mesh_error)?;
+        }
+        Ok((
+            2.0 * profile.max_deviation,
+            profile.worst,
+            Some(profile.area_outside),
+        ))
+    }
+}
+
+/// The position of a rib's side whose true position the datums move by `moved` along its
+/// normal: the width of the zone about the true position that holds it.
+fn rib_position(cuts: &[Cut], moved: f64) -> Evaluated {
+    let c = cuts
+        .iter()
+        .max_by(|a, b| {
+            (a.deviation - moved)
+                .abs()
+                .total_cmp(&(b.deviation - moved).abs())
+        })
+        .expect("cuts");
+    (2.0 * (c.deviation - moved).abs(), c.cutter.into(), None)
+}
+
+/// The parallelism of a hole to a datum hole: the diameter of the smallest cylinder parallel to
+/// the datum's axis that holds the hole's derived median line.
+fn parallelism(axis: &[Vector3<f64>], datum_axis: &[Vector3<f64>]) -> f64 {
+    let direction = (datum_axis[datum_axis.len() - 1] - datum_axis[0]).normalize();
+    let (e1, e2) = tolerance::frame(&direction);
+    let projected: Vec<Vector2<f64>> = axis
+        .iter()
+        .map(|p| Vector2::new(e1.dot(p), e2.dot(p)))
+        .collect();
+    enclosing_diameter(&projected)
+}
