@@ -19,6 +19,88 @@ pub(super) fn format_value(value: f64, decimals: usize) -> String {
     text
 }
 
+/// How a block's numbers are written: its decimals, unit and letter case, whether its words are
+/// spaced.
+struct Style {
+    decimals: usize,
+    rotary_decimals: usize,
+    /// mm per program unit.
+    unit: f64,
+    lower: bool,
+    separator: &'static str,
+    absolute: bool,
+}
+
+impl Style {
+    fn of(line: &Line, state: &State, options: &Options) -> Style {
+        let decimals = options.decimals.unwrap_or(if state.inch { 5 } else { 4 });
+        Style {
+            decimals,
+            rotary_decimals: decimals.max(4),
+            unit: if state.inch { MM_PER_INCH } else { 1.0 },
+            lower: line.words.iter().any(|w| w.lower) && !line.words.iter().any(|w| !w.lower),
+            separator: if line.spaced { " " } else { "" },
+            absolute: state.absolute,
+        }
+    }
+
+    fn letter(&self, c: char) -> char {
+        if self.lower {
+            c.to_ascii_lowercase()
+        } else {
+            c
+        }
+    }
+
+    /// A value of axis `d` as written, rounded, so that increments add up to exactly what was
+    /// written.
+    fn rounded(&self, v: f64, d: usize) -> f64 {
+        if d < 3 {
+            let scale = 10f64.powi(self.decimals as i32);
+            (v / self.unit * scale).round() / scale * self.unit
+        } else {
+            let scale = 10f64.powi(self.rotary_decimals as i32);
+            (v * scale).round() / scale
+        }
+    }
+
+    /// Whether a written value of axis `d` moves by at least half a unit of its last decimal.
+    fn changes(&self, a: f64, b: f64, d: usize) -> bool {
+        let half = if d < 3 {
+            0.5 * 10f64.powi(-(self.decimals as i32)) * self.unit
+        } else {
+            0.5 * 10f64.powi(-(self.rotary_decimals as i32))
+        };
+        (a - b).abs() > half
+    }
+
+    /// The text of axis `d`'s word for `target`, absolute or an increment from `written`.
+    fn value_text(&self, target: f64, d: usize, written: &[f64; 6]) -> String {
+        let v = if self.absolute {
+            target
+        } else {
+            target - written[d]
+        };
+        if d < 3 {
+            format_value(v / self.unit, self.decimals)
+        } else {
+            format_value(v, self.rotary_decimals)
+        }
+    }
+
+    /// An added axis word.
+    fn axis_word(&self, d: usize, target: f64, written: &[f64; 6]) -> String {
+        format!(
+            "{}{}",
+            self.letter(AXIS_LETTERS[d]),
+            self.value_text(target, d, written)
+        )
+    }
+}
+
+/// A replacement of bytes of the line's text.
+type Edit = (std::ops::Range<usize>, String);
+
 /// Writes the block's output: the original line with its coordinates replaced by the first
 /// piece's (an arc that became lines turns G2/G3 into G1 and loses its centre words), then one
 /// added line per further piece. Returns the number of lines written.
@@ -30,149 +112,41 @@ pub(super) fn write_block(
     out: &mut String,
     options: &Options,
 ) -> Result<usize, NcError> {
-    let decimals = options.decimals.unwrap_or(if state.inch { 5 } else { 4 });
-    let rotary_decimals = decimals.max(4);
-    let unit = if state.inch { MM_PER_INCH } else { 1.0 };
-    let lower = line.words.iter().any(|w| w.lower) && !line.words.iter().any(|w| !w.lower);
-    let letter = |c: char| if lower { c.to_ascii_lowercase() } else { c };
-    let sep = if line.spaced { " " } else { "" };
+    let style = Style::of(line, state, options);
     let arc_becomes_lines =
         matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) && keep_arc.is_none();
-    // Values as written, rounded, so increments add up to exactly what was written.
-    let rounded = |v: f64, d: usize| -> f64 {
-        if d < 3 {
-            let scale = 10f64.powi(decimals as i32);
-            (v / unit * scale).round() / scale * unit
-        } else {
-            let scale = 10f64.powi(rotary_decimals as i32);
-            (v * scale).round() / scale
-        }
-    };
-    // Whether a written value moves by at least half a unit of its last decimal.
-    let changes = |a: f64, b: f64, d: usize| {
-        let half = if d < 3 {
-            0.5 * 10f64.powi(-(decimals as i32)) * unit
-        } else {
-            0.5 * 10f64.powi(-(rotary_decimals as i32))
-        };
-        (a - b).abs() > half
-    };
-    let value_text = |target: f64, d: usize, written: &[f64; 6], absolute: bool| -> String {
-        let v = if absolute {
-            target
-        } else {
-            target - written[d]
-        };
-        if d < 3 {
-            format_value(v / unit, decimals)
-        } else {
-            format_value(v, rotary_decimals)
-        }
-    };
     let split = pieces.len() > 1;
     let first_written: [f64; 6] = std::array::from_fn(|d| {
         // Rotary words of a move that is not split stay exactly as programmed.
         if d >= 3 && !split {
             state.position[d]
         } else {
-            rounded(pieces[0][d], d)
+            style.rounded(pieces[0][d], d)
         }
     });
-    let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
-    // Axis words: linear ones take the compensated values; rotary ones change only where the
-    // move is split (each piece turns its share); missing ones are added where they change.
-    let mut last_axis_end = None;
-    for w in &line.words {
-        if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {
-            last_axis_end = Some(w.number.end);
-            if d < 3 || split {
-                edits.push((
-                    w.number.clone(),
-                    value_text(first_written[d], d, &state.written, state.absolute),
-                ));
-            }
-        }
-    }
-    let mut added = String::new();
-    for d in 0..6 {
-        if !line.has(AXIS_LETTERS[d]) && changes(first_written[d], state.written[d], d) {
-            added += &format!(
-                "{sep}{}{}",
-                letter(AXIS_LETTERS[d]),
-                value_text(first_written[d], d, &state.written, state.absolute)
-            );
-        }
-    }
-    // Centre words of a kept arc, relative to the written start; removed where the arc became
-    // lines.
-    let start_written = state.written;
-    for w in &line.words {
-        let centre = state.plane.centre.iter().position(|&c| c == w.letter);
-        match (w.letter, centre) {
-            ('I' | 'J' | 'K' | 'R', _) if arc_becomes_lines => {
-                edits.push((removal(line, w), String::new()));
-            }
-            (_, Some(k)) => {
-                if let Some(c) = keep_arc {
-                    let coordinate = if k == 0 { state.plane.u } else { state.plane.v };
-                    edits.push((
-                        w.number.clone(),
-                        format_value((c[k] - start_written[coordinate]) / unit, decimals),
-                    ));
-                }
-            }
-            ('R', None) => {
-                if let Some(c) = keep_arc {
-                    let (u, v) = (state.plane.u, state.plane.v);
-                    let r = (first_written[u] - c[0]).hypot(first_written[v] - c[1]);
-                    edits.push((
-                        w.number.clone(),
-                        format_value(r * w.value.signum() / unit, decimals),
-                    ));
-                }
-            }
-            _ => {}
-        }
-    }
-    // The motion word: G2/G3 that became lines are G1; a block relying on a mode the output has
-    // left gets its mode back.
-    let motion_word = line
-        .words
-        .iter()
-        .find(|w| w.letter == 'G' && (w.value as u32) < 4 && w.value.fract() == 0.0);
+    let (mut edits, added) = axis_edits(line, state, &style, &first_written, split);
+    edits.extend(centre_edits(
+        line,
+        state,
+        &style,
+        &first_written,
+        keep_arc,
+        arc_becomes_lines,
+    ));
     let output_motion = if arc_becomes_lines {
         Motion::Linear
     } else {
         state.motion
     };
-    match motion_word {
-        Some(w) if arc_becomes_lines => {
-            let digits = if w.text.starts_with('0') { "01" } else { "1" };
-            edits.push((w.number.clone(), digits.into()));
-        }
-        None if output_motion != state.written_motion => {
-            let at = line
-                .words
-                .iter()
-                .find(|w| w.letter != 'N')
-                .map_or(line.text.len(), |w| w.letter_at);
-            let text = format!("{}{}{sep}", letter('G'), output_motion.code());
-            edits.push((at..at, text));
-        }
-        _ => {}
-    }
-    if !added.is_empty() {
-        let at = last_axis_end
-            .or_else(|| {
-                line.words
-                    .iter()
-                    .rev()
-                    .find(|w| w.letter == 'G')
-                    .map(|w| w.number.end)
-            })
-            .unwrap_or(line.text.len());
-        edits.push((at..at, added));
-    }
+    edits.extend(motion_edit(
+        line,
+        state,
+        &style,
+        output_motion,
+        arc_becomes_lines,
+    ));
+    // Added axis words after the motion word where both go at the end of the line.
+    edits.extend(added);
     edits.sort_by_key(|(r, _)| (r.start, r.end));
     let mut text = line.text.clone();
     for (range, replacement) in edits.iter().rev() {
@@ -196,26 +170,155 @@ pub(super) fn write_block(
     } else {
         &line.ending
     };
-    let mut count = 1;
-    for piece in &pieces[1..] {
-        let piece_written: [f64; 6] = std::array::from_fn(|d| rounded(piece[d], d));
-        let mut words = String::new();
-        if state.written_motion != Motion::Linear {
-            words += &format!("{}1", letter('G'));
-        }
-        for d in 0..6 {
-            if changes(piece_written[d], state.written[d], d) {
-                if !words.is_empty() {
-                    words += sep;
-                }
-                words += &format!(
-                    "{}{}",
-                    letter(AXIS_LETTERS[d]),
-                    value_text(piece_written[d], d, &state.written, state.absolute)
-                );
+    Ok(1 + write_pieces(&pieces[1..], state, &style, ending, out))
+}
+
+/// The axis words: linear ones take the compensated values; rotary ones change only where the
+/// move is split (each piece turns its share); missing ones are added where they change (the
+/// second edit, after the last axis word).
+fn axis_edits(
+    line: &Line,
+    state: &State,
+    style: &Style,
+    first_written: &[f64; 6],
+    split: bool,
+) -> (Vec<Edit>, Option<Edit>) {
+    let mut edits = Vec::new();
+    let mut last_axis_end = None;
+    for w in &line.words {
+        if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {
+            last_axis_end = Some(w.number.end);
+            if d < 3 || split {
+                edits.push((
+                    w.number.clone(),
+                    style.value_text(first_written[d], d, &state.written),
+                ));
             }
         }
-        if words.is_empty() || words == format!("{}1", letter('G')) {
+    }
+    let mut added = String::new();
+    for d in 0..6 {
+        if !line.has(AXIS_LETTERS[d]) && style.changes(first_written[d], state.written[d], d) {
+            added += style.separator;
+            added += &style.axis_word(d, first_written[d], &state.written);
+        }
+    }
+    if added.is_empty() {
+        return (edits, None);
+    }
+    let at = last_axis_end
+        .or_else(|| {
+            line.words
+                .iter()
+                .rev()
+                .find(|w| w.letter == 'G')
+                .map(|w| w.number.end)
+        })
+        .unwrap_or(line.text.len());
+    (edits, Some((at..at, added)))
+}
+
+/// The centre words of a kept arc, relative to the written start; removed where the arc became
+/// lines.
+fn centre_edits(
+    line: &Line,
+    state: &State,
+    style: &Style,
+    first_written: &[f64; 6],
+    keep_arc: Option<[f64; 2]>,
+    arc_becomes_lines: bool,
+) -> Vec<Edit> {
+    let mut edits = Vec::new();
+    let (unit, decimals) = (style.unit, style.decimals);
+    for w in &line.words {
+        let centre = state.plane.centre.iter().position(|&c| c == w.letter);
+        match (w.letter, centre, keep_arc) {
+            ('I' | 'J' | 'K' | 'R', _, _) if arc_becomes_lines => {
+                edits.push((removal(line, w), String::new()));
+            }
+            (_, Some(k), Some(c)) => {
+                let coordinate = if k == 0 { state.plane.u } else { state.plane.v };
+                edits.push((
+                    w.number.clone(),
+                    format_value((c[k] - state.written[coordinate]) / unit, decimals),
+                ));
+            }
+            ('R', None, Some(c)) => {
+                let (u, v) = (state.plane.u, state.plane.v);
+                let r = (first_written[u] - c[0]).hypot(first_written[v] - c[1]);
+                edits.push((
+                    w.number.clone(),
+                    format_value(r * w.value.signum() / unit, decimals),
+                ));
+            }
+            _ => {}
+        }
+    }
+    edits
+}
+
+/// The motion word: G2/G3 that became lines are G1; a block relying on a mode the output has
+/// left gets its mode back.
+fn motion_edit(
+    line: &Line,
+    state: &State,
+    style: &Style,
+    output_motion: Motion,
+    arc_becomes_lines: bool,
+) -> Option<Edit> {
+    let motion_word = line
+        .words
+        .iter()
+        .find(|w| w.letter == 'G' && (w.value as u32) < 4 && w.value.fract() == 0.0);
+    match motion_word {
+        Some(w) if arc_becomes_lines => {
+            let digits = if w.text.starts_with('0') { "01" } else { "1" };
+            Some((w.number.clone(), digits.into()))
+        }
+        None if output_motion != state.written_motion => {
+            let at = line
+                .words
+                .iter()
+                .find(|w| w.letter != 'N')
+                .map_or(line.text.len(), |w| w.letter_at);
+            let text = format!(
+                "{}{}{}",
+                style.letter('G'),
+                output_motion.code(),
+                style.separator
+            );
+            Some((at..at, text))
+        }
+        _ => None,
+    }
+}
+
+/// The added lines of a split move, one per piece after the first (a piece that moves no written
+/// value is left out). Returns how many were written.
+fn write_pieces(
+    pieces: &[[f64; 6]],
+    state: &mut State,
+    style: &Style,
+    ending: &str,
+    out: &mut String,
+) -> usize {
+    let mut count = 0;
+    let g1 = format!("{}1", style.letter('G'));
+    for piece in pieces {
+        let piece_written: [f64; 6] = std::array::from_fn(|d| style.rounded(piece[d], d));
+        let mut words = String::new();
+        if state.written_motion != Motion::Linear {
+            words += &g1;
+        }
+        for (d, &target) in piece_written.iter().enumerate() {
+            if style.changes(target, state.written[d], d) {
+                if !words.is_empty() {
+                    words += style.separator;
+                }
+                words += &style.axis_word(d, target, &state.written);
+            }
+        }
+        if words.is_empty() || words == g1 {
             continue;
         }
         out.push_str(&words);
@@ -230,7 +333,7 @@ pub(super) fn write_block(
         state.written_motion = Motion::Linear;
         count += 1;
     }
-    Ok(count)
+    count
 }
 
 /// The bytes a word takes, with one separating space before it, for removal.

@@ -7,7 +7,7 @@ use super::NcError;
 
 /// The intended path of a move, `t` from 0 to 1, in program coordinates (mm, degrees).
 #[derive(Debug, Clone, Copy)]
-pub(super) enum Path {
+pub(super) enum Toolpath {
     Line {
         from: [f64; 6],
         to: [f64; 6],
@@ -27,11 +27,11 @@ pub(super) fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + (b - a) * t
 }
 
-impl Path {
+impl Toolpath {
     pub(super) fn at(&self, t: f64) -> [f64; 6] {
         match *self {
-            Path::Line { from, to } => std::array::from_fn(|d| lerp(from[d], to[d], t)),
-            Path::Arc {
+            Toolpath::Line { from, to } => std::array::from_fn(|d| lerp(from[d], to[d], t)),
+            Toolpath::Arc {
                 from,
                 to,
                 plane,
@@ -52,11 +52,11 @@ impl Path {
 
     pub(super) fn length(&self) -> f64 {
         match *self {
-            Path::Line { from, to } => (0..3)
+            Toolpath::Line { from, to } => (0..3)
                 .map(|d| (to[d] - from[d]).powi(2))
                 .sum::<f64>()
                 .sqrt(),
-            Path::Arc {
+            Toolpath::Arc {
                 from,
                 to,
                 plane,
@@ -83,7 +83,7 @@ pub(super) fn arc_through(
     plane: Plane,
     centre: [f64; 2],
     motion: Motion,
-) -> Option<Path> {
+) -> Option<Toolpath> {
     let r0 = (from[plane.u] - centre[0]).hypot(from[plane.v] - centre[1]);
     let r1 = (to[plane.u] - centre[0]).hypot(to[plane.v] - centre[1]);
     if r0 < 1e-9 || r1 < 1e-9 {
@@ -111,7 +111,7 @@ pub(super) fn arc_through(
             }
         }
     };
-    Some(Path::Arc {
+    Some(Toolpath::Arc {
         from,
         to,
         plane,
@@ -129,7 +129,7 @@ pub(super) fn arc_path(
     start: [f64; 6],
     end: [f64; 6],
     path: &str,
-) -> Result<Path, NcError> {
+) -> Result<Toolpath, NcError> {
     let plane = state.plane;
     let scale = if state.inch { MM_PER_INCH } else { 1.0 };
     let offsets: Vec<Option<f64>> = plane
@@ -194,7 +194,7 @@ pub(super) fn arc_path(
             "the arc's start or end lies on its centre".into(),
         )
     })?;
-    if let Path::Arc { radii, .. } = arc {
+    if let Toolpath::Arc { radii, .. } = arc {
         if (radii[0] - radii[1]).abs() > 1e-3 * scale.max(1.0) + 1e-6 * radii[0] {
             return Err(NcError::line(
                 path,
