@@ -1,5 +1,4 @@
-//! The charts built from shapes: curves over an axis, ballbar polar plots, colour maps with a
-//! scale bar, and the isometric deformed grid.
+//! Charts built from shapes: curves over an axis with round ticks, ballbar polar plots.
 
 use super::{Anchor, Color, Drawing, PlotError, Shape};
 
@@ -23,7 +22,7 @@ pub fn ticks(lo: f64, hi: f64, count: usize) -> Vec<f64> {
     (first..=last).map(|k| k as f64 * step).collect()
 }
 
-fn tick_label(value: f64, step: f64) -> String {
+pub(super) fn tick_label(value: f64, step: f64) -> String {
     let decimals = if step >= 1.0 {
         0
     } else {
@@ -51,12 +50,12 @@ pub struct Series {
     pub dashed: bool,
 }
 
-const MARGIN_LEFT: f64 = 80.0;
-const MARGIN_RIGHT: f64 = 30.0;
-const MARGIN_TOP: f64 = 50.0;
-const MARGIN_BOTTOM: f64 = 60.0;
+pub(super) const MARGIN_LEFT: f64 = 80.0;
+pub(super) const MARGIN_RIGHT: f64 = 30.0;
+pub(super) const MARGIN_TOP: f64 = 50.0;
+pub(super) const MARGIN_BOTTOM: f64 = 60.0;
 
-fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+pub(super) fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
     values
         .filter(|v| v.is_finite())
         .fold(None, |acc, v| match acc {
@@ -261,202 +260,5 @@ pub fn polar_chart(
         24.0,
         height - 30.0 - 18.0 * (series.len() as f64 - 1.0),
     );
-    Ok(d)
-}
-
-/// A perceptually ordered colour scale (viridis, sampled), `t` in [0, 1].
-pub fn colour(t: f64) -> [u8; 3] {
-    const STOPS: [[u8; 3]; 9] = [
-        [68, 1, 84],
-        [71, 44, 122],
-        [59, 81, 139],
-        [44, 113, 142],
-        [33, 144, 141],
-        [39, 173, 129],
-        [92, 200, 99],
-        [170, 220, 50],
-        [253, 231, 37],
-    ];
-    let t = if t.is_finite() {
-        t.clamp(0.0, 1.0)
-    } else {
-        0.0
-    } * (STOPS.len() - 1) as f64;
-    let k = (t.floor() as usize).min(STOPS.len() - 2);
-    let f = t - k as f64;
-    std::array::from_fn(|c| {
-        (STOPS[k][c] as f64 * (1.0 - f) + STOPS[k + 1][c] as f64 * f).round() as u8
-    })
-}
-
-/// A colour map of `values` (`rows × cols`, row 0 at `extent.2`, the low end of the vertical
-/// axis) over `extent = (x_lo, x_hi, y_lo, y_hi)`, with a scale bar in `unit`.
-pub fn colour_map(
-    title: &str,
-    labels: (&str, &str),
-    extent: (f64, f64, f64, f64),
-    cols: usize,
-    rows: usize,
-    values: &[f64],
-    unit: &str,
-) -> Result<Drawing, PlotError> {
-    let (lo, hi) =
-        finite_range(values.iter().copied()).ok_or_else(|| PlotError::Empty(title.into()))?;
-    let width = 900.0;
-    let (x0, y1) = (MARGIN_LEFT, MARGIN_TOP);
-    let available = (width - MARGIN_LEFT - 160.0, 540.0);
-    let aspect = (extent.1 - extent.0).abs().max(1e-9) / (extent.3 - extent.2).abs().max(1e-9);
-    let (w, h) = if available.0 / available.1 > aspect {
-        (available.1 * aspect, available.1)
-    } else {
-        (available.0, available.0 / aspect)
-    };
-    let y0 = y1 + h;
-    let span = if hi > lo { hi - lo } else { 1.0 };
-    let rgb: Vec<[u8; 3]> = (0..rows)
-        .rev()
-        .flat_map(|r| (0..cols).map(move |c| (r, c)))
-        .map(|(r, c)| colour((values[r * cols + c] - lo) / span))
-        .collect();
-    let mut d = Drawing::new(width, y0 + MARGIN_BOTTOM);
-    d.text(width / 2.0, 28.0, title, 15.0, Anchor::Middle);
-    d.shapes.push(Shape::Image {
-        x: x0,
-        y: y1,
-        w,
-        h,
-        cols,
-        rows,
-        rgb,
-    });
-    d.shapes.push(Shape::Rect {
-        x: x0,
-        y: y1,
-        w,
-        h,
-        fill: None,
-        stroke: Some(Color::BLACK),
-    });
-    let xt = ticks(extent.0, extent.1, 6);
-    let yt = ticks(extent.2, extent.3, 6);
-    let step = |t: &[f64]| if t.len() > 1 { t[1] - t[0] } else { 1.0 };
-    for &t in &xt {
-        let x = x0 + (t - extent.0) / (extent.1 - extent.0) * w;
-        d.line(vec![[x, y0], [x, y0 + 5.0]], Color::BLACK, 1.0, false);
-        d.text(x, y0 + 18.0, tick_label(t, step(&xt)), 11.0, Anchor::Middle);
-    }
-    for &t in &yt {
-        let y = y0 - (t - extent.2) / (extent.3 - extent.2) * h;
-        d.line(vec![[x0 - 5.0, y], [x0, y]], Color::BLACK, 1.0, false);
-        d.text(
-            x0 - 8.0,
-            y + 4.0,
-            tick_label(t, step(&yt)),
-            11.0,
-            Anchor::End,
-        );
-    }
-    d.text(x0 + w / 2.0, y0 + 40.0, labels.0, 13.0, Anchor::Middle);
-    d.shapes.push(Shape::Text {
-        x: 22.0,
-        y: y1 + h / 2.0,
-        text: labels.1.into(),
-        size: 13.0,
-        anchor: Anchor::Middle,
-        color: Color::BLACK,
-        vertical: true,
-    });
-    // The scale bar: the colour ramp with round values marked.
-    let (bx, bw) = (x0 + w + 40.0, 22.0);
-    let ramp: Vec<[u8; 3]> = (0..256).rev().map(|k| colour(k as f64 / 255.0)).collect();
-    d.shapes.push(Shape::Image {
-        x: bx,
-        y: y1,
-        w: bw,
-        h,
-        cols: 1,
-        rows: 256,
-        rgb: ramp,
-    });
-    d.shapes.push(Shape::Rect {
-        x: bx,
-        y: y1,
-        w: bw,
-        h,
-        fill: None,
-        stroke: Some(Color::BLACK),
-    });
-    let bt = ticks(lo, hi, 6);
-    for &t in &bt {
-        let y = y0 - (t - lo) / span * h;
-        d.line(
-            vec![[bx + bw, y], [bx + bw + 5.0, y]],
-            Color::BLACK,
-            1.0,
-            false,
-        );
-        d.text(
-            bx + bw + 8.0,
-            y + 4.0,
-            tick_label(t, step(&bt)),
-            11.0,
-            Anchor::Start,
-        );
-    }
-    d.text(bx, y1 - 10.0, unit, 12.0, Anchor::Start);
-    Ok(d)
-}
-
-/// An isometric view of the workspace grid, nominal (grey) and displaced by the magnified error
-/// (colour): `nominal[n]` and `deformed[n]` are the same grid line, points in mm.
-pub fn deformed_grid(
-    title: &str,
-    note: &str,
-    nominal: &[Vec<[f64; 3]>],
-    deformed: &[Vec<[f64; 3]>],
-) -> Result<Drawing, PlotError> {
-    let (width, height) = (900.0, 760.0);
-    // Isometric projection: x to the right and down, y to the left and down, z up.
-    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
-    let project = |p: &[f64; 3]| [(p[0] - p[1]) * c, -(p[0] + p[1]) * s - p[2]];
-    let all = nominal.iter().chain(deformed).flatten().map(project);
-    let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for [x, y] in all {
-        x_lo = x_lo.min(x);
-        x_hi = x_hi.max(x);
-        y_lo = y_lo.min(y);
-        y_hi = y_hi.max(y);
-    }
-    if !x_lo.is_finite() {
-        return Err(PlotError::Empty(title.into()));
-    }
-    let scale =
-        ((width - 80.0) / (x_hi - x_lo).max(1e-9)).min((height - 140.0) / (y_hi - y_lo).max(1e-9));
-    let ox = (width - scale * (x_hi - x_lo)) / 2.0 - scale * x_lo;
-    let oy = 60.0 + (height - 140.0 - scale * (y_hi - y_lo)) / 2.0 - scale * y_lo;
-    let to_canvas = |p: &[f64; 3]| {
-        let [x, y] = project(p);
-        [ox + scale * x, oy + scale * y]
-    };
-    let mut d = Drawing::new(width, height);
-    d.text(width / 2.0, 28.0, title, 15.0, Anchor::Middle);
-    for line in nominal {
-        d.line(line.iter().map(to_canvas).collect(), Color::GREY, 1.0, true);
-    }
-    for line in deformed {
-        d.line(
-            line.iter().map(to_canvas).collect(),
-            Color::BLUE,
-            1.5,
-            false,
-        );
-    }
-    d.text(width / 2.0, height - 40.0, note, 12.0, Anchor::Middle);
-    d.text(width / 2.0, height - 20.0, "grey dashed: nominal grid; blue: the tool tip's actual positions, error magnified (isometric view, z up)", 11.0, Anchor::Middle);
     Ok(d)
 }
