@@ -233,6 +233,45 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
             "`estimate` names no location error".into(),
         ));
     }
+    let tests = read_tests(file)?;
+    let (before, nuisance) = residuals(&tests, machine)?;
+    let points = before.len();
+    let k = unknowns.len();
+    let dof = points.checked_sub(k + nuisance).filter(|&d| d > 0).ok_or_else(|| {
+        CalibrateError::Parameter(format!(
+            "{points} measured points cannot determine {k} unknowns besides {nuisance} zeros and circles"
+        ))
+    })?;
+    let (current, r, j) = gauss_newton(machine, &tests, &unknowns, before.clone())?;
+    let sigma2 = r.norm_squared() / dof as f64;
+    let normal = j.transpose() * &j;
+    let covariance = normal
+        .try_inverse()
+        .ok_or_else(|| CalibrateError::Parameter("the normal equations are singular".into()))?
+        * sigma2;
+    let estimates = unknowns
+        .iter()
+        .enumerate()
+        .map(|(c, u)| Estimate {
+            name: u.name(),
+            unit: u.unit().into(),
+            initial: u.get(machine),
+            value: u.get(&current),
+            uncertainty: covariance[(c, c)].max(0.0).sqrt(),
+        })
+        .collect();
+    Ok(FitReport {
+        estimates,
+        points,
+        degrees_of_freedom: dof,
+        rms_before_mm: rms(&before),
+        rms_after_mm: rms(r.as_slice()),
+        machine: current,
+    })
+}
+
+/// Every test of the file with its measured results, read once.
+fn read_tests(file: &FitFile) -> Result<Vec<Test<'_>>, CalibrateError> {
     let missing = |kind: &str, n: usize| {
         CalibrateError::Parameter(format!(
             "[[{kind}]] number {}: give the measured results (`csv = \"...\"`)",
@@ -262,25 +301,27 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
                 .into(),
         ));
     }
+    Ok(tests)
+}
 
-    let mut current = machine.clone();
-    let (before, nuisance) = residuals(&tests, &current)?;
+/// Gauss-Newton from the machine as given, with central-difference derivatives: the machine
+/// with the estimates, the residuals there and their Jacobian in the unknowns.
+fn gauss_newton(
+    machine: &Machine,
+    tests: &[Test],
+    unknowns: &[LocationError],
+    before: Vec<f64>,
+) -> Result<(Machine, DVector<f64>, DMatrix<f64>), CalibrateError> {
     let points = before.len();
-    let k = unknowns.len();
-    let dof = points.checked_sub(k + nuisance).filter(|&d| d > 0).ok_or_else(|| {
-        CalibrateError::Parameter(format!(
-            "{points} measured points cannot determine {k} unknowns besides {nuisance} zeros and circles"
-        ))
-    })?;
     let jacobian_at = |m: &Machine| -> Result<DMatrix<f64>, CalibrateError> {
-        let mut j = DMatrix::zeros(points, k);
+        let mut j = DMatrix::zeros(points, unknowns.len());
         for (c, u) in unknowns.iter().enumerate() {
             let (value, h) = (u.get(m), u.step());
             let mut plus = m.clone();
             u.set(&mut plus, value + h);
             let mut minus = m.clone();
             u.set(&mut minus, value - h);
-            let (rp, rm) = (residuals(&tests, &plus)?.0, residuals(&tests, &minus)?.0);
+            let (rp, rm) = (residuals(tests, &plus)?.0, residuals(tests, &minus)?.0);
             for r in 0..points {
                 // r = measured − predicted, so ∂predicted/∂p = −∂r/∂p.
                 j[(r, c)] = -(rp[r] - rm[r]) / (2.0 * h);
@@ -288,10 +329,11 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
         }
         Ok(j)
     };
-    let mut r = DVector::from_vec(before.clone());
+    let mut current = machine.clone();
+    let mut r = DVector::from_vec(before);
     let mut j = jacobian_at(&current)?;
     for _ in 0..10 {
-        check_observable(&j, &unknowns)?;
+        check_observable(&j, unknowns)?;
         let step = j
             .clone()
             .svd(true, true)
@@ -301,7 +343,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
             let value = u.get(&current);
             u.set(&mut current, value + step[c]);
         }
-        r = DVector::from_vec(residuals(&tests, &current)?.0);
+        r = DVector::from_vec(residuals(tests, &current)?.0);
         j = jacobian_at(&current)?;
         let small = unknowns
             .iter()
@@ -311,31 +353,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
             break;
         }
     }
-    let sigma2 = r.norm_squared() / dof as f64;
-    let normal = j.transpose() * &j;
-    let covariance = normal
-        .try_inverse()
-        .ok_or_else(|| CalibrateError::Parameter("the normal equations are singular".into()))?
-        * sigma2;
-    let estimates = unknowns
-        .iter()
-        .enumerate()
-        .map(|(c, u)| Estimate {
-            name: u.name(),
-            unit: u.unit().into(),
-            initial: u.get(machine),
-            value: u.get(&current),
-            uncertainty: covariance[(c, c)].max(0.0).sqrt(),
-        })
-        .collect();
-    Ok(FitReport {
-        estimates,
-        points,
-        degrees_of_freedom: dof,
-        rms_before_mm: rms(&before),
-        rms_after_mm: rms(r.as_slice()),
-        machine: current,
-    })
+    Ok((current, r, j))
 }
 
 /// Every unknown must move the measurements, and no two the same way.

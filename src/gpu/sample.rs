@@ -38,8 +38,8 @@ impl GpuSampler {
         self.gpu.is_software()
     }
 
-    /// Samples the field of grid `dims` in `cells` (found on the host, see [`GridCell`]). `field[p]` holds the six values of grid
-    /// point `p = i + nx·(j + ny·k)`; every point's cell must lie in the grid (the host checks
+    /// Samples the field of grid `dims` in `cells` (found on the host, see [`GridCell`]).
+    /// `field[p]` holds the six values of grid point `p = i + nx·(j + ny·k)`; every point's cell must lie in the grid (the host checks
     /// positions before it builds them). `max_slab_bytes` caps the field bytes held on the
     /// device at once, below the device's own limit.
     pub fn sample(
@@ -107,45 +107,50 @@ impl GpuSampler {
                     dims: [nx as u32, ny as u32, nz as u32, 0],
                     range: [first_plane as u32, 0, batch.len() as u32, 0],
                 };
-                let bytes = batch.len() as u64 * SAMPLE_BYTES;
-                let params = self
-                    .gpu
-                    .uniform("sample params", bytemuck::bytes_of(&params));
-                let point_buffer = self
-                    .gpu
-                    .storage("sample points", bytemuck::cast_slice(&batch_points));
-                let output = self.gpu.output("samples", bytes);
-                let staging = self.gpu.staging("samples staging", bytes);
-                let bindings = self.gpu.bind(
-                    &self.kernel,
-                    &[
-                        (0, &params),
-                        (1, &field_buffer),
-                        (2, &point_buffer),
-                        (3, &output),
-                    ],
-                );
-                let submission = self.gpu.submit(
-                    &[Pass {
-                        kernel: &self.kernel,
-                        bindings: &bindings,
-                        workgroups: [(batch.len() as u64).div_ceil(WORKGROUP) as u32, 1, 1],
-                    }],
-                    Some(Readback {
-                        from: &output,
-                        to: &staging,
-                        bytes,
-                    }),
-                );
-                self.gpu.read(submission, &staging, bytes, |data| {
-                    let values: &[[f32; VALUES]] = bytemuck::cast_slice(data);
-                    for (&n, v) in batch.iter().zip(values) {
-                        samples[n] = *v;
-                    }
-                })?;
+                let values = self.dispatch(&params, &field_buffer, &batch_points)?;
+                for (&n, v) in batch.iter().zip(values) {
+                    samples[n] = v;
+                }
             }
         }
         Ok(samples)
+    }
+
+    /// One dispatch of the kernel over `points`, all in the slab `field` holds.
+    fn dispatch(
+        &self,
+        params: &SampleParams,
+        field: &device::Buffer,
+        points: &[SamplePoint],
+    ) -> Result<Vec<[f32; VALUES]>, GpuError> {
+        let bytes = points.len() as u64 * SAMPLE_BYTES;
+        let params = self
+            .gpu
+            .uniform("sample params", bytemuck::bytes_of(params));
+        let point_buffer = self
+            .gpu
+            .storage("sample points", bytemuck::cast_slice(points));
+        let output = self.gpu.output("samples", bytes);
+        let staging = self.gpu.staging("samples staging", bytes);
+        let bindings = self.gpu.bind(
+            &self.kernel,
+            &[(0, &params), (1, field), (2, &point_buffer), (3, &output)],
+        );
+        let submission = self.gpu.submit(
+            &[Pass {
+                kernel: &self.kernel,
+                bindings: &bindings,
+                workgroups: [(points.len() as u64).div_ceil(WORKGROUP) as u32, 1, 1],
+            }],
+            Some(Readback {
+                from: &output,
+                to: &staging,
+                bytes,
+            }),
+        );
+        self.gpu.read(submission, &staging, bytes, |data| {
+            bytemuck::cast_slice::<u8, [f32; VALUES]>(data).to_vec()
+        })
     }
 }
 

@@ -189,6 +189,16 @@ impl Machine {
     }
 }
 
+/// The keys of an error value given as a table, before they are checked against each other.
+struct ErrorSpec {
+    poly: Option<Vec<f64>>,
+    nodes: Option<Vec<(f64, f64)>>,
+    csv: Option<String>,
+    column: Option<String>,
+    interp: Interp,
+    periodic: bool,
+}
+
 struct Reader {
     file: String,
     csv_base: Option<PathBuf>,
@@ -338,25 +348,80 @@ impl Reader {
         path: &str,
         value: &toml::Value,
     ) -> Result<ErrorFunction, MachineError> {
-        let spec = match value {
+        let table = match value {
             toml::Value::Table(t) => t,
             _ => return Ok(ErrorFunction::Constant(self.number(path, value)?)),
         };
-        let mut poly = None;
-        let mut nodes = None;
-        let mut csv = None;
-        let mut column = None;
-        let mut interp = Interp::Linear;
-        let mut periodic = false;
-        for (key, v) in spec {
+        let spec = self.error_spec(letter, path, table)?;
+        let sources = [
+            spec.poly.is_some(),
+            spec.nodes.is_some(),
+            spec.csv.is_some(),
+        ]
+        .iter()
+        .filter(|&&b| b)
+        .count();
+        if sources != 1 {
+            return Err(self.key_error(path, "give exactly one of `poly`, `table` or `csv`"));
+        }
+        if spec.column.is_some() && spec.csv.is_none() {
+            return Err(self.key_error(&format!("{path}.column"), "`column` goes with `csv`"));
+        }
+        if let Some(coefficients) = spec.poly {
+            if table.contains_key("interp") || table.contains_key("periodic") {
+                return Err(self.key_error(
+                    path,
+                    "`interp` and `periodic` apply to tables, not to `poly`",
+                ));
+            }
+            return Ok(ErrorFunction::Poly(coefficients));
+        }
+        let nodes = match (spec.nodes, spec.csv) {
+            (Some(nodes), _) => nodes,
+            (None, Some(csv)) => {
+                let column = spec.column.unwrap_or_else(|| column_default.to_string());
+                self.csv_column(path, &csv, &column)?
+            }
+            (None, None) => unreachable!("one source is present"),
+        };
+        Table::new(nodes, spec.interp, spec.periodic)
+            .map(ErrorFunction::Table)
+            .map_err(|source| MachineError::Table {
+                file: self.file.clone(),
+                key: path.to_string(),
+                source,
+            })
+    }
+
+    /// The keys of an error value's table, each checked on its own.
+    fn error_spec(
+        &self,
+        letter: AxisLetter,
+        path: &str,
+        table: &toml::Table,
+    ) -> Result<ErrorSpec, MachineError> {
+        let mut spec = ErrorSpec {
+            poly: None,
+            nodes: None,
+            csv: None,
+            column: None,
+            interp: Interp::Linear,
+            periodic: false,
+        };
+        for (key, v) in table {
             let sub = format!("{path}.{key}");
+            let text = |what: &str| {
+                v.as_str()
+                    .map(str::to_string)
+                    .ok_or_else(|| self.key_error(&sub, format!("expected a {what}")))
+            };
             match key.as_str() {
                 "poly" => {
                     let array = v
                         .as_array()
                         .filter(|a| !a.is_empty())
                         .ok_or_else(|| self.key_error(&sub, "expected a non-empty array of coefficients [c0, c1, …]"))?;
-                    poly = Some(array.iter().map(|c| self.number(&sub, c)).collect::<Result<Vec<_>, _>>()?);
+                    spec.poly = Some(array.iter().map(|c| self.number(&sub, c)).collect::<Result<Vec<_>, _>>()?);
                 }
                 "table" => {
                     let rows = v
@@ -367,31 +432,19 @@ impl Reader {
                         let [q, e] = self.numbers::<2>(&format!("{sub}[{r}]"), row)?;
                         parsed.push((q, e));
                     }
-                    nodes = Some(parsed);
+                    spec.nodes = Some(parsed);
                 }
-                "csv" => {
-                    csv = Some(
-                        v.as_str()
-                            .ok_or_else(|| self.key_error(&sub, "expected a file name"))?
-                            .to_string(),
-                    )
-                }
-                "column" => {
-                    column = Some(
-                        v.as_str()
-                            .ok_or_else(|| self.key_error(&sub, "expected a column name"))?
-                            .to_string(),
-                    )
-                }
+                "csv" => spec.csv = Some(text("file name")?),
+                "column" => spec.column = Some(text("column name")?),
                 "interp" => {
                     let name = v.as_str().unwrap_or("");
-                    interp = Interp::parse(name).ok_or_else(|| {
+                    spec.interp = Interp::parse(name).ok_or_else(|| {
                         self.key_error(&sub, format!("unknown interpolation `{v}`: use \"linear\", \"quadratic\" or \"cubic\""))
                     })?;
                 }
                 "periodic" => {
-                    periodic = v.as_bool().ok_or_else(|| self.key_error(&sub, "expected true or false"))?;
-                    if periodic && letter.is_linear() {
+                    spec.periodic = v.as_bool().ok_or_else(|| self.key_error(&sub, "expected true or false"))?;
+                    if spec.periodic && letter.is_linear() {
                         return Err(self.key_error(&sub, "only rotary axes (A, B, C) have periodic tables"));
                     }
                 }
@@ -403,40 +456,7 @@ impl Reader {
                 }
             }
         }
-        let sources = [poly.is_some(), nodes.is_some(), csv.is_some()]
-            .iter()
-            .filter(|&&b| b)
-            .count();
-        if sources != 1 {
-            return Err(self.key_error(path, "give exactly one of `poly`, `table` or `csv`"));
-        }
-        if column.is_some() && csv.is_none() {
-            return Err(self.key_error(&format!("{path}.column"), "`column` goes with `csv`"));
-        }
-        if let Some(coefficients) = poly {
-            if spec.contains_key("interp") || spec.contains_key("periodic") {
-                return Err(self.key_error(
-                    path,
-                    "`interp` and `periodic` apply to tables, not to `poly`",
-                ));
-            }
-            return Ok(ErrorFunction::Poly(coefficients));
-        }
-        let nodes = match (nodes, csv) {
-            (Some(nodes), _) => nodes,
-            (None, Some(csv)) => {
-                let column = column.unwrap_or_else(|| column_default.to_string());
-                self.csv_column(path, &csv, &column)?
-            }
-            (None, None) => unreachable!("one source is present"),
-        };
-        Table::new(nodes, interp, periodic)
-            .map(ErrorFunction::Table)
-            .map_err(|source| MachineError::Table {
-                file: self.file.clone(),
-                key: path.to_string(),
-                source,
-            })
+        Ok(spec)
     }
 
     /// Reads `(position, value)` rows from a CSV file: one header row, first column the position.

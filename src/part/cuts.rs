@@ -4,7 +4,7 @@
 
 use nalgebra::Vector3;
 
-use super::file::PartFile;
+use super::file::{PartFile, Wall};
 use super::tolerance::ToleranceError;
 use super::FeatureError;
 use crate::io::field::LoadedField;
@@ -121,12 +121,15 @@ impl Evaluator<'_> {
     pub(super) fn wall_cuts(
         &self,
         name: &str,
-        start: [f64; 3],
-        direction_deg: f64,
-        length: f64,
-        depth: f64,
-        normal_left: bool,
+        wall: &Wall,
     ) -> Result<(Vector3<f64>, Vec<Cut>), FeatureError> {
+        let Wall {
+            start_mm: start,
+            direction_deg,
+            length_mm: length,
+            depth_mm: depth,
+            normal_left,
+        } = *wall;
         let spacing = self.part.sampling.spacing_mm;
         let a = Vector3::z();
         let along = self.part.direction(direction_deg);

@@ -111,24 +111,9 @@ impl Evaluator<'_> {
                 let shift = datum_shift(planes.iter().map(|d| datums.planes[d]));
                 self.hole_position(name, *centre_mm, *diameter_mm, *depth_mm, shift)?
             }
-            FeatureSpec::RibPosition {
-                start_mm,
-                direction_deg,
-                length_mm,
-                depth_mm,
-                normal_left,
-                datums: planes,
-                ..
-            } => {
+            FeatureSpec::RibPosition { datums: planes, .. } => {
                 let shift = datum_shift(planes.iter().map(|d| datums.planes[d]));
-                let (normal, cuts) = self.wall_cuts(
-                    name,
-                    *start_mm,
-                    *direction_deg,
-                    *length_mm,
-                    *depth_mm,
-                    *normal_left,
-                )?;
+                let (normal, cuts) = self.wall_cuts(name, &feature.wall().expect("a wall"))?;
                 rib_position(&cuts, normal.dot(&shift))
             }
             FeatureSpec::EndMilledPlane {
@@ -150,22 +135,8 @@ impl Evaluator<'_> {
                     .expect("cuts");
                 (c.deviation.abs(), c.cutter.into(), None)
             }
-            FeatureSpec::FlankMilledPlane {
-                start_mm,
-                direction_deg,
-                length_mm,
-                depth_mm,
-                normal_left,
-                ..
-            } => {
-                let (normal, cuts) = self.wall_cuts(
-                    name,
-                    *start_mm,
-                    *direction_deg,
-                    *length_mm,
-                    *depth_mm,
-                    *normal_left,
-                )?;
+            FeatureSpec::FlankMilledPlane { .. } => {
+                let (normal, cuts) = self.wall_cuts(name, &feature.wall().expect("a wall"))?;
                 datums
                     .planes
                     .insert(name.to_string(), (normal, mean_deviation(&cuts)));

@@ -152,7 +152,48 @@ pub enum FeatureSpec {
     },
 }
 
+/// A wall as the cutter's side machines it: from `start_mm` (its bottom) along `direction_deg`
+/// (in the part's xy plane) for `length_mm`, `depth_mm` high, its outward normal to the left of
+/// the direction when `normal_left`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wall {
+    pub start_mm: [f64; 3],
+    pub direction_deg: f64,
+    pub length_mm: f64,
+    pub depth_mm: f64,
+    pub normal_left: bool,
+}
+
 impl FeatureSpec {
+    /// The wall of a flank-milled plane or a rib's side.
+    pub fn wall(&self) -> Option<Wall> {
+        match *self {
+            FeatureSpec::FlankMilledPlane {
+                start_mm,
+                direction_deg,
+                length_mm,
+                depth_mm,
+                normal_left,
+                ..
+            }
+            | FeatureSpec::RibPosition {
+                start_mm,
+                direction_deg,
+                length_mm,
+                depth_mm,
+                normal_left,
+                ..
+            } => Some(Wall {
+                start_mm,
+                direction_deg,
+                length_mm,
+                depth_mm,
+                normal_left,
+            }),
+            _ => None,
+        }
+    }
+
     pub fn name(&self) -> &str {
         match self {
             FeatureSpec::EndMilledPlane { name, .. }

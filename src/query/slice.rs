@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use super::QueryError;
-use crate::io::field::FieldReader;
+use crate::io::field::{FieldInfo, FieldReader};
 use crate::model::channels::CHANNELS;
 
 /// A plane of a field for a colour map: `values[r * cols + c]`, row 0 at the low end of the
@@ -80,63 +80,22 @@ pub fn field_slice(
     let (channels, magnitude, unit) = parsed.channels();
     let mut reader = FieldReader::open(path)?;
     let info = reader.info().clone();
-    let [nx, ny, nz] = info.dims;
-    let n = info.dims[d];
-    let index = match at {
-        None => n / 2,
-        Some(q) => {
-            let (origin, step) = (info.origin_mm[d], info.spacing_mm[d]);
-            let end = origin + (n - 1) as f64 * step;
-            if q < origin.min(end) - 1e-9 || q > origin.max(end) + 1e-9 {
-                return Err(QueryError::SliceOutside {
-                    axis: ['X', 'Y', 'Z'][d],
-                    at: q,
-                    lo: origin,
-                    hi: end,
-                });
-            }
-            if step > 0.0 {
-                ((q - origin) / step).round() as usize
-            } else {
-                0
-            }
-            .min(n - 1)
-        }
-    };
+    let index = plane_index(&info, d, at)?;
     let (h, v) = match d {
         0 => (1, 2),
         1 => (0, 2),
         _ => (0, 1),
     };
     let (cols, rows) = (info.dims[h], info.dims[v]);
-    let mut values = vec![0.0; cols * rows];
-    let mut line = vec![0.0f32; CHANNELS.len() * nx];
-    let value_at = |line: &[f32], i: usize| -> f64 {
+    let values = read_plane(&mut reader, d, index, |line, i| {
+        let nx = info.dims[0];
         let parts = channels.iter().map(|&c| line[c * nx + i] as f64);
         if magnitude {
             parts.map(|x| x * x).sum::<f64>().sqrt()
         } else {
             parts.sum()
         }
-    };
-    for k in 0..nz {
-        for j in 0..ny {
-            let wanted = match d {
-                0 => true,
-                1 => j == index,
-                _ => k == index,
-            };
-            if !wanted {
-                continue;
-            }
-            reader.read_line((k * ny + j) as u64, &mut line)?;
-            match d {
-                0 => values[k * cols + j] = value_at(&line, index),
-                1 => (0..nx).for_each(|i| values[k * cols + i] = value_at(&line, i)),
-                _ => (0..nx).for_each(|i| values[j * cols + i] = value_at(&line, i)),
-            }
-        }
-    }
+    })?;
     let axis = ['X', 'Y', 'Z'];
     let span = |a: usize| {
         let o = info.origin_mm[a];
@@ -163,4 +122,62 @@ pub fn field_slice(
         values,
         unit: unit.to_string(),
     })
+}
+
+/// The grid plane across dimension `d` nearest to `at` (mm; default the middle).
+fn plane_index(info: &FieldInfo, d: usize, at: Option<f64>) -> Result<usize, QueryError> {
+    let n = info.dims[d];
+    let Some(q) = at else {
+        return Ok(n / 2);
+    };
+    let (origin, step) = (info.origin_mm[d], info.spacing_mm[d]);
+    let end = origin + (n - 1) as f64 * step;
+    if q < origin.min(end) - 1e-9 || q > origin.max(end) + 1e-9 {
+        return Err(QueryError::SliceOutside {
+            axis: ['X', 'Y', 'Z'][d],
+            at: q,
+            lo: origin,
+            hi: end,
+        });
+    }
+    Ok(if step > 0.0 {
+        ((q - origin) / step).round() as usize
+    } else {
+        0
+    }
+    .min(n - 1))
+}
+
+/// The values of plane `index` across dimension `d`, `value_at(line, i)` at each of its points,
+/// row by row; only the lines the plane crosses are read.
+fn read_plane(
+    reader: &mut FieldReader,
+    d: usize,
+    index: usize,
+    value_at: impl Fn(&[f32], usize) -> f64,
+) -> Result<Vec<f64>, QueryError> {
+    let [nx, ny, nz] = reader.info().dims;
+    let cols = if d == 0 { ny } else { nx };
+    let rows = if d == 2 { ny } else { nz };
+    let mut values = vec![0.0; cols * rows];
+    let mut line = vec![0.0f32; CHANNELS.len() * nx];
+    for k in 0..nz {
+        for j in 0..ny {
+            let wanted = match d {
+                0 => true,
+                1 => j == index,
+                _ => k == index,
+            };
+            if !wanted {
+                continue;
+            }
+            reader.read_line((k * ny + j) as u64, &mut line)?;
+            match d {
+                0 => values[k * cols + j] = value_at(&line, index),
+                1 => (0..nx).for_each(|i| values[k * cols + i] = value_at(&line, i)),
+                _ => (0..nx).for_each(|i| values[j * cols + i] = value_at(&line, i)),
+            }
+        }
+    }
+    Ok(values)
 }

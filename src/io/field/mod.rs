@@ -52,7 +52,7 @@ impl Classify for FieldError {
 }
 
 /// What a field file says about itself, stored as header attributes.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct FieldInfo {
     /// Grid points along X, Y, Z (`volmap.dims`, v3i).
     pub dims: [usize; 3],

@@ -67,6 +67,142 @@ fn f64s<const N: usize>(b: &[u8]) -> [f64; N] {
     std::array::from_fn(|n| f64::from_le_bytes(b[8 * n..8 * n + 8].try_into().unwrap_or([0; 8])))
 }
 
+/// The header attributes volmap checks besides its own: the channels with their pixel types, the
+/// compression, the data window.
+#[derive(Default)]
+struct ImageAttributes {
+    channels: Vec<(String, Option<i32>)>,
+    compression: Option<u8>,
+    window: Option<[i32; 4]>,
+}
+
+impl Cursor<'_> {
+    /// Reads the header's attributes up to the empty name that ends them.
+    fn header(&mut self) -> Result<(FieldInfo, ImageAttributes), FieldError> {
+        let mut info = FieldInfo::default();
+        let mut image = ImageAttributes::default();
+        loop {
+            let name = self.text()?;
+            if name.is_empty() {
+                return Ok((info, image));
+            }
+            let kind = self.text()?;
+            let size = self.u32()? as usize;
+            if size > 1 << 30 {
+                return Err(self.format(format!("attribute {name} claims {size} bytes")));
+            }
+            let value = self.bytes(size)?;
+            self.attribute(&name, &kind, &value, &mut info, &mut image)?;
+        }
+    }
+
+    /// One attribute into the field's info or the image attributes; others are skipped.
+    fn attribute(
+        &self,
+        name: &str,
+        kind: &str,
+        value: &[u8],
+        info: &mut FieldInfo,
+        image: &mut ImageAttributes,
+    ) -> Result<(), FieldError> {
+        let string = || String::from_utf8_lossy(value).into_owned();
+        let need = |n: usize| {
+            if value.len() == n {
+                Ok(())
+            } else {
+                Err(self.format(format!(
+                    "attribute {name} has {} bytes, expected {n}",
+                    value.len()
+                )))
+            }
+        };
+        let i32_at =
+            |k: usize| i32::from_le_bytes(value[4 * k..4 * k + 4].try_into().unwrap_or([0; 4]));
+        match (name, kind) {
+            ("channels", "chlist") => {
+                let mut rest = value;
+                while let Some(end) = rest.iter().position(|&b| b == 0) {
+                    if end == 0 {
+                        break;
+                    }
+                    let channel = String::from_utf8_lossy(&rest[..end]).into_owned();
+                    let pixel = rest
+                        .get(end + 1..end + 5)
+                        .map(|b| i32::from_le_bytes(b.try_into().unwrap_or([0; 4])));
+                    image.channels.push((channel, pixel));
+                    rest = rest.get(end + 17..).unwrap_or(&[]);
+                }
+            }
+            ("compression", "compression") => image.compression = value.first().copied(),
+            ("dataWindow", "box2i") => {
+                need(16)?;
+                image.window = Some(std::array::from_fn(i32_at));
+            }
+            ("volmap.dims", "v3i") => {
+                need(12)?;
+                info.dims = std::array::from_fn(|d| i32_at(d).max(0) as usize);
+            }
+            ("volmap.origin", "v3d") => {
+                need(24)?;
+                info.origin_mm = f64s::<3>(value);
+            }
+            ("volmap.spacing", "v3d") => {
+                need(24)?;
+                info.spacing_mm = f64s::<3>(value);
+            }
+            ("volmap.pose", "v3d") => {
+                need(24)?;
+                info.pose_deg = f64s::<3>(value);
+            }
+            ("volmap.poseAxes", _) => info.pose_axes = string(),
+            ("volmap.machine", _) => info.machine_name = string(),
+            ("volmap.chain", _) => info.chain = string(),
+            ("volmap.machineToml", _) => info.machine_toml = string(),
+            ("volmap.device", _) => info.device = string(),
+            (n, _) if n.starts_with("volmap.csv.") => info
+                .csv_files
+                .push((n["volmap.csv.".len()..].to_string(), string())),
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Checks that the image is the field volmap writes for `info`: its channels, no
+    /// compression, a data window of the grid's size.
+    fn check_image(&self, info: &FieldInfo, image: &ImageAttributes) -> Result<(), FieldError> {
+        let expected: Vec<(String, Option<i32>)> = CHANNELS
+            .iter()
+            .map(|n| (n.to_string(), Some(PIXEL_FLOAT)))
+            .collect();
+        if image.channels != expected {
+            return Err(self.format(format!(
+                "channels must be FLOAT {}, found {}",
+                CHANNELS.join(" "),
+                image
+                    .channels
+                    .iter()
+                    .map(|(n, _)| n.as_str())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            )));
+        }
+        if image.compression != Some(0) {
+            return Err(self
+                .format("the file is compressed; volmap reads the uncompressed fields it writes"));
+        }
+        let [nx, ny, nz] = info.dims;
+        if info.dims.contains(&0) {
+            return Err(self.format("missing or empty volmap.dims"));
+        }
+        if image.window != Some([0, 0, nx as i32 - 1, (ny * nz) as i32 - 1]) {
+            return Err(self.format(format!(
+                "the data window does not match volmap.dims {nx}x{ny}x{nz}"
+            )));
+        }
+        Ok(())
+    }
+}
+
 impl FieldReader {
     pub fn open(path: &Path) -> Result<FieldReader, FieldError> {
         let display = path.display().to_string();
@@ -83,128 +219,9 @@ impl FieldReader {
         if version & 0xff != 2 || version & (FLAG_TILED | FLAG_DEEP | FLAG_MULTIPART) != 0 {
             return Err(c.format("not a single-part scanline OpenEXR file"));
         }
-        let mut info = FieldInfo {
-            dims: [0; 3],
-            origin_mm: [0.0; 3],
-            spacing_mm: [0.0; 3],
-            pose_deg: [0.0; 3],
-            pose_axes: String::new(),
-            machine_name: String::new(),
-            chain: String::new(),
-            machine_toml: String::new(),
-            csv_files: Vec::new(),
-            device: String::new(),
-        };
-        let mut channels = Vec::new();
-        let mut compression = None;
-        let mut window = None;
-        loop {
-            let name = c.text()?;
-            if name.is_empty() {
-                break;
-            }
-            let kind = c.text()?;
-            let size = c.u32()? as usize;
-            if size > 1 << 30 {
-                return Err(c.format(format!("attribute {name} claims {size} bytes")));
-            }
-            let value = c.bytes(size)?;
-            let string = || String::from_utf8_lossy(&value).into_owned();
-            let need = |n: usize| {
-                if value.len() == n {
-                    Ok(())
-                } else {
-                    Err(FieldError::Format {
-                        path: display.clone(),
-                        what: format!("attribute {name} has {} bytes, expected {n}", value.len()),
-                    })
-                }
-            };
-            match (name.as_str(), kind.as_str()) {
-                ("channels", "chlist") => {
-                    let mut rest = &value[..];
-                    while let Some(end) = rest.iter().position(|&b| b == 0) {
-                        if end == 0 {
-                            break;
-                        }
-                        let channel = String::from_utf8_lossy(&rest[..end]).into_owned();
-                        let pixel = rest
-                            .get(end + 1..end + 5)
-                            .map(|b| i32::from_le_bytes(b.try_into().unwrap_or([0; 4])));
-                        channels.push((channel, pixel));
-                        rest = rest.get(end + 17..).unwrap_or(&[]);
-                    }
-                }
-                ("compression", "compression") => compression = value.first().copied(),
-                ("dataWindow", "box2i") => {
-                    need(16)?;
-                    let v: Vec<i32> = value
-                        .chunks(4)
-                        .map(|b| i32::from_le_bytes(b.try_into().unwrap_or([0; 4])))
-                        .collect();
-                    window = Some([v[0], v[1], v[2], v[3]]);
-                }
-                ("volmap.dims", "v3i") => {
-                    need(12)?;
-                    for d in 0..3 {
-                        info.dims[d] = i32::from_le_bytes(
-                            value[4 * d..4 * d + 4].try_into().unwrap_or([0; 4]),
-                        )
-                        .max(0) as usize;
-                    }
-                }
-                ("volmap.origin", "v3d") => {
-                    need(24)?;
-                    info.origin_mm = f64s::<3>(&value);
-                }
-                ("volmap.spacing", "v3d") => {
-                    need(24)?;
-                    info.spacing_mm = f64s::<3>(&value);
-                }
-                ("volmap.pose", "v3d") => {
-                    need(24)?;
-                    info.pose_deg = f64s::<3>(&value);
-                }
-                ("volmap.poseAxes", _) => info.pose_axes = string(),
-                ("volmap.machine", _) => info.machine_name = string(),
-                ("volmap.chain", _) => info.chain = string(),
-                ("volmap.machineToml", _) => info.machine_toml = string(),
-                ("volmap.device", _) => info.device = string(),
-                (n, _) if n.starts_with("volmap.csv.") => info
-                    .csv_files
-                    .push((n["volmap.csv.".len()..].to_string(), string())),
-                _ => {}
-            }
-        }
-        let expected: Vec<(String, Option<i32>)> = CHANNELS
-            .iter()
-            .map(|n| (n.to_string(), Some(PIXEL_FLOAT)))
-            .collect();
-        if channels != expected {
-            return Err(c.format(format!(
-                "channels must be FLOAT {}, found {}",
-                CHANNELS.join(" "),
-                channels
-                    .iter()
-                    .map(|(n, _)| n.as_str())
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            )));
-        }
-        if compression != Some(0) {
-            return Err(
-                c.format("the file is compressed; volmap reads the uncompressed fields it writes")
-            );
-        }
+        let (info, image) = c.header()?;
+        c.check_image(&info, &image)?;
         let [nx, ny, nz] = info.dims;
-        if info.dims.contains(&0) {
-            return Err(c.format("missing or empty volmap.dims"));
-        }
-        if window != Some([0, 0, nx as i32 - 1, (ny * nz) as i32 - 1]) {
-            return Err(c.format(format!(
-                "the data window does not match volmap.dims {nx}x{ny}x{nz}"
-            )));
-        }
         let lines = ny * nz;
         let file_bytes = c.reader.get_ref().metadata().map(|m| m.len()).unwrap_or(0);
         let header_bytes = c.reader.stream_position().unwrap_or(0);
