@@ -24,7 +24,7 @@ pub fn three_axis() -> Machine {
     .unwrap()
 }
 
-fn circular_spec(plane: &str, radius: f64) -> CircularSpec {
+pub(super) fn circular_spec(plane: &str, radius: f64) -> CircularSpec {
     CircularSpec {
         plane: plane.into(),
         centre_mm: None,
@@ -193,7 +193,7 @@ target_mm,direction,run,deviation_um
 0,-,2,0
 ";
 
-fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+pub(super) fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
     let path = dir.path().join(name);
     std::fs::write(&path, text).unwrap();
     path
@@ -308,7 +308,7 @@ fn r_test_of_an_offset_axis_line() {
     );
 }
 
-fn expect_csv_error<E: CsvCause + std::fmt::Debug>(
+pub(super) fn expect_csv_error<E: CsvCause + std::fmt::Debug>(
     result: Result<impl std::fmt::Debug, E>,
     line: usize,
     words: &str,
@@ -325,7 +325,7 @@ fn expect_csv_error<E: CsvCause + std::fmt::Debug>(
 }
 
 /// The CSV error behind a standards or calibration error.
-trait CsvCause {
+pub(super) trait CsvCause {
     fn csv(&self) -> Option<&CsvError>;
 }
 
@@ -333,15 +333,6 @@ impl CsvCause for StandardsError {
     fn csv(&self) -> Option<&CsvError> {
         match self {
             StandardsError::Csv(e) => Some(e),
-            _ => None,
-        }
-    }
-}
-
-impl CsvCause for volmap::calibrate::CalibrateError {
-    fn csv(&self) -> Option<&CsvError> {
-        match self {
-            volmap::calibrate::CalibrateError::Csv(e) => Some(e),
             _ => None,
         }
     }
@@ -432,321 +423,4 @@ fn bad_measured_data_names_the_file_and_line() {
         setup.travel_box().unwrap().1
     )
     .is_err());
-}
-
-/// Writes a test's predicted curves, with noise, as the measured CSV of its kind.
-fn write_measured(
-    path: &std::path::Path,
-    header: &str,
-    result: &standards::TestResult,
-    noise_mm: f64,
-    rng: &mut super::common::Rng,
-) {
-    let mut text = format!("{header}\n");
-    for (n, position) in result.positions.iter().enumerate() {
-        text += &format!("{position}");
-        for curve in &result.predicted {
-            // Uniform noise with standard deviation `noise_mm`.
-            let e = noise_mm * 3f64.sqrt() * rng.uniform(-1.0, 1.0);
-            text += &format!(",{}", (curve[n] + e) * 1000.0);
-        }
-        text += "\n";
-    }
-    std::fs::write(path, text).unwrap();
-}
-
-const THREE_AXIS_TOML: &str = r#"
-name = "three-axis"
-chain = "FYXFZ"
-[axes.X]
-range = [-400.0, 400.0]
-EXX = { poly = [0.0, 1.0e-5] }
-[axes.Y]
-range = [-300.0, 300.0]
-[axes.Z]
-range = [-250.0, 250.0]
-"#;
-
-#[test]
-fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
-    let dir = tempfile::tempdir().unwrap();
-    let given = Machine::from_toml(THREE_AXIS_TOML, "three-axis.toml", None).unwrap();
-    let truth = [
-        ("EC0Y", Y, 5, 2.0e-5),
-        ("EB0Z", Z, 4, -1.5e-5),
-        ("EA0Z", Z, 3, 1.0e-5),
-    ];
-    let mut machine = given.clone();
-    for &(_, axis, index, value) in &truth {
-        machine.axis_mut(axis).unwrap().location[index] = value;
-    }
-    let setup = Setup::new(&machine, "").unwrap();
-    let mut rng = super::common::Rng(42);
-    let noise = 0.3e-3;
-    let mut fit_toml = String::from("estimate = [\"EC0Y\", \"EB0Z\", \"EA0Z\"]\n");
-    for plane in ["XY", "YZ", "ZX"] {
-        let result = standards::circular(&setup, &circular_spec(plane, 150.0)).unwrap();
-        let name = format!("{plane}.csv");
-        write_measured(
-            &dir.path().join(&name),
-            "angle_deg,deviation_um",
-            &result,
-            noise,
-            &mut rng,
-        );
-        fit_toml += &format!(
-            "[[circular]]\nplane = \"{plane}\"\nradius_mm = 150.0\npoints = 72\ncsv = \"{name}\"\n"
-        );
-    }
-    for diagonal in ["PPP", "NPP", "PNP", "PPN"] {
-        let spec = DiagonalSpec {
-            diagonal: Some(diagonal.into()),
-            from_mm: None,
-            to_mm: None,
-            points: 21,
-            pose: String::new(),
-            csv: None,
-        };
-        let result = standards::diagonal(&setup, &spec).unwrap();
-        let name = format!("{diagonal}.csv");
-        write_measured(
-            &dir.path().join(&name),
-            "position_mm,deviation_um",
-            &result,
-            noise,
-            &mut rng,
-        );
-        fit_toml += &format!("[[diagonal]]\ndiagonal = \"{diagonal}\"\ncsv = \"{name}\"\n");
-    }
-    let fit_path = write(&dir, "fit.toml", &fit_toml);
-    let file = volmap::calibrate::fit::FitFile::read(&fit_path).unwrap();
-    let report = volmap::calibrate::fit::fit(&given, &file).unwrap();
-    assert_eq!(report.points, 3 * 72 + 4 * 21);
-    for (estimate, &(name, _, _, value)) in report.estimates.iter().zip(&truth) {
-        assert_eq!(estimate.name, name);
-        assert_eq!(estimate.initial, 0.0);
-        // Noise of 0.3 µm over arms of 150 mm and more: well below 1 µrad.
-        assert!(
-            estimate.uncertainty > 0.0 && estimate.uncertainty < 1e-6,
-            "{estimate:?}"
-        );
-        assert!(
-            (estimate.value - value).abs() < 4.0 * estimate.uncertainty,
-            "{estimate:?} against {value}"
-        );
-    }
-    // The residual is the noise, no more (uniform noise of σ 0.3 µm).
-    assert!(report.rms_after_mm < 0.4e-3, "{}", report.rms_after_mm);
-    assert!(report.rms_before_mm > 3.0 * report.rms_after_mm);
-    // The machine file with the estimates reads back with them.
-    let text = volmap::calibrate::fit::fitted_machine_toml(&given, &report.estimates).unwrap();
-    let fitted = Machine::from_toml(&text, "fitted.toml", None).unwrap();
-    for (estimate, &(_, axis, index, _)) in report.estimates.iter().zip(&truth) {
-        assert_eq!(fitted.axis(axis).unwrap().location[index], estimate.value);
-    }
-    assert_eq!(
-        fitted.axis(X).unwrap().components,
-        given.axis(X).unwrap().components
-    );
-}
-
-#[test]
-fn fit_recovers_a_rotary_axis_line_from_r_tests() {
-    let dir = tempfile::tempdir().unwrap();
-    let given = Machine::nominal(
-        "table C",
-        "FYXCFZ",
-        &[
-            (X, [-400.0, 400.0]),
-            (Y, [-300.0, 300.0]),
-            (Z, [-250.0, 250.0]),
-            (C, [0.0, 360.0]),
-        ],
-    )
-    .unwrap();
-    let truth = [
-        ("EX0C", 0, 0.006),
-        ("EY0C", 1, -0.004),
-        ("EA0C", 3, 3e-5),
-        ("EB0C", 4, -2e-5),
-    ];
-    let mut machine = given.clone();
-    for &(_, index, value) in &truth {
-        machine.axis_mut(C).unwrap().location[index] = value;
-    }
-    let setup = Setup::new(&machine, "").unwrap();
-    let mut rng = super::common::Rng(7);
-    let mut fit_toml = String::from("estimate = [\"EX0C\", \"EY0C\", \"EA0C\", \"EB0C\"]\n");
-    // Two spheres at different heights separate the tilt of the line from its position.
-    for (n, sphere) in [[150.0, 0.0, 20.0], [150.0, 0.0, 220.0]].iter().enumerate() {
-        let spec = RTestSpec {
-            axis: "C".into(),
-            sphere_mm: Some(*sphere),
-            from_deg: None,
-            to_deg: None,
-            step_deg: 15.0,
-            pose: String::new(),
-            csv: None,
-        };
-        let result = standards::rtest(&setup, &spec).unwrap();
-        let name = format!("r{n}.csv");
-        write_measured(
-            &dir.path().join(&name),
-            "angle_deg,dX_um,dY_um,dZ_um",
-            &result,
-            0.2e-3,
-            &mut rng,
-        );
-        fit_toml += &format!(
-            "[[rtest]]\naxis = \"C\"\nsphere_mm = [{}, {}, {}]\nstep_deg = 15.0\ncsv = \"{name}\"\n",
-            sphere[0], sphere[1], sphere[2]
-        );
-    }
-    let file = volmap::calibrate::fit::FitFile::read(&write(&dir, "fit.toml", &fit_toml)).unwrap();
-    let report = volmap::calibrate::fit::fit(&given, &file).unwrap();
-    for (estimate, &(name, _, value)) in report.estimates.iter().zip(&truth) {
-        assert_eq!(estimate.name, name);
-        assert!(
-            (estimate.value - value).abs() < 4.0 * estimate.uncertainty,
-            "{estimate:?} against {value}"
-        );
-        assert!(estimate.uncertainty < 0.05 * value.abs(), "{estimate:?}");
-    }
-}
-
-#[test]
-fn fit_says_what_the_measurements_cannot_see() {
-    let dir = tempfile::tempdir().unwrap();
-    let machine = three_axis();
-    let setup = Setup::new(&machine, "").unwrap();
-    let result = standards::circular(&setup, &circular_spec("XY", 100.0)).unwrap();
-    write_measured(
-        &dir.path().join("xy.csv"),
-        "angle_deg,deviation_um",
-        &result,
-        0.0,
-        &mut super::common::Rng(1),
-    );
-    let file = |estimate: &str| {
-        let text = format!(
-            "estimate = [{estimate}]\n[[circular]]\nplane = \"XY\"\nradius_mm = 100.0\npoints = 72\ncsv = \"xy.csv\"\n"
-        );
-        volmap::calibrate::fit::FitFile::read(&write(&dir, "fit.toml", &text)).unwrap()
-    };
-    let error = volmap::calibrate::fit::fit(&machine, &file("\"EA0Z\""))
-        .unwrap_err()
-        .to_string();
-    assert!(error.contains("EA0Z does not change"), "{error}");
-    let error = volmap::calibrate::fit::fit(&machine, &file("\"EQ0Z\""))
-        .unwrap_err()
-        .to_string();
-    assert!(error.contains("not a location error"), "{error}");
-    let error = volmap::calibrate::fit::fit(&machine, &file("\"EC0B\""))
-        .unwrap_err()
-        .to_string();
-    assert!(error.contains("no B axis"), "{error}");
-    let unknown = write(&dir, "bad.toml", "estimate = []\nwobble = 1\n");
-    let error = volmap::calibrate::fit::FitFile::read(&unknown)
-        .unwrap_err()
-        .to_string();
-    assert!(
-        error.contains("bad.toml") && error.contains("wobble"),
-        "{error}"
-    );
-}
-
-#[test]
-fn build_chooses_elements_per_component_and_writes_a_machine() {
-    use volmap::calibrate::build;
-    use volmap::model::Interp;
-    let dir = tempfile::tempdir().unwrap();
-    let base_path = write(&dir, "base.toml", THREE_AXIS_TOML);
-    let base = Machine::from_path(&base_path).unwrap();
-    // X: EXX linear in X (every element predicts it: the simplest wins), EBX a parabola
-    // (quadratic elements are exact, 5 nodes). Z: EZZ a sine over 9 nodes (the spline wins).
-    let mut x_csv = String::from("position_mm,EXX_um,EBX_urad\n");
-    for i in 0..5 {
-        let q = -400.0 + 200.0 * i as f64;
-        x_csv += &format!("{q},{},{}\n", 2.0 + 0.01 * q, 3.0 + 1e-4 * q * q);
-    }
-    let mut z_csv = String::from("position_mm,EZZ_mm\n");
-    for i in 0..9 {
-        let q = -250.0 + 62.5 * i as f64;
-        z_csv += &format!("{q},{}\n", 0.004 * (q / 80.0).sin());
-    }
-    let x_path = write(&dir, "x.csv", &x_csv);
-    let z_path = write(&dir, "z.csv", &z_csv);
-    let (text, built) = build::build(&base, &[(X, &x_path), (Z, &z_path)], &[]).unwrap();
-    let chosen: Vec<(&str, &str)> = built
-        .iter()
-        .map(|c| (c.name.as_str(), c.interp.as_str()))
-        .collect();
-    assert_eq!(
-        chosen,
-        [("EXX", "linear"), ("EBX", "quadratic"), ("EZZ", "cubic")],
-        "{built:?}"
-    );
-    let machine = Machine::from_toml(&text, "built.toml", None).unwrap();
-    let x = machine.axis(X).unwrap();
-    for q in [-400.0, -130.0, 0.0, 77.0, 400.0] {
-        let [exx, _, _, _, ebx, _] = x.component_values(q);
-        assert!((exx - (2.0 + 0.01 * q) * 1e-3).abs() < 1e-15, "EXX at {q}");
-        assert!(
-            (ebx - (3.0 + 1e-4 * q * q) * 1e-6).abs() < 1e-15,
-            "EBX at {q}"
-        );
-    }
-    let z = machine.axis(Z).unwrap();
-    for i in 0..9 {
-        let q = -250.0 + 62.5 * i as f64;
-        assert!((z.component_values(q)[2] - 0.004 * (q / 80.0).sin()).abs() < 1e-15);
-    }
-    // Between nodes the spline follows the sine far closer than straight lines would.
-    let worst = (0..200)
-        .map(|i| -250.0 + 2.5 * i as f64)
-        .map(|q| (z.component_values(q)[2] - 0.004 * (q / 80.0).sin()).abs())
-        .fold(0.0, f64::max);
-    assert!(worst < 2e-5, "{worst}");
-    // The base's chain, travels and unmeasured axes stay.
-    assert_eq!(machine.chain, base.chain);
-    assert_eq!(machine.axis(Y), base.axis(Y));
-    // Asked for, an element is used as it is; an even node count cannot be quadratic.
-    let (_, asked) =
-        build::build(&base, &[(Z, &z_path)], &[("EZZ".into(), Interp::Linear)]).unwrap();
-    assert_eq!(
-        (asked[0].interp.as_str(), asked[0].reason.as_str()),
-        ("linear", "asked for")
-    );
-    let even = write(
-        &dir,
-        "even.csv",
-        "position_mm,EZZ_um\n0,1\n10,2\n20,1\n30,0\n",
-    );
-    let error = build::build(&base, &[(Z, &even)], &[("EZZ".into(), Interp::Quadratic)])
-        .unwrap_err()
-        .to_string();
-    assert!(error.contains("odd number of nodes"), "{error}");
-}
-
-#[test]
-fn build_rejects_bad_measurement_files() {
-    use volmap::calibrate::build;
-    let dir = tempfile::tempdir().unwrap();
-    let check = |text: &str, line: usize, words: &str| {
-        let path = write(&dir, "x.csv", text);
-        expect_csv_error(build::read_axis_csv(&path, X), line, words);
-    };
-    check(
-        "position_mm,EXX_um\n0,1\n200,2\n100,3\n",
-        4,
-        "sorted by position",
-    );
-    check("position_mm,EXX_nm\n0,1\n", 1, "unit `nm`");
-    check("position_mm,EYZ_um\n0,1\n", 1, "component error of X");
-    check("position_deg,EXX_um\n0,1\n", 1, "position_mm");
-    check("position_mm,EXX_um\n0,1\n100,x\n", 3, "not a number");
-    check("position_mm,EXX_um\n0,1\n", 1, "at least 2");
-    let missing = dir.path().join("missing.csv");
-    let error = build::read_axis_csv(&missing, X).unwrap_err().to_string();
-    assert!(error.contains("missing.csv"), "{error}");
 }
