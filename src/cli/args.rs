@@ -6,9 +6,11 @@ use std::path::PathBuf;
 
 use clap::ValueEnum;
 use volmap::engine::{DeviceChoice, Engine, EngineError};
+use volmap::gpu::GpuSampler;
 use volmap::io::embedded;
 use volmap::model::grid::{self, Grid};
 use volmap::model::{Command, Machine};
+use volmap::query::{self, QueryError};
 
 use super::failure::{Failure, FlagContext};
 
@@ -98,13 +100,28 @@ impl DeviceArg {
     pub fn engine(&self) -> Result<(Engine, Option<String>), Failure> {
         Engine::select(self.choice()).map_err(|e| {
             let no_adapter = matches!(e, EngineError::NoAdapter);
-            let failure = Failure::from(e).context("--device gpu");
-            if no_adapter {
-                failure.hint("--device auto or --device cpu computes on the CPU")
-            } else {
-                failure
-            }
+            no_gpu(Failure::from(e), no_adapter)
         })
+    }
+
+    /// The GPU sampler `--device` asks for (`None`: sample on the CPU), with a note when
+    /// `auto` finds no adapter.
+    pub fn sampler(&self) -> Result<(Option<GpuSampler>, Option<String>), Failure> {
+        query::open_sampler(self.choice()).map_err(|e| {
+            let no_adapter = matches!(e, QueryError::NoAdapter);
+            no_gpu(Failure::from(e), no_adapter)
+        })
+    }
+}
+
+/// A failure to open the GPU, said to come from `--device gpu`, with the way round it where
+/// there is no adapter.
+fn no_gpu(failure: Failure, no_adapter: bool) -> Failure {
+    let failure = failure.context("--device gpu");
+    if no_adapter {
+        failure.hint("--device auto or --device cpu computes on the CPU")
+    } else {
+        failure
     }
 }
 

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use volmap::io::field::LoadedField;
 use volmap::io::points::{self, QueryPoint};
-use volmap::query::{self, QueryError};
+use volmap::query;
 
 use super::args::{load_machine, DeviceArg, OptionalMachineArg, PoseArg};
 use super::failure::{Failure, FlagContext};
@@ -47,7 +47,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     let samples = match (&loaded, &args.machine.machine) {
         (Some(loaded), _) => {
             let path = args.points.display().to_string();
-            let (sampler, note) = query::open_sampler(args.device.choice()).map_err(device)?;
+            let (sampler, note) = args.device.sampler()?;
             if let Some(note) = note {
                 eprintln!("note: {note}");
             }
@@ -94,15 +94,4 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         }
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// A failure to open the sampler, said to come from `--device`.
-fn device(error: QueryError) -> Failure {
-    let no_adapter = matches!(error, QueryError::NoAdapter);
-    let failure = Failure::from(error).context("--device gpu");
-    if no_adapter {
-        failure.hint("--device auto or --device cpu samples on the CPU")
-    } else {
-        failure
-    }
 }

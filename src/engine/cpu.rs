@@ -4,9 +4,7 @@
 //! exists and when the CPU is asked for.
 
 use nalgebra::Matrix4;
-use rayon::prelude::*;
 
-use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
 use crate::reference::{self, Twin};
@@ -85,44 +83,38 @@ impl CpuPlan {
     /// Computes lines `first_line .. first_line + lines` into `out` (`lines · 6 · nx` values).
     pub fn compute_lines(&self, first_line: u64, lines: u64, out: &mut [f32]) {
         let nx = self.grid.dims[0];
-        let ny = self.grid.dims[1] as u64;
-        out.par_chunks_mut(CHANNELS.len() * nx)
-            .take(lines as usize)
-            .enumerate()
-            .for_each(|(n, line_out)| {
-                let line = first_line + n as u64;
-                let ijk = [0, (line % ny) as usize, (line / ny) as usize];
-                let (mut pre_r, mut pre_i) = (Transform::identity(), Transform::identity());
-                let (mut post_r, mut post_i) = (Transform::identity(), Transform::identity());
-                for (a, table) in self.axes.iter().enumerate() {
-                    let (r, i) = table.at(ijk);
-                    if a < self.x_position {
-                        pre_r *= r;
-                        pre_i *= i;
-                    } else if a > self.x_position {
-                        post_r *= r;
-                        post_i *= i;
-                    }
+        super::par_lines(&self.grid, first_line, lines, out, |[j, k], line_out| {
+            let ijk = [0, j, k];
+            let (mut pre_r, mut pre_i) = (Transform::identity(), Transform::identity());
+            let (mut post_r, mut post_i) = (Transform::identity(), Transform::identity());
+            for (a, table) in self.axes.iter().enumerate() {
+                let (r, i) = table.at(ijk);
+                if a < self.x_position {
+                    pre_r *= r;
+                    pre_i *= i;
+                } else if a > self.x_position {
+                    post_r *= r;
+                    post_i *= i;
                 }
-                post_r *= self.tail_real;
-                post_i *= self.tail_ideal;
-                for i in 0..nx {
-                    let (real, ideal) = match self.axes.get(self.x_position) {
-                        Some(x) => {
-                            let (xr, xi) = x.at([i, 0, 0]);
-                            (pre_r * xr * post_r, pre_i * xi * post_i)
-                        }
-                        None => (pre_r * post_r, pre_i * post_i),
-                    };
-                    let ve = real.fixed_view::<3, 1>(0, 3) - ideal.fixed_view::<3, 1>(0, 3);
-                    let r =
-                        real.fixed_view::<3, 3>(0, 0) * ideal.fixed_view::<3, 3>(0, 0).transpose();
-                    let oe = reference::rotation_vector(&r);
-                    for (c, v) in [oe.x, oe.y, oe.z, ve.x, ve.y, ve.z].iter().enumerate() {
-                        line_out[c * nx + i] = *v as f32;
+            }
+            post_r *= self.tail_real;
+            post_i *= self.tail_ideal;
+            for i in 0..nx {
+                let (real, ideal) = match self.axes.get(self.x_position) {
+                    Some(x) => {
+                        let (xr, xi) = x.at([i, 0, 0]);
+                        (pre_r * xr * post_r, pre_i * xi * post_i)
                     }
+                    None => (pre_r * post_r, pre_i * post_i),
+                };
+                let ve = real.fixed_view::<3, 1>(0, 3) - ideal.fixed_view::<3, 1>(0, 3);
+                let r = real.fixed_view::<3, 3>(0, 0) * ideal.fixed_view::<3, 3>(0, 0).transpose();
+                let oe = reference::rotation_vector(&r);
+                for (c, v) in [oe.x, oe.y, oe.z, ve.x, ve.y, ve.z].iter().enumerate() {
+                    line_out[c * nx + i] = *v as f32;
                 }
-            });
+            }
+        });
     }
 }
 
@@ -131,16 +123,13 @@ pub fn run<E>(
     machine: &Machine,
     grid: &Grid,
     chunk_points: Option<u64>,
-    mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
+    on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
 ) -> Result<(), E> {
     let plan = CpuPlan::new(machine, grid);
-    let chunks = grid.chunks(chunk_points.unwrap_or(CPU_CHUNK_POINTS));
-    let nx = grid.dims[0];
-    let mut buffer = Vec::new();
-    for (first_line, lines) in chunks {
-        buffer.resize(lines as usize * nx * CHANNELS.len(), 0.0f32);
-        plan.compute_lines(first_line, lines, &mut buffer);
-        on_chunk(first_line, lines, &buffer)?;
-    }
-    Ok(())
+    super::run_in_chunks(
+        grid,
+        chunk_points.unwrap_or(CPU_CHUNK_POINTS),
+        |first_line, lines, buffer| plan.compute_lines(first_line, lines, buffer),
+        on_chunk,
+    )
 }

@@ -11,6 +11,7 @@ pub mod reference;
 use crate::error::{Classify, ErrorKind};
 use crate::gpu::{GpuError, GpuMapper};
 use crate::io::field::FieldError;
+use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
 
@@ -95,4 +96,41 @@ impl Engine {
             Engine::Reference => reference::run(machine, grid, chunk_points, on_chunk),
         }
     }
+}
+
+/// Fills the lines `first_line .. first_line + lines` of `out` in parallel, in the chunk layout
+/// (per line, `nx` values of each channel in turn): `line([j, k], values)` writes line `(j, k)`.
+pub(crate) fn par_lines(
+    grid: &Grid,
+    first_line: u64,
+    lines: u64,
+    out: &mut [f32],
+    line: impl Fn([usize; 2], &mut [f32]) + Sync,
+) {
+    use rayon::prelude::*;
+    let ny = grid.dims[1] as u64;
+    out.par_chunks_mut(CHANNELS.len() * grid.dims[0])
+        .take(lines as usize)
+        .enumerate()
+        .for_each(|(n, values)| {
+            let l = first_line + n as u64;
+            line([(l % ny) as usize, (l / ny) as usize], values)
+        });
+}
+
+/// The whole grid in chunks of at most `chunk_points` points: `compute(first_line, lines,
+/// buffer)` fills each, `on_chunk` takes it. The loop of the engines that compute on the host.
+pub(crate) fn run_in_chunks<E>(
+    grid: &Grid,
+    chunk_points: u64,
+    compute: impl Fn(u64, u64, &mut [f32]),
+    mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
+) -> Result<(), E> {
+    let mut buffer = Vec::new();
+    for (first_line, lines) in grid.chunks(chunk_points) {
+        buffer.resize(lines as usize * grid.dims[0] * CHANNELS.len(), 0.0f32);
+        compute(first_line, lines, &mut buffer);
+        on_chunk(first_line, lines, &buffer)?;
+    }
+    Ok(())
 }
