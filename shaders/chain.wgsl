@@ -8,6 +8,11 @@
 // front of this file): VE = d and OE the rotation vector of I + M, never differences of large
 // numbers.
 //
+// A batch of sampled machines (machine design: the base machine with tolerance deviations added)
+// runs the same passes with a sample index: the axis and group passes have one set of entries per
+// sample, the point pass reduces each sample's field to its statistics on the device (points.wgsl),
+// and the positions pass (positions.wgsl) multiplies the whole chain at arbitrary positions.
+//
 // The product is split at X, the axis the grid's lines run along: E_rel = Pre · X(i) · Post, where
 // Pre (the axes before X, then X's location L_X) and Post (the axes after X, then S·Trans(tool))
 // are constant along a line (j, k). Three passes share the work:
@@ -37,7 +42,7 @@ struct Params {
     origin: vec4<f32>,       // commanded X, Y, Z of grid point (0, 0, 0), mm
     spacing: vec4<f32>,      // grid step along X, Y, Z, mm
     grid: vec4<u32>,         // nx, ny, nz, number of axes
-    counts: vec4<u32>,       // axis-value entries, group entries, -, -
+    counts: vec4<u32>,       // axis-value entries, group entries (each per sample), perturbation terms, samples in the batch
     chunk: vec4<u32>,        // first line of the chunk, lines in the chunk, points per lane, lanes per line group
     group_starts: vec4<u32>, // first entry of PA, PB, QA, QB in the group values
     x_motion: vec4<f32>,     // tq at the centre index, tq per index step, centre index (t = i − centre), -
@@ -57,7 +62,7 @@ struct AxisData {
 }
 
 struct Function {
-    pieces: vec4<u32>,  // first piece, piece count, periodic, -
+    pieces: vec4<u32>,  // first piece, piece count, periodic, next function of a sum (NO_FUNCTION: none)
     domain: vec4<f32>,  // lo, hi, -, -
 }
 
@@ -75,11 +80,36 @@ struct DevData {
 }
 
 // One factor of a group: an axis-value entry (FACTOR_AXIS_ENTRY: the axis's first entry, plus j
-// or k when it is indexed by them) or the constant transform it carries (FACTOR_CONSTANT: X's
-// location, S·Trans(tool)).
+// or k when it is indexed by them) or a constant transform (FACTOR_CONSTANT: X's location,
+// CONSTANT_X_LOCATION, or S·Trans(tool), CONSTANT_TAIL, of the machine's row of `constants`).
 struct Factor {
-    info: vec4<u32>,  // source, first axis-value entry, index (INDEX_ONE, INDEX_J, INDEX_K), -
-    value: DevData,
+    info: vec4<u32>,  // source, first axis-value entry or constant, index (INDEX_ONE, INDEX_J, INDEX_K), -
+}
+
+// A tolerance's deviation of a component error of a sampled machine: shape · amplitude, the
+// amplitude from the sample's row of `amplitudes`.
+struct Term {
+    info: vec4<u32>,   // axis (product order), component (0..5), shape (SHAPE_*), amplitude index
+    range: vec4<f32>,  // the axis's travel a, b; -, -
+}
+
+// An axis location of one sampled machine: (EX0k, EY0k, EZ0k) and Rot(EA0k, EB0k, EC0k) − I.
+struct Location {
+    delta: vec4<f32>,
+    m: mat4x4<f32>,
+}
+
+// X's errors of one sampled machine as polynomials in t = i − centre (see Params).
+struct XPoly {
+    translation: array<vec4<f32>, 4>,
+    rotation: array<vec4<f32>, 4>,
+}
+
+// The statistics of one workgroup's points of one sampled machine.
+struct Partial {
+    stats: vec4<f32>,  // max |VE|, Σ |VE|², max |OE|, -
+    axes: vec4<f32>,   // max |VE·x̂|, |VE·ŷ|, |VE·ẑ|, -
+    at: vec4<u32>,     // line and i of the max |VE|, -, -
 }
 
 // One of the GROUP_TABLES tables PA, PB, QA, QB: the product of factors [first, first + count),
@@ -102,6 +132,15 @@ struct Group {
 @group(0) @binding(8) var<storage, read_write> x_errors: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> groups: array<Group>;
 @group(0) @binding(10) var<storage, read> factors: array<Factor>;
+// The constant factors of each machine: X's location and S·Trans(tool), computed on the host in
+// f64 (CONSTANTS_PER_SAMPLE per machine; one machine for a map).
+@group(0) @binding(11) var<storage, read> constants: array<DevData>;
+// Sampled machines: the perturbation terms, each sample's amplitudes (counts.z per sample), axis
+// locations (grid.w per sample), X's polynomials.
+@group(0) @binding(12) var<storage, read> terms: array<Term>;
+@group(0) @binding(13) var<storage, read> amplitudes: array<f32>;
+@group(0) @binding(14) var<storage, read> locations: array<Location>;
+@group(0) @binding(15) var<storage, read> x_polys: array<XPoly>;
 
 // The point pass is compiled per tiling and per shape of machine, so that its loop has no
 // branches on either (a CPU adapter runs both sides of a branch it cannot prove uniform):
@@ -133,61 +172,124 @@ const INDEX_J: u32 = 1u;
 const INDEX_K: u32 = 2u;
 const TABLE_ABSENT: u32 = 3u;
 const GROUP_TABLES: u32 = 4u;
+// The shapes of a tolerance's deviation over the travel [a, b]: s, s·(q − a)/(b − a),
+// 4s·(q − a)(b − q)/(b − a)².
+const SHAPE_CONSTANT: u32 = 0u;
+const SHAPE_LINE: u32 = 1u;
+const SHAPE_BOW: u32 = 2u;
+// A term that deviates no component error (a location or the spindle deviation).
+const TERM_NO_AXIS: u32 = 4294967295u;
+// The constant factors of a sampled machine, per sample in `constants`.
+const CONSTANT_X_LOCATION: u32 = 0u;
+const CONSTANT_TAIL: u32 = 1u;
+const CONSTANTS_PER_SAMPLE: u32 = 2u;
 const PERIOD_DEG: f32 = 360.0;
-// Evaluates error function `index` at position q: wrap (periodic) and clamp into the domain, find
-// the last piece starting at or before q, Horner in q − start.
+// Evaluates error function `index` at position q: for each function of a sum, wrap (periodic)
+// and clamp into its domain, find the last piece starting at or before q, Horner in q − start.
 fn eval_function(index: u32, q_in: f32) -> f32 {
-    if index == NO_FUNCTION {
-        return 0.0;
-    }
-    let f = functions[index];
-    var q = q_in;
-    if f.pieces.z != 0u {
-        let u = q - f.domain.x;
-        q = f.domain.x + (u - PERIOD_DEG * floor(u / PERIOD_DEG));
-    }
-    q = clamp(q, f.domain.x, f.domain.y);
-    var first = f.pieces.x;
-    var n = f.pieces.y;
-    while n > 1u {
-        let half = n / 2u;
-        if pieces[first + half].start <= q {
-            first = first + half;
-            n = n - half;
-        } else {
-            n = half;
+    var total = 0.0;
+    var next = index;
+    while next != NO_FUNCTION {
+        let f = functions[next];
+        next = f.pieces.w;
+        var q = q_in;
+        if f.pieces.z != 0u {
+            let u = q - f.domain.x;
+            q = f.domain.x + (u - PERIOD_DEG * floor(u / PERIOD_DEG));
         }
+        q = clamp(q, f.domain.x, f.domain.y);
+        var first = f.pieces.x;
+        var n = f.pieces.y;
+        while n > 1u {
+            let half = n / 2u;
+            if pieces[first + half].start <= q {
+                first = first + half;
+                n = n - half;
+            } else {
+                n = half;
+            }
+        }
+        let p = pieces[first];
+        let s = q - p.start;
+        var acc = 0.0;
+        for (var k = i32(p.degree); k >= 0; k = k - 1) {
+            let c = p.coefficient + u32(k);
+            acc = acc * s + coefficients[c / 4u][c % 4u];
+        }
+        total = total + acc;
     }
-    let p = pieces[first];
-    let s = q - p.start;
-    var acc = 0.0;
-    for (var k = i32(p.degree); k >= 0; k = k - 1) {
-        let c = p.coefficient + u32(k);
-        acc = acc * s + coefficients[c / 4u][c % 4u];
-    }
-    return acc;
+    return total;
 }
 
-// A_k(q) as nominal part and deviation.
-fn axis_transform(a: AxisData, q: f32) -> Dev {
-    let errors_t = vec3<f32>(
-        eval_function(a.functions_a.x, q),
-        eval_function(a.functions_a.y, q),
-        eval_function(a.functions_a.z, q));
-    let errors_m = rot_deviation(vec3<f32>(
-        eval_function(a.functions_a.w, q),
-        eval_function(a.functions_b.x, q),
-        eval_function(a.functions_b.y, q)));
-    let location_m = mat3x3<f32>(a.location_m[0].xyz, a.location_m[1].xyz, a.location_m[2].xyz);
-    let location = Dev(IDENTITY3, a.offset.xyz, location_m, a.location_delta.xyz);
-    let errors = Dev(IDENTITY3, vec3<f32>(0.0), errors_m, errors_t);
+// An axis's six component errors at q: translations and angles.
+fn component_errors(a: AxisData, q: f32) -> array<vec3<f32>, 2> {
+    return array<vec3<f32>, 2>(
+        vec3<f32>(
+            eval_function(a.functions_a.x, q),
+            eval_function(a.functions_a.y, q),
+            eval_function(a.functions_a.z, q)),
+        vec3<f32>(
+            eval_function(a.functions_a.w, q),
+            eval_function(a.functions_b.x, q),
+            eval_function(a.functions_b.y, q)));
+}
+
+// A tolerance's deviation of shape `shape` and amplitude s at q over the travel [a, b].
+fn deviation_shape(shape: u32, s: f32, range: vec4<f32>, q: f32) -> f32 {
+    let u = (q - range.x) / (range.y - range.x);
+    if shape == SHAPE_LINE {
+        return s * u;
+    }
+    if shape == SHAPE_BOW {
+        return 4.0 * s * u * (1.0 - u);
+    }
+    return s;
+}
+
+// The component errors of axis n of sample `sample` at q: the base machine's plus the sample's
+// deviations.
+fn sampled_errors(a: AxisData, n: u32, sample: u32, q: f32) -> array<vec3<f32>, 2> {
+    var e = component_errors(a, q);
+    for (var t = 0u; t < params.counts.z; t = t + 1u) {
+        let term = terms[t];
+        if term.info.x == n {
+            let s = amplitudes[sample * params.counts.z + term.info.w];
+            let d = deviation_shape(term.info.z, s, term.range, q);
+            let c = term.info.y;
+            if c < 3u {
+                e[0][c] = e[0][c] + d;
+            } else {
+                e[1][c - 3u] = e[1][c - 3u] + d;
+            }
+        }
+    }
+    return e;
+}
+
+// A_k(q) as nominal part and deviation, with the axis located by `location` and its component
+// errors `errors` (translations, angles).
+fn axis_transform_with(a: AxisData, location: Location, errors: array<vec3<f32>, 2>, q: f32) -> Dev {
+    let location_m = mat3x3<f32>(location.m[0].xyz, location.m[1].xyz, location.m[2].xyz);
+    let located = Dev(IDENTITY3, a.offset.xyz, location_m, location.delta.xyz);
+    let error = Dev(IDENTITY3, vec3<f32>(0.0), rot_deviation(errors[1]), errors[0]);
     if a.info.x == KIND_LINEAR {
         let motion = Dev(IDENTITY3, q * a.unit.xyz, ZERO3, vec3<f32>(0.0));
-        return compose(compose(location, motion), errors);
+        return compose(compose(located, motion), error);
     }
     let direction = a.unit[a.info.z];
     let motion = Dev(nominal_rotation(a.info.z, direction * q), vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
-    return compose(compose(location, errors), motion);
+    return compose(compose(located, error), motion);
+}
+
+// A_k(q) of the base machine.
+fn axis_transform(a: AxisData, q: f32) -> Dev {
+    return axis_transform_with(a, Location(a.location_delta, a.location_m), component_errors(a, q), q);
+}
+
+// A_k(q) of axis n (product order) of sample `sample`.
+fn sampled_axis_transform(a: AxisData, n: u32, sample: u32, q: f32) -> Dev {
+    let location = locations[sample * params.grid.w + n];
+    return axis_transform_with(a, location, sampled_errors(a, n, sample, q), q);
 }
 
 fn dev_of(v: DevData) -> Dev {
@@ -215,12 +317,8 @@ fn entry_count(a: AxisData) -> u32 {
     return params.grid[a.info.y];
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let entry = gid.x;
-    if entry >= params.counts.x {
-        return;
-    }
+// The axis and the commanded position of axis-value entry `entry`, or (grid.w, -) past the last.
+fn entry_axis(entry: u32) -> vec2<f32> {
     for (var n = 0u; n < params.grid.w; n = n + 1u) {
         let a = axes[n];
         let first = a.info.w;
@@ -229,21 +327,60 @@ fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if a.info.y != SOURCE_FIXED {
                 q = params.origin[a.info.y] + f32(entry - first) * params.spacing[a.info.y];
             }
-            if a.info.y == 0u {
-                // X enters the point pass as its errors (its location is a factor of Pre); its
-                // entries of axis_values stay unused.
-                let i = entry - first;
-                x_errors[i] = vec4<f32>(
-                    eval_function(a.functions_a.x, q), eval_function(a.functions_a.y, q),
-                    eval_function(a.functions_a.z, q), 0.0);
-                x_errors[params.grid.x + i] = vec4<f32>(
-                    eval_function(a.functions_a.w, q), eval_function(a.functions_b.x, q),
-                    eval_function(a.functions_b.y, q), 0.0);
-            } else {
-                axis_values[entry] = data_of(axis_transform(a, q));
-            }
-            return;
+            return vec2<f32>(f32(n), q);
         }
+    }
+    return vec2<f32>(f32(params.grid.w), 0.0);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn axis_values_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let entry = gid.x;
+    if entry >= params.counts.x {
+        return;
+    }
+    let found = entry_axis(entry);
+    let n = u32(found.x);
+    if n >= params.grid.w {
+        return;
+    }
+    let a = axes[n];
+    let q = found.y;
+    if a.info.y == 0u {
+        // X enters the point pass as its errors (its location is a factor of Pre); its entries of
+        // axis_values stay unused.
+        let i = entry - a.info.w;
+        let e = component_errors(a, q);
+        x_errors[i] = vec4<f32>(e[0], 0.0);
+        x_errors[params.grid.x + i] = vec4<f32>(e[1], 0.0);
+    } else {
+        axis_values[entry] = data_of(axis_transform(a, q));
+    }
+}
+
+// The axis pass of a batch of sampled machines: invocation (entry, sample).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn axis_values_sampled_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let entry = gid.x;
+    let sample = gid.y;
+    if entry >= params.counts.x || sample >= params.counts.w {
+        return;
+    }
+    let found = entry_axis(entry);
+    let n = u32(found.x);
+    if n >= params.grid.w {
+        return;
+    }
+    let a = axes[n];
+    let q = found.y;
+    if a.info.y == 0u {
+        let i = entry - a.info.w;
+        let e = sampled_errors(a, n, sample, q);
+        let base = sample * 2u * params.grid.x;
+        x_errors[base + i] = vec4<f32>(e[0], 0.0);
+        x_errors[base + params.grid.x + i] = vec4<f32>(e[1], 0.0);
+    } else {
+        axis_values[sample * params.counts.x + entry] = data_of(sampled_axis_transform(a, n, sample, q));
     }
 }
 
@@ -259,274 +396,45 @@ fn group_entries(g: Group) -> u32 {
     return params.grid[g.info.z];
 }
 
-fn factor_at(f: Factor, index: u32) -> Dev {
+// Factor f at `index` along its table, for machine `sample` of the batch.
+fn factor_at(f: Factor, index: u32, sample: u32) -> Dev {
     if f.info.x == FACTOR_CONSTANT {
-        return dev_of(f.value);
+        return dev_of(constants[sample * CONSTANTS_PER_SAMPLE + f.info.y]);
     }
-    var entry = f.info.y;
+    var entry = sample * params.counts.x + f.info.y;
     if f.info.z != INDEX_ONE {
         entry = entry + index;
     }
     return dev_of(axis_values[entry]);
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn groups_main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let entry = gid.x;
-    if entry >= params.counts.y {
-        return;
-    }
+// Group entry `entry` of machine `sample` of the batch.
+fn group_entry(entry: u32, sample: u32) {
     for (var s = 0u; s < GROUP_TABLES; s = s + 1u) {
         let g = groups[s];
         let first = g.info.w;
         if entry >= first && entry < first + group_entries(g) {
             var product = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
             for (var f = g.info.x; f < g.info.x + g.info.y; f = f + 1u) {
-                product = compose(product, factor_at(factors[f], entry - first));
+                product = compose(product, factor_at(factors[f], entry - first, sample));
             }
-            group_values[entry] = data_of(product);
+            group_values[sample * params.counts.y + entry] = data_of(product);
             return;
         }
     }
 }
 
-// ---- point pass (per chunk) ----
-
-// Group table `table` (0 PA, 1 PB, 2 QA, 3 QB) at line (j, k), indexed as `index` says.
-fn group_value(table: u32, index: u32, j: u32, k: u32) -> Dev {
-    var entry = params.group_starts[table];
-    if index == INDEX_J {
-        entry = entry + j;
-    } else if index == INDEX_K {
-        entry = entry + k;
-    }
-    return dev_of(group_values[entry]);
-}
-
-fn pre_at(j: u32, k: u32) -> Dev {
-    var pre = group_value(0u, PRE_A, j, k);
-    if PRE_B != TABLE_ABSENT {
-        pre = compose(pre, group_value(1u, PRE_B, j, k));
-    }
-    return pre;
-}
-
-fn post_at(j: u32, k: u32) -> Dev {
-    var post = group_value(2u, POST_A, j, k);
-    if POST_B != TABLE_ABSENT {
-        post = compose(post, group_value(3u, POST_B, j, k));
-    }
-    return post;
-}
-
-// What a line contributes to each of its points (see the top of this file).
-struct LineTerms {
-    p: mat3x3<f32>,
-    c: vec3<f32>,
-    t: vec3<f32>,
-    vb: vec3<f32>,
-    j0: mat3x3<f32>,
-    j1: mat3x3<f32>,
-    j2: mat3x3<f32>,
-    s0: vec3<f32>,
-}
-
-fn line_terms(pre: Dev, post: Dev) -> LineTerms {
-    let ra = pre.r0;
-    let ma = transpose(ra) * pre.m * ra;
-    let mb = post.m;
-    let vb = post.t0 + post.d;
-    let p = IDENTITY3 + ma;
-    let q = transpose(IDENTITY3 + mb);
-    let half_ra = 0.5 * ra;
-    return LineTerms(
-        ra * p,
-        pre.d + ra * (post.d + ma * vb),
-        ra * ma[0],
-        vb,
-        half_ra * mat3x3<f32>(cross(q[0], p[0]), cross(q[0], p[1]), cross(q[0], p[2])),
-        half_ra * mat3x3<f32>(cross(q[1], p[0]), cross(q[1], p[1]), cross(q[1], p[2])),
-        half_ra * mat3x3<f32>(cross(q[2], p[0]), cross(q[2], p[1]), cross(q[2], p[2])),
-        half_ra * skew(ma + mb + ma * mb));
-}
-
-// Line `local` of the chunk as (j, k).
-fn line_jk(local: u32) -> vec2<u32> {
-    let line = params.chunk.x + local;
-    return vec2<u32>(line % params.grid.y, line / params.grid.y);
-}
-
-// X's part of a point: its component errors e (translations) and Mx = Rot(EAX, EBX, ECX) − I, and
-// tq, X's nominal motion along x̂.
-struct XValues {
-    e: vec3<f32>,
-    mx: mat3x3<f32>,
-    tq: f32,
-}
-
-// X's polynomials and motion, read from the uniforms once per invocation: a CPU adapter reloads
-// uniforms at every use otherwise.
-struct XTerms {
-    e0: vec3<f32>,
-    e1: vec3<f32>,
-    e2: vec3<f32>,
-    e3: vec3<f32>,
-    a0: vec3<f32>,
-    a1: vec3<f32>,
-    a2: vec3<f32>,
-    a3: vec3<f32>,
-    motion: vec4<f32>,
-    nx: u32,
-}
-
-fn x_terms() -> XTerms {
-    return XTerms(
-        params.x_translation[0].xyz, params.x_translation[1].xyz,
-        params.x_translation[2].xyz, params.x_translation[3].xyz,
-        params.x_rotation[0].xyz, params.x_rotation[1].xyz,
-        params.x_rotation[2].xyz, params.x_rotation[3].xyz,
-        params.x_motion, params.grid.x);
-}
-
-fn x_values(x: XTerms, i: u32) -> XValues {
-    let t = f32(i) - x.motion.z;
-    var e = x.e0 + t * (x.e1 + t * (x.e2 + t * x.e3));
-    if X_TRANSLATION_TABLE {
-        e = x_errors[i].xyz;
-    }
-    var angles = x.a0 + t * (x.a1 + t * (x.a2 + t * x.a3));
-    if X_ROTATION_TABLE {
-        angles = x_errors[x.nx + i].xyz;
-    }
-    return XValues(e, tiny_rot_deviation(angles), x.motion.x + t * x.motion.y);
-}
-
-// The six channels of the point at `base` (its OE.X; the channels of a line are nx apart).
-fn store(base: u32, nx: u32, oe: vec3<f32>, ve: vec3<f32>) {
-    if base + 5u * nx < arrayLength(&out) {
-        out[base] = oe.x;
-        out[base + nx] = oe.y;
-        out[base + 2u * nx] = oe.z;
-        out[base + 3u * nx] = ve.x;
-        out[base + 4u * nx] = ve.y;
-        out[base + 5u * nx] = ve.z;
-    }
-}
-
-fn store_point(base: u32, nx: u32, line: LineTerms, x: XValues) {
-    let u = x.e + x.mx * line.vb;
-    let ve = line.c + line.p * u + x.tq * line.t;
-    let s = line.s0 + line.j0 * x.mx[0] + line.j1 * x.mx[1] + line.j2 * x.mx[2];
-    store(base, nx, rotation_vector_of_half_skew(s), ve);
-}
-
-// The lines and points an invocation of the point pass (and of the write-only kernel) covers:
-// params.chunk.w lanes share a group of LINES_PER_LANE lines (a power of two up to 64, so that
-// short lines share a workgroup), each lane taking params.chunk.z points along them,
-// params.chunk.w apart. Returns (first line of the group in the chunk, first i).
-fn point_tile(wid: vec3<u32>, lid: vec3<u32>) -> vec2<u32> {
-    let lanes = params.chunk.w;
-    let group = wid.y * (WORKGROUP_SIZE / lanes) + lid.x / lanes;
-    return vec2<u32>(group * LINES_PER_LANE, wid.x * lanes * params.chunk.z + lid.x % lanes);
-}
-
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn points_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
-    let nx = params.grid.x;
-    let lines = params.chunk.y;
-    let tile = point_tile(wid, lid);
-    let first_line = tile.x;
-    let first = tile.y;
-    if first_line >= lines || first >= nx {
-        return;
-    }
-    let stride = params.chunk.w;
-    let points_per_lane = params.chunk.z;
-    // The terms of each line this invocation covers; past the chunk's last line an invocation
-    // repeats that line and writes nothing for it.
-    let lines_here = min(LINES_PER_LANE, lines - first_line);
-    let jk0 = line_jk(first_line);
-    let pre0 = pre_at(jk0.x, jk0.y);
-    let line0 = line_terms(pre0, post_at(jk0.x, jk0.y));
-    var line1 = line0;
-    var line2 = line0;
-    var line3 = line0;
-    if LINES_PER_LANE > 1u {
-        let jk = line_jk(first_line + min(1u, lines_here - 1u));
-        var pre = pre0;
-        if PRE_VARIES {
-            pre = pre_at(jk.x, jk.y);
-        }
-        line1 = line_terms(pre, post_at(jk.x, jk.y));
-    }
-    if LINES_PER_LANE > 2u {
-        let jk2 = line_jk(first_line + min(2u, lines_here - 1u));
-        let jk3 = line_jk(first_line + min(3u, lines_here - 1u));
-        var pre2 = pre0;
-        var pre3 = pre0;
-        if PRE_VARIES {
-            pre2 = pre_at(jk2.x, jk2.y);
-            pre3 = pre_at(jk3.x, jk3.y);
-        }
-        line2 = line_terms(pre2, post_at(jk2.x, jk2.y));
-        line3 = line_terms(pre3, post_at(jk3.x, jk3.y));
-    }
-    let x = x_terms();
-    let line_stride = 6u * nx;
-    let base0 = first_line * line_stride;
-    for (var n = 0u; n < points_per_lane; n = n + 1u) {
-        let i = first + n * stride;
-        if i >= nx {
-            break;
-        }
-        let xv = x_values(x, i);
-        let base = base0 + i;
-        store_point(base, nx, line0, xv);
-        if LINES_PER_LANE > 1u && lines_here > 1u {
-            store_point(base + line_stride, nx, line1, xv);
-        }
-        if LINES_PER_LANE > 2u && lines_here > 2u {
-            store_point(base + 2u * line_stride, nx, line2, xv);
-        }
-        if LINES_PER_LANE > 3u && lines_here > 3u {
-            store_point(base + 3u * line_stride, nx, line3, xv);
-        }
+fn groups_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x < params.counts.y {
+        group_entry(gid.x, 0u);
     }
 }
 
-// The ceiling `volmap bench` measures the chain kernel against: the same dispatch, the same
-// invocations writing the same values of the output with the same stores, computing nothing.
+// The group pass of a batch of sampled machines: invocation (entry, sample).
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn write_only_main(@builtin(workgroup_id) wid: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
-    let nx = params.grid.x;
-    let lines = params.chunk.y;
-    let tile = point_tile(wid, lid);
-    let first_line = tile.x;
-    let first = tile.y;
-    if first_line >= lines || first >= nx {
-        return;
-    }
-    let stride = params.chunk.w;
-    let points_per_lane = params.chunk.z;
-    let lines_here = min(LINES_PER_LANE, lines - first_line);
-    let line_stride = 6u * nx;
-    let base0 = first_line * line_stride;
-    for (var n = 0u; n < points_per_lane; n = n + 1u) {
-        let i = first + n * stride;
-        if i >= nx {
-            break;
-        }
-        let base = base0 + i;
-        let v = vec3<f32>(f32(i));
-        store(base, nx, v, v);
-        if LINES_PER_LANE > 1u && lines_here > 1u {
-            store(base + line_stride, nx, v, v);
-        }
-        if LINES_PER_LANE > 2u && lines_here > 2u {
-            store(base + 2u * line_stride, nx, v, v);
-        }
-        if LINES_PER_LANE > 3u && lines_here > 3u {
-            store(base + 3u * line_stride, nx, v, v);
-        }
+fn groups_sampled_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x < params.counts.y && gid.y < params.counts.w {
+        group_entry(gid.x, gid.y);
     }
 }

@@ -8,52 +8,10 @@ use super::reference;
 use super::{Engine, EngineError};
 use crate::io::field::{FieldInfo, FieldWriter};
 use crate::model::channels::CHANNELS;
+pub use crate::model::statistics::FieldStats;
 use crate::model::grid::Grid;
 use crate::model::Machine;
 use crate::reference::Twin;
-
-/// Statistics of a field, accumulated chunk by chunk.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct FieldStats {
-    pub points: u64,
-    sum_sq_ve: f64,
-    /// The largest |VE|, mm, and the point number where it is.
-    pub max_ve_mm: f64,
-    pub max_ve_point: u64,
-    /// The largest |OE|, rad.
-    pub max_oe_rad: f64,
-}
-
-impl FieldStats {
-    /// Adds a chunk in the field layout (per line, `nx` values of each channel in turn).
-    pub fn add_chunk(&mut self, first_line: u64, lines: u64, nx: usize, data: &[f32]) {
-        let per_line = CHANNELS.len() * nx;
-        for (n, line) in data.chunks_exact(per_line).take(lines as usize).enumerate() {
-            let (oe, ve) = line.split_at(3 * nx);
-            for i in 0..nx {
-                let ve2: f64 = (0..3).map(|c| (ve[c * nx + i] as f64).powi(2)).sum();
-                let oe2: f64 = (0..3).map(|c| (oe[c * nx + i] as f64).powi(2)).sum();
-                self.sum_sq_ve += ve2;
-                let ve_norm = ve2.sqrt();
-                if ve_norm > self.max_ve_mm || self.points == 0 {
-                    self.max_ve_mm = ve_norm;
-                    self.max_ve_point = (first_line + n as u64) * nx as u64 + i as u64;
-                }
-                self.max_oe_rad = self.max_oe_rad.max(oe2.sqrt());
-                self.points += 1;
-            }
-        }
-    }
-
-    /// Root mean square of |VE|, mm.
-    pub fn rms_ve_mm(&self) -> f64 {
-        if self.points == 0 {
-            0.0
-        } else {
-            (self.sum_sq_ve / self.points as f64).sqrt()
-        }
-    }
-}
 
 /// The largest differences between the field and the reference at the checked points.
 #[derive(Debug, Clone, PartialEq)]

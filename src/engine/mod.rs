@@ -7,6 +7,7 @@
 pub mod cpu;
 pub mod map;
 pub mod reference;
+pub mod variants;
 
 use crate::error::{Classify, ErrorKind};
 use crate::gpu::{GpuError, GpuMapper};

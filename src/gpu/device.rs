@@ -268,6 +268,19 @@ impl Gpu {
         }
     }
 
+    /// A storage buffer of `bytes` zero bytes, which the host fills with [`Gpu::write`] and the
+    /// kernels read.
+    pub fn writable(&self, label: &str, bytes: u64) -> Buffer {
+        Buffer {
+            inner: self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+        }
+    }
+
     /// A buffer the host maps to read results.
     pub fn staging(&self, label: &str, bytes: u64) -> Buffer {
         Buffer {

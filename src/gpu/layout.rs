@@ -33,6 +33,16 @@ pub const TABLE_ABSENT: u32 = 3;
 pub const GROUP_TABLES: u32 = 4;
 /// Values per grid point and per sample in the sampling kernel: VE.X VE.Y VE.Z OE.X OE.Y OE.Z.
 pub const SAMPLE_VALUES: u32 = 6;
+/// The shapes of a tolerance's deviation over its axis's travel, [`Term::info`]`[2]`.
+pub const SHAPE_CONSTANT: u32 = 0;
+pub const SHAPE_LINE: u32 = 1;
+pub const SHAPE_BOW: u32 = 2;
+/// [`Term::info`]`[0]` of a term that deviates no component error (a location or the spindle).
+pub const TERM_NO_AXIS: u32 = u32::MAX;
+/// The constant factors of each machine in the `constants` buffer: X's location, S·Trans(tool).
+pub const CONSTANT_X_LOCATION: u32 = 0;
+pub const CONSTANT_TAIL: u32 = 1;
+pub const CONSTANTS_PER_SAMPLE: u32 = 2;
 
 /// A value WGSL declares as a `const` of the same name.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,7 +52,7 @@ pub enum Shared {
 }
 
 /// Every constant the shaders share with this file, by its WGSL name.
-pub const SHARED_CONSTANTS: [(&str, Shared); 14] = [
+pub const SHARED_CONSTANTS: [(&str, Shared); 21] = [
     ("WORKGROUP_SIZE", Shared::U32(WORKGROUP_SIZE)),
     ("NO_FUNCTION", Shared::U32(NO_FUNCTION)),
     ("KIND_LINEAR", Shared::U32(KIND_LINEAR)),
@@ -57,10 +67,17 @@ pub const SHARED_CONSTANTS: [(&str, Shared); 14] = [
     ("SAMPLE_VALUES", Shared::U32(SAMPLE_VALUES)),
     ("PERIOD_DEG", Shared::F32(PERIOD_DEG as f32)),
     ("GROUP_TABLES", Shared::U32(GROUP_TABLES)),
+    ("SHAPE_CONSTANT", Shared::U32(SHAPE_CONSTANT)),
+    ("SHAPE_LINE", Shared::U32(SHAPE_LINE)),
+    ("SHAPE_BOW", Shared::U32(SHAPE_BOW)),
+    ("TERM_NO_AXIS", Shared::U32(TERM_NO_AXIS)),
+    ("CONSTANT_X_LOCATION", Shared::U32(CONSTANT_X_LOCATION)),
+    ("CONSTANT_TAIL", Shared::U32(CONSTANT_TAIL)),
+    ("CONSTANTS_PER_SAMPLE", Shared::U32(CONSTANTS_PER_SAMPLE)),
 ];
 
 /// The size of every struct a shader reads or writes through a buffer, by its WGSL name.
-pub const STRUCT_SIZES: [(&str, usize); 9] = [
+pub const STRUCT_SIZES: [(&str, usize); 13] = [
     ("Params", std::mem::size_of::<Params>()),
     ("AxisData", std::mem::size_of::<AxisData>()),
     ("Function", std::mem::size_of::<Function>()),
@@ -70,6 +87,10 @@ pub const STRUCT_SIZES: [(&str, usize); 9] = [
     ("Group", std::mem::size_of::<Group>()),
     ("SampleParams", std::mem::size_of::<SampleParams>()),
     ("SamplePoint", std::mem::size_of::<SamplePoint>()),
+    ("Term", std::mem::size_of::<Term>()),
+    ("Location", std::mem::size_of::<Location>()),
+    ("XPoly", std::mem::size_of::<XPoly>()),
+    ("Partial", std::mem::size_of::<Partial>()),
 ];
 
 /// A 3×3 matrix in the upper-left of a WGSL `mat4x4<f32>`, column-major.
@@ -85,7 +106,8 @@ pub struct Params {
     pub spacing: [f32; 4],
     /// nx, ny, nz, number of axes.
     pub grid: [u32; 4],
-    /// Axis-value entries, group entries, unused, unused.
+    /// Axis-value entries and group entries (each per machine), perturbation terms, machines in
+    /// the batch (1 for a map).
     pub counts: [u32; 4],
     /// First line of this chunk, lines in this chunk, points per invocation of the point pass,
     /// invocations per group of lines (the point pass's tiling, see `shaders/chain.wgsl`).
@@ -147,7 +169,8 @@ impl AxisData {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct Function {
-    /// First piece, number of pieces, periodic (0/1), unused.
+    /// First piece, number of pieces, periodic (0/1), the next function of a sum
+    /// (`NO_FUNCTION`: none).
     pub pieces: [u32; 4],
     /// Domain `lo`, `hi` (positions clamp into it), unused, unused.
     pub domain: [f32; 4],
@@ -180,32 +203,30 @@ pub struct DevData {
 const _: () = assert!(std::mem::size_of::<DevData>() == 96);
 
 /// One factor of a group: an axis-value entry or a constant transform (X's location,
-/// `S·Trans(tool)`): `struct Factor` in `shaders/chain.wgsl`.
+/// `S·Trans(tool)`) of the machine's row of the `constants` buffer: `struct Factor` in
+/// `shaders/chain.wgsl`.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct Factor {
-    /// Source (`FACTOR_AXIS_ENTRY` or `FACTOR_CONSTANT`), the axis's first axis-value entry,
-    /// how it is indexed (`INDEX_ONE`, `INDEX_J`, `INDEX_K`), unused.
+    /// Source (`FACTOR_AXIS_ENTRY` or `FACTOR_CONSTANT`), the axis's first axis-value entry or the
+    /// constant (`CONSTANT_X_LOCATION`, `CONSTANT_TAIL`), how it is indexed (`INDEX_ONE`,
+    /// `INDEX_J`, `INDEX_K`), unused.
     pub info: [u32; 4],
-    /// The transform itself when the source is `FACTOR_CONSTANT`.
-    pub value: DevData,
 }
-const _: () = assert!(std::mem::size_of::<Factor>() == 16 + 96);
+const _: () = assert!(std::mem::size_of::<Factor>() == 16);
 
 impl Factor {
     /// An axis's entries of the axis-value table from `first_entry` on, indexed by `index`.
     pub fn axis_entry(first_entry: u32, index: u32) -> Factor {
         Factor {
             info: [FACTOR_AXIS_ENTRY, first_entry, index, 0],
-            value: Zeroable::zeroed(),
         }
     }
 
-    /// A constant transform.
-    pub fn constant(value: DevData) -> Factor {
+    /// A constant transform of the machine: `CONSTANT_X_LOCATION` or `CONSTANT_TAIL`.
+    pub fn constant(which: u32) -> Factor {
         Factor {
-            info: [FACTOR_CONSTANT, 0, INDEX_ONE, 0],
-            value,
+            info: [FACTOR_CONSTANT, which, INDEX_ONE, 0],
         }
     }
 
@@ -278,3 +299,51 @@ pub struct SamplePoint {
     pub t: [f32; 4],
 }
 const _: () = assert!(std::mem::size_of::<SamplePoint>() == 32);
+
+/// A tolerance's deviation of a component error of a sampled machine: `struct Term` in
+/// `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct Term {
+    /// Axis (product order), component (0..5), shape (`SHAPE_*`), index of its amplitude in a
+    /// sample's row of amplitudes.
+    pub info: [u32; 4],
+    /// The axis's travel `a`, `b`; unused, unused.
+    pub range: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<Term>() == 32);
+
+/// An axis location of one sampled machine: `struct Location` in `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct Location {
+    /// `(EX0k, EY0k, EZ0k)`, mm.
+    pub delta: [f32; 4],
+    /// `Rot(EA0k, EB0k, EC0k) − I`, computed in f64.
+    pub m: Mat4,
+}
+const _: () = assert!(std::mem::size_of::<Location>() == 80);
+
+/// X's errors of one sampled machine as polynomials in `t = i − centre`: `struct XPoly` in
+/// `shaders/chain.wgsl` (the layout of [`Params::x_translation`] and [`Params::x_rotation`]).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct XPoly {
+    pub translation: [[f32; 4]; 4],
+    pub rotation: [[f32; 4]; 4],
+}
+const _: () = assert!(std::mem::size_of::<XPoly>() == 128);
+
+/// The statistics of one workgroup's points of one sampled machine: `struct Partial` in
+/// `shaders/chain.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct Partial {
+    /// max |VE| (mm; −1 where the workgroup had no point), Σ |VE|², max |OE| (rad), unused.
+    pub stats: [f32; 4],
+    /// max |VE·x̂|, |VE·ŷ|, |VE·ẑ|, unused.
+    pub axes: [f32; 4],
+    /// The grid line and i of the max |VE|, unused, unused.
+    pub at: [u32; 4],
+}
+const _: () = assert!(std::mem::size_of::<Partial>() == 48);

@@ -386,6 +386,8 @@ pub enum ErrorFunction {
     /// `c0 + c1·q + c2·q² + …`, `q` in mm (degrees for rotary axes).
     Poly(Vec<f64>),
     Table(Table),
+    /// The sum of its terms (a machine with a tolerance's deviation added to an error value).
+    Sum(Vec<ErrorFunction>),
 }
 
 impl ErrorFunction {
@@ -394,12 +396,23 @@ impl ErrorFunction {
             ErrorFunction::Constant(c) => *c,
             ErrorFunction::Poly(c) => c.iter().rev().fold(0.0, |acc, ck| acc * q + ck),
             ErrorFunction::Table(t) => t.eval(q),
+            ErrorFunction::Sum(terms) => terms.iter().map(|f| f.eval(q)).sum(),
         }
     }
 
-    pub fn pieces(&self) -> Pieces {
+    /// The function as a sum of terms that are not sums themselves (a non-sum is one term).
+    pub fn terms(&self) -> Vec<&ErrorFunction> {
         match self {
-            ErrorFunction::Constant(c) => Pieces {
+            ErrorFunction::Sum(terms) => terms.iter().flat_map(|f| f.terms()).collect(),
+            other => vec![other],
+        }
+    }
+
+    /// The piecewise-polynomial form of a term; `None` for a sum, whose terms the GPU evaluates
+    /// one by one (see [`ErrorFunction::terms`]).
+    pub fn pieces(&self) -> Option<Pieces> {
+        match self {
+            ErrorFunction::Constant(c) => Some(Pieces {
                 lo: f64::NEG_INFINITY,
                 hi: f64::INFINITY,
                 periodic: false,
@@ -407,8 +420,8 @@ impl ErrorFunction {
                     start: 0.0,
                     coefficients: vec![*c],
                 }],
-            },
-            ErrorFunction::Poly(c) => Pieces {
+            }),
+            ErrorFunction::Poly(c) => Some(Pieces {
                 lo: f64::NEG_INFINITY,
                 hi: f64::INFINITY,
                 periodic: false,
@@ -416,13 +429,14 @@ impl ErrorFunction {
                     start: 0.0,
                     coefficients: c.clone(),
                 }],
-            },
-            ErrorFunction::Table(t) => Pieces {
+            }),
+            ErrorFunction::Table(t) => Some(Pieces {
                 lo: t.q[0],
                 hi: t.q[t.q.len() - 1],
                 periodic: t.periodic,
                 pieces: t.pieces(),
-            },
+            }),
+            ErrorFunction::Sum(_) => None,
         }
     }
 
@@ -432,6 +446,7 @@ impl ErrorFunction {
             ErrorFunction::Constant(c) => *c == 0.0,
             ErrorFunction::Poly(c) => c.iter().all(|&x| x == 0.0),
             ErrorFunction::Table(t) => t.v.iter().all(|&x| x == 0.0),
+            ErrorFunction::Sum(terms) => terms.iter().all(ErrorFunction::is_zero),
         }
     }
 }
@@ -526,7 +541,7 @@ mod tests {
                     continue;
                 };
                 let f = ErrorFunction::Table(t);
-                let p = f.pieces();
+                let p = f.pieces().expect("a table has pieces");
                 for k in 0..1000 {
                     let q = -400.0 + k as f64 * 1.1;
                     assert!(
@@ -537,6 +552,6 @@ mod tests {
             }
         }
         let poly = ErrorFunction::Poly(vec![1e-3, 2e-6, -1e-9]);
-        assert!((poly.eval(500.0) - poly.pieces().eval(500.0)).abs() < 1e-15);
+        assert!((poly.eval(500.0) - poly.pieces().expect("one piece").eval(500.0)).abs() < 1e-15);
     }
 }

@@ -7,6 +7,8 @@ pub mod chain;
 pub mod channels;
 pub mod errorfn;
 pub mod grid;
+pub mod perturbation;
+pub mod statistics;
 
 pub use chain::{AxisLetter, Chain, ChainError};
 pub use errorfn::{ErrorFunction, Interp, Pieces, Table};

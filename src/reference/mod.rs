@@ -42,8 +42,13 @@ pub fn rot_about(u: Vector3<f64>, theta: f64) -> Transform {
 
 /// `L_k = Trans(o_k + (EX0k, EY0k, EZ0k)) · Rot(EA0k, EB0k, EC0k)`: the axis location.
 pub fn location(axis: &Axis) -> Transform {
-    let [ex, ey, ez, ea, eb, ec] = axis.location;
-    let o = Vector3::from(axis.offset_mm);
+    location_at(axis.offset_mm, axis.location)
+}
+
+/// [`location`] of an axis with nominal offset `offset_mm` and location errors `location`.
+pub fn location_at(offset_mm: [f64; 3], location: [f64; 6]) -> Transform {
+    let [ex, ey, ez, ea, eb, ec] = location;
+    let o = Vector3::from(offset_mm);
     trans(o + Vector3::new(ex, ey, ez)) * rot(ea, eb, ec)
 }
 
@@ -61,7 +66,12 @@ pub fn axis_transform(axis: &Axis, q: f64) -> Transform {
 
 /// The spindle error `S = E(EXS, EYS, EZS, EAS, EBS, 0)`.
 pub fn spindle_error(machine: &Machine) -> Transform {
-    let [exs, eys, ezs, eas, ebs] = machine.spindle;
+    spindle_error_at(machine.spindle)
+}
+
+/// [`spindle_error`] of the spindle errors `spindle`.
+pub fn spindle_error_at(spindle: [f64; 5]) -> Transform {
+    let [exs, eys, ezs, eas, ebs] = spindle;
     error_transform([exs, eys, ezs, eas, ebs, 0.0])
 }
 
@@ -72,7 +82,12 @@ pub fn tool_translation(machine: &Machine) -> Transform {
 
 /// `S · Trans(tool)`, the last factors of every chain, as one transform.
 pub fn spindle_and_tool(machine: &Machine) -> Transform {
-    spindle_error(machine) * tool_translation(machine)
+    spindle_and_tool_at(machine.spindle, machine.tool_offset_mm)
+}
+
+/// [`spindle_and_tool`] of the spindle errors `spindle` and the tool offset `tool_mm`.
+pub fn spindle_and_tool_at(spindle: [f64; 5], tool_mm: [f64; 3]) -> Transform {
+    spindle_error_at(spindle) * trans(Vector3::from(tool_mm))
 }
 
 /// `E_rel(q)` of MODEL.md for the machine at the commanded positions.

@@ -18,3 +18,4 @@ mod reference;
 mod shaders;
 mod standards;
 mod tolerance;
+mod variants;

@@ -60,14 +60,62 @@ type Pipelines<K> = Mutex<HashMap<K, Arc<device::Kernel>>>;
 
 /// The chain kernels on an open device.
 pub struct GpuMapper {
-    gpu: Gpu,
+    pub(super) gpu: Gpu,
     axis_values: device::Kernel,
     groups: device::Kernel,
     /// The point pass per variant (its override constants).
     points: Pipelines<PointVariant>,
     /// The write-only ceiling per lines per invocation.
     write_only: Pipelines<u32>,
+    /// The kernels of sampled machines, compiled when first asked for.
+    pub(super) sampled: Pipelines<SampledKernel>,
     tiling: Tiling,
+}
+
+/// A kernel of batches of sampled machines.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(super) enum SampledKernel {
+    AxisValues,
+    Groups,
+    Positions,
+    /// The reduce pass of a shape of machine and a tiling.
+    Reduce(PointVariant),
+}
+
+/// How a tiling divides a chunk of lines `nx` long among the point pass's invocations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct LineTiles {
+    /// Points per invocation (`Params::chunk[2]`).
+    pub points_per_invocation: u32,
+    /// Invocations that share a group of lines (`Params::chunk[3]`).
+    pub invocations_per_line_group: u32,
+    /// Workgroups along a line.
+    pub x_groups: u32,
+    pub lines_per_workgroup: u64,
+}
+
+impl LineTiles {
+    pub(super) fn of(tiling: Tiling, nx: u64, max_groups: u64) -> Option<LineTiles> {
+        let workgroup = WORKGROUP_SIZE as u64;
+        // Up to points_per_lane points per invocation; lines shorter than a workgroup's worth
+        // share it (invocations per group of lines a power of two).
+        let lanes_per_line = nx
+            .div_ceil(tiling.points_per_lane)
+            .next_power_of_two()
+            .min(workgroup);
+        let x_groups = nx.div_ceil(lanes_per_line * tiling.points_per_lane);
+        (x_groups <= max_groups).then(|| LineTiles {
+            points_per_invocation: nx.div_ceil(lanes_per_line * x_groups) as u32,
+            invocations_per_line_group: lanes_per_line as u32,
+            x_groups: x_groups as u32,
+            lines_per_workgroup: workgroup / lanes_per_line * tiling.lines_per_lane as u64,
+        })
+    }
+
+    /// Workgroups along the lines for `lines` lines.
+    pub(super) fn line_groups(&self, lines: u64) -> u32 {
+        lines.div_ceil(self.lines_per_workgroup) as u32
+    }
 }
 
 impl GpuMapper {
@@ -90,6 +138,7 @@ impl GpuMapper {
             groups,
             points: Mutex::new(HashMap::new()),
             write_only: Mutex::new(HashMap::new()),
+            sampled: Mutex::new(HashMap::new()),
             tiling,
         }))
     }
@@ -139,7 +188,7 @@ impl GpuMapper {
     }
 
     /// The pipeline for `key` from `cache`, compiled the first time it is asked for.
-    fn pipeline<K: Copy + Eq + std::hash::Hash + std::fmt::Debug>(
+    pub(super) fn pipeline<K: Copy + Eq + std::hash::Hash + std::fmt::Debug>(
         &self,
         cache: &Pipelines<K>,
         key: K,
@@ -176,7 +225,7 @@ impl GpuMapper {
         self.gpu.max_workgroups_per_dimension() as u64
     }
 
-    fn error(&self, message: String) -> GpuError {
+    pub(super) fn error(&self, message: String) -> GpuError {
         GpuError::Runtime {
             adapter: self.adapter_name().to_string(),
             message,
@@ -241,6 +290,7 @@ impl GpuMapper {
         let coefficients = gpu.storage("coefficients", bytemuck::cast_slice(&packed.coefficients));
         let groups = gpu.storage("groups", bytemuck::cast_slice(&packed.groups));
         let factors = gpu.storage("factors", bytemuck::cast_slice(&packed.factors));
+        let constants = gpu.storage("constants", bytemuck::cast_slice(&packed.constants));
         let entry_bytes = std::mem::size_of::<DevData>() as u64;
         let axis_values = gpu.output("axis values", entries.max(1) * entry_bytes);
         let group_values = gpu.output("group values", group_entries.max(1) * entry_bytes);
@@ -265,6 +315,7 @@ impl GpuMapper {
                 (6, &group_values),
                 (9, &groups),
                 (10, &factors),
+                (11, &constants),
             ],
         );
         let workgroup = WORKGROUP_SIZE as u64;
@@ -306,19 +357,12 @@ impl GpuMapper {
         tables: &MapTables,
         in_flight: &[InFlight],
     ) -> Result<Plan, GpuError> {
-        let workgroup = WORKGROUP_SIZE as u64;
-        // Up to points_per_lane points per invocation; lines shorter than a workgroup's worth
-        // share it (invocations per group of lines a power of two).
-        let lanes_per_line = nx
-            .div_ceil(tiling.points_per_lane)
-            .next_power_of_two()
-            .min(workgroup);
-        let x_groups = nx.div_ceil(lanes_per_line * tiling.points_per_lane);
-        if x_groups > self.gpu.max_workgroups_per_dimension() as u64 {
-            return Err(self.error(format!(
-                "a line of {nx} points needs more workgroups than one dispatch holds"
-            )));
-        }
+        let tiles = LineTiles::of(tiling, nx, self.gpu.max_workgroups_per_dimension() as u64)
+            .ok_or_else(|| {
+                self.error(format!(
+                    "a line of {nx} points needs more workgroups than one dispatch holds"
+                ))
+            })?;
         let variant = PointVariant {
             shape,
             lines_per_lane: tiling.lines_per_lane,
@@ -350,10 +394,10 @@ impl GpuMapper {
             .collect();
         Ok(Plan {
             tiling,
-            points_per_invocation: nx.div_ceil(lanes_per_line * x_groups) as u32,
-            invocations_per_line_group: lanes_per_line as u32,
-            x_groups: x_groups as u32,
-            lines_per_workgroup: workgroup / lanes_per_line * tiling.lines_per_lane as u64,
+            points_per_invocation: tiles.points_per_invocation,
+            invocations_per_line_group: tiles.invocations_per_line_group,
+            x_groups: tiles.x_groups,
+            lines_per_workgroup: tiles.lines_per_workgroup,
             points,
             write_only,
             bindings,

@@ -8,6 +8,7 @@
 
 mod mapper;
 pub mod pack;
+mod sampled;
 
 pub use mapper::GpuMapper;
 pub use pack::{pack, MachineShape, Packed, PointVariant};
@@ -17,15 +18,26 @@ use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
 
-/// The chain kernel's WGSL source: `shaders/deviation.wgsl` (transforms in deviation form) joined
-/// in front of `shaders/chain.wgsl` (the three passes).
+/// The chain kernel's WGSL source: `shaders/deviation.wgsl` (transforms in deviation form),
+/// `shaders/chain.wgsl` (buffers, the axis and group passes), `shaders/points.wgsl` (the point
+/// pass, its reduce variant, the write-only kernel) and `shaders/positions.wgsl` (the chain at
+/// arbitrary positions), joined in that order.
 pub const CHAIN_WGSL: &str = concat!(
     include_str!("../../../shaders/deviation.wgsl"),
     "\n",
-    include_str!("../../../shaders/chain.wgsl")
+    include_str!("../../../shaders/chain.wgsl"),
+    "\n",
+    include_str!("../../../shaders/points.wgsl"),
+    "\n",
+    include_str!("../../../shaders/positions.wgsl")
 );
 /// The files [`CHAIN_WGSL`] is joined from, in order, in `shaders/`.
-pub const CHAIN_WGSL_FILES: [&str; 2] = ["deviation.wgsl", "chain.wgsl"];
+pub const CHAIN_WGSL_FILES: [&str; 4] = [
+    "deviation.wgsl",
+    "chain.wgsl",
+    "points.wgsl",
+    "positions.wgsl",
+];
 /// Bytes of output per grid point: six f32 channels.
 pub const BYTES_PER_POINT: u64 = (CHANNELS.len() * 4) as u64;
 /// The default upper bound of points per chunk on a CPU adapter: two chunks in flight hold about
@@ -68,6 +80,21 @@ pub const MAX_ERROR_ANGLE_RAD: f64 = 0.1;
 /// of every angular error (component, location, spindle) below [`MAX_ERROR_ANGLE_RAD`]. Real
 /// machines are below 1e-3 rad; larger values are a unit mistake (degrees or µrad for rad).
 pub fn check_error_angles(machine: &Machine, grid: &Grid) -> Result<(), GpuError> {
+    let total = error_angles_rad(machine, grid);
+    if total < MAX_ERROR_ANGLE_RAD {
+        Ok(())
+    } else {
+        Err(GpuError::ErrorAngles {
+            machine: machine.name.clone(),
+            total_rad: total,
+            limit_rad: MAX_ERROR_ANGLE_RAD,
+        })
+    }
+}
+
+/// The sum of the magnitudes of every angular error of the machine over the grid: the spindle's,
+/// every location's, and each axis's largest sum of component angles at its grid values.
+pub(crate) fn error_angles_rad(machine: &Machine, grid: &Grid) -> f64 {
     let mut total = machine.spindle[3].abs() + machine.spindle[4].abs();
     for axis in &machine.axes {
         total += axis.location[3..].iter().map(|a| a.abs()).sum::<f64>();
@@ -83,15 +110,7 @@ pub fn check_error_angles(machine: &Machine, grid: &Grid) -> Result<(), GpuError
             .fold(0.0, f64::max);
         total += largest;
     }
-    if total < MAX_ERROR_ANGLE_RAD {
-        Ok(())
-    } else {
-        Err(GpuError::ErrorAngles {
-            machine: machine.name.clone(),
-            total_rad: total,
-            limit_rad: MAX_ERROR_ANGLE_RAD,
-        })
-    }
+    total
 }
 
 /// Which per-chunk work [`GpuMapper::time_kernels`] measures.

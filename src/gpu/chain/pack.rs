@@ -9,18 +9,21 @@
 use nalgebra::Matrix3;
 
 use crate::gpu::layout::{
-    AxisData, DevData, Factor, Function, Group, Mat4, Params, Piece, GROUP_TABLES, INDEX_J,
-    INDEX_K, INDEX_ONE, KIND_LINEAR, KIND_ROTARY, NO_FUNCTION, SOURCE_FIXED, TABLE_ABSENT,
-    UNBOUNDED,
+    AxisData, DevData, Factor, Function, Group, Mat4, Params, Piece, CONSTANTS_PER_SAMPLE,
+    CONSTANT_TAIL, CONSTANT_X_LOCATION, GROUP_TABLES, INDEX_J, INDEX_K, INDEX_ONE, KIND_LINEAR,
+    KIND_ROTARY, NO_FUNCTION, SOURCE_FIXED, TABLE_ABSENT, UNBOUNDED,
 };
 use crate::model::grid::Grid;
-use crate::model::{Axis, AxisLetter, Machine};
+use crate::model::{Axis, AxisLetter, ErrorFunction, Machine};
 use crate::reference::{self, Twin};
 
 /// The machine and grid as the shader's buffers.
 #[derive(Debug, Clone)]
 pub struct Packed {
     pub params: Params,
+    /// The constant factors X's location (`CONSTANT_X_LOCATION`; zero where there is no X) and
+    /// `S·Trans(tool)` (`CONSTANT_TAIL`), in deviation form, computed in f64.
+    pub constants: [DevData; CONSTANTS_PER_SAMPLE as usize],
     pub axes: Vec<AxisData>,
     pub functions: Vec<Function>,
     pub pieces: Vec<Piece>,
@@ -73,7 +76,7 @@ impl PointVariant {
     }
 }
 
-fn mat4_of(m: &Matrix3<f64>) -> Mat4 {
+pub(super) fn mat4_of(m: &Matrix3<f64>) -> Mat4 {
     let mut out = [[0.0f32; 4]; 4];
     for (c, column) in out.iter_mut().enumerate().take(3) {
         for (r, value) in column.iter_mut().enumerate().take(3) {
@@ -83,7 +86,7 @@ fn mat4_of(m: &Matrix3<f64>) -> Mat4 {
     out
 }
 
-fn vec4_of(v: [f64; 3]) -> [f32; 4] {
+pub(super) fn vec4_of(v: [f64; 3]) -> [f32; 4] {
     [v[0] as f32, v[1] as f32, v[2] as f32, 0.0]
 }
 
@@ -96,7 +99,7 @@ fn finite_or_unbounded(x: f64) -> f32 {
 }
 
 /// `Rot(a, b, c) − I` in f64, exact, then small enough to keep its precision in f32.
-fn rot_deviation(a: f64, b: f64, c: f64) -> Matrix3<f64> {
+pub(super) fn rot_deviation(a: f64, b: f64, c: f64) -> Matrix3<f64> {
     reference::rot(a, b, c)
         .fixed_view::<3, 3>(0, 0)
         .into_owned()
@@ -105,7 +108,7 @@ fn rot_deviation(a: f64, b: f64, c: f64) -> Matrix3<f64> {
 
 /// The deviation form `[(I + M)·R0, t0 + d]` of the transform from `ideal` to `real`, both
 /// computed in f64: `R0 = R_ideal`, `t0 = t_ideal`, `M = R_real·R_idealᵀ − I`, `d = t_real − t_ideal`.
-fn deviation_form(real: &reference::Transform, ideal: &reference::Transform) -> DevData {
+pub(super) fn deviation_form(real: &reference::Transform, ideal: &reference::Transform) -> DevData {
     let r_real = real.fixed_view::<3, 3>(0, 0);
     let r_ideal = ideal.fixed_view::<3, 3>(0, 0);
     let m = r_real * r_ideal.transpose() - Matrix3::identity();
@@ -154,7 +157,7 @@ fn split_side(side: &[Factor]) -> Vec<(&[Factor], u32)> {
 }
 
 /// `Σ c_k s^k` with `s = a + b·t`, as coefficients in `t` (f64, then f32).
-fn polynomial_in_t(coefficients: &[f64], a: f64, b: f64) -> [f64; 4] {
+pub(super) fn polynomial_in_t(coefficients: &[f64], a: f64, b: f64) -> [f64; 4] {
     let mut out = [0.0; 4];
     for (k, &c) in coefficients.iter().enumerate() {
         // c·(a + b·t)^k = c·Σ_m C(k, m)·a^(k−m)·b^m·t^m
@@ -170,32 +173,61 @@ fn polynomial_in_t(coefficients: &[f64], a: f64, b: f64) -> [f64; 4] {
 /// X's six component errors as polynomials of degree 3 at most in `t = i − centre`, where each is
 /// one polynomial piece over every X of the grid (so the point pass evaluates it exactly, without
 /// clamping, from coefficients every invocation shares); `None` for those that are not.
-fn x_polynomials(x: &Axis, grid: &Grid, centre: f64) -> [Option<[f64; 4]>; 6] {
-    let (origin, spacing) = (grid.origin_mm[0], grid.spacing_mm[0]);
-    let (q_low, q_high) = (origin, origin + spacing * (grid.dims[0] - 1) as f64);
-    std::array::from_fn(
-        |n| match x.components[n].as_ref().filter(|f| !f.is_zero()) {
-            None => Some([0.0; 4]),
-            Some(f) => {
-                let form = f.pieces();
-                match form.pieces.as_slice() {
-                    [piece]
-                        if !form.periodic
-                            && piece.coefficients.len() <= 4
-                            && form.lo <= q_low
-                            && q_high <= form.hi =>
-                    {
-                        Some(polynomial_in_t(
-                            &piece.coefficients,
-                            origin + spacing * centre - piece.start,
-                            spacing,
-                        ))
-                    }
-                    _ => None,
+pub(super) fn x_polynomials(x: &Axis, grid: &Grid, centre: f64) -> [Option<[f64; 4]>; 6] {
+    std::array::from_fn(|n| match x.components[n].as_ref() {
+        None => Some([0.0; 4]),
+        Some(f) => {
+            let mut sum = [0.0; 4];
+            for term in f.terms() {
+                let c = term_in_t(term, grid, centre)?;
+                for (s, c) in sum.iter_mut().zip(c) {
+                    *s += c;
                 }
             }
-        },
-    )
+            Some(sum)
+        }
+    })
+}
+
+/// One term of an X error as a polynomial in `t = i − centre` where it is one polynomial piece
+/// over every X of the grid.
+fn term_in_t(term: &ErrorFunction, grid: &Grid, centre: f64) -> Option<[f64; 4]> {
+    let (origin, spacing) = (grid.origin_mm[0], grid.spacing_mm[0]);
+    let (q_low, q_high) = (origin, origin + spacing * (grid.dims[0] - 1) as f64);
+    let form = term.pieces()?;
+    match form.pieces.as_slice() {
+        [piece]
+            if !form.periodic
+                && piece.coefficients.len() <= 4
+                && form.lo <= q_low
+                && q_high <= form.hi =>
+        {
+            Some(polynomial_in_t(
+                &piece.coefficients,
+                origin + spacing * centre - piece.start,
+                spacing,
+            ))
+        }
+        _ => None,
+    }
+}
+
+/// The constant factors of a machine against its ideal twin, in the order of `CONSTANT_*`.
+pub fn machine_constants(twin: &Twin) -> [DevData; CONSTANTS_PER_SAMPLE as usize] {
+    let x_location = match (
+        twin.real().axis(AxisLetter::X),
+        twin.ideal().axis(AxisLetter::X),
+    ) {
+        (Some(real), Some(ideal)) => {
+            deviation_form(&reference::location(real), &reference::location(ideal))
+        }
+        _ => bytemuck::Zeroable::zeroed(),
+    };
+    let tail = deviation_form(
+        &reference::spindle_and_tool(twin.real()),
+        &reference::spindle_and_tool(twin.ideal()),
+    );
+    [x_location, tail]
 }
 
 /// The error functions of every axis as polynomial pieces, in the layout of the shader's
@@ -209,38 +241,46 @@ struct FunctionTables {
 
 impl FunctionTables {
     /// Adds the six component errors of `axis`; returns each one's function index
-    /// (`NO_FUNCTION` for a zero error).
+    /// (`NO_FUNCTION` for a zero error). A sum is a chain of functions, each naming the next.
     fn add_axis(&mut self, axis: &Axis) -> [u32; 6] {
         let mut indices = [NO_FUNCTION; 6];
         for (n, component) in axis.components.iter().enumerate() {
             let Some(f) = component.as_ref().filter(|f| !f.is_zero()) else {
                 continue;
             };
-            let form = f.pieces();
+            let terms: Vec<&ErrorFunction> = f.terms().into_iter().filter(|t| !t.is_zero()).collect();
             indices[n] = self.functions.len() as u32;
-            self.functions.push(Function {
-                pieces: [
-                    self.pieces.len() as u32,
-                    form.pieces.len() as u32,
-                    form.periodic as u32,
-                    0,
-                ],
-                domain: [
-                    finite_or_unbounded(form.lo),
-                    finite_or_unbounded(form.hi),
-                    0.0,
-                    0.0,
-                ],
-            });
-            for piece in &form.pieces {
-                self.pieces.push(Piece {
-                    start: piece.start as f32,
-                    degree: piece.coefficients.len() as u32 - 1,
-                    coefficient: self.coefficients.len() as u32,
-                    _pad: 0,
+            for (k, term) in terms.iter().enumerate() {
+                let form = term.pieces().expect("the terms of a sum are not sums");
+                let next = if k + 1 < terms.len() {
+                    self.functions.len() as u32 + 1
+                } else {
+                    NO_FUNCTION
+                };
+                self.functions.push(Function {
+                    pieces: [
+                        self.pieces.len() as u32,
+                        form.pieces.len() as u32,
+                        form.periodic as u32,
+                        next,
+                    ],
+                    domain: [
+                        finite_or_unbounded(form.lo),
+                        finite_or_unbounded(form.hi),
+                        0.0,
+                        0.0,
+                    ],
                 });
-                self.coefficients
-                    .extend(piece.coefficients.iter().map(|&c| c as f32));
+                for piece in &form.pieces {
+                    self.pieces.push(Piece {
+                        start: piece.start as f32,
+                        degree: piece.coefficients.len() as u32 - 1,
+                        coefficient: self.coefficients.len() as u32,
+                        _pad: 0,
+                    });
+                    self.coefficients
+                        .extend(piece.coefficients.iter().map(|&c| c as f32));
+                }
             }
         }
         indices
@@ -344,11 +384,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
         if axis.letter == AxisLetter::X {
             // X's location closes Pre; the axes after it belong to Post.
             x_seen = true;
-            let ideal_x = twin.ideal().axis(AxisLetter::X).expect("same axes");
-            pre.push(Factor::constant(deviation_form(
-                &reference::location(axis),
-                &reference::location(ideal_x),
-            )));
+            pre.push(Factor::constant(CONSTANT_X_LOCATION));
             continue;
         }
         let index = match data.driver() {
@@ -363,10 +399,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
             pre.push(factor);
         }
     }
-    post.push(Factor::constant(deviation_form(
-        &reference::spindle_and_tool(machine),
-        &reference::spindle_and_tool(twin.ideal()),
-    )));
+    post.push(Factor::constant(CONSTANT_TAIL));
     let folded = fold_groups(&pre, &post, grid);
     let pre_varies = folded.group_index[..2]
         .iter()
@@ -395,7 +428,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
             grid.dims[2] as u32,
             axes.len() as u32,
         ],
-        counts: [entries, folded.entries, 0, 0],
+        counts: [entries, folded.entries, 0, 1],
         chunk: [0; 4],
         group_starts: folded.groups.map(|g| g.first_entry()),
         x_motion: [
@@ -415,6 +448,7 @@ pub fn pack(machine: &Machine, grid: &Grid) -> Packed {
     };
     Packed {
         params,
+        constants: machine_constants(&twin),
         axes,
         coefficients: tables.coefficient_vec4s(),
         functions: tables.functions,
