@@ -16,6 +16,8 @@
 //! - [`engine`]: the GPU, the CPU engine and the reference over a grid, one map run into a field;
 //! - [`query`]: answers at arbitrary positions, field slices, the deformed grid;
 //! - [`part`]: part files, feature errors, minimum zones, machine capability;
+//! - [`design`]: machine design from tolerances: the error budget, Monte Carlo over sampled
+//!   machines, tolerance allocation, the probability that a part conforms;
 //! - [`standards`]: the standard tests (one file per ISO part) from the model, against measured
 //!   data;
 //! - [`calibrate`]: location errors fitted to tests, machine files built from measurements;
@@ -25,6 +27,7 @@
 
 pub mod bench;
 pub mod calibrate;
+pub mod design;
 pub mod engine;
 pub mod error;
 pub mod gpu;

@@ -48,6 +48,9 @@ enum Command {
     /// Build a machine file from component errors measured at sparse positions (CSV per axis),
     /// with linear, quadratic or cubic elements chosen per component.
     Build(cli::build::BuildArgs),
+    /// Machine design from tolerances: the error budget (each toleranced term alone at its
+    /// limit), Monte Carlo over machines built to the tolerances, tolerance allocation.
+    Budget(cli::budget::BudgetArgs),
     /// Plots: a field slice as a colour map, the deformed workspace grid.
     Plot(cli::plot::PlotArgs),
     /// Rewrite an NC program (ISO 6983 / Fanuc) so the real tool tip lands on the programmed
@@ -66,6 +69,7 @@ fn main() -> ExitCode {
         Command::Test(args) => cli::test::run(args),
         Command::Fit(args) => cli::fit::run(args),
         Command::Build(args) => cli::build::run(args),
+        Command::Budget(args) => cli::budget::run(args),
         Command::Plot(args) => cli::plot::run(args),
         Command::Compensate(args) => cli::compensate::run(args),
     };

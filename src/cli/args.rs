@@ -132,3 +132,31 @@ pub struct JsonArg {
     #[arg(long)]
     pub json: Option<PathBuf>,
 }
+
+/// `--poses`.
+#[derive(clap::Args)]
+pub struct PosesArg {
+    /// Every pose of a sweep of the rotary axes: `B=-90:90:15,C=0:345:15` (each axis one value
+    /// or START:STOP:STEP degrees, the last axis varying fastest; axes not named at 0). A map
+    /// writes one part per pose into one multi-part field; statistics run over every pose.
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "pose")]
+    pub poses: Option<String>,
+}
+
+/// The grids of `--grid` over the machine's travels: one per pose of `--poses`, or the one of
+/// `--pose`.
+pub fn sweep_grids(
+    machine: &Machine,
+    grid: &GridArg,
+    pose: &PoseArg,
+    poses: &PosesArg,
+) -> Result<Vec<Grid>, Failure> {
+    match &poses.poses {
+        Some(text) => volmap::model::poses::parse_sweep(text, machine)
+            .flag("--poses")?
+            .into_iter()
+            .map(|pose| Grid::full_travel(machine, grid.grid, pose).flag("--grid"))
+            .collect(),
+        None => Ok(vec![full_travel(machine, grid, pose)?]),
+    }
+}

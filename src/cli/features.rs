@@ -1,10 +1,11 @@
 //! `volmap features`: the GD&T error each feature of a part gets from the machine, against its
 //! tolerance: the machine's capability (exit code 3 when any feature is unfit).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use volmap::io::field::LoadedField;
+use volmap::io::field::{FieldError, FieldFile, LoadedField};
+use volmap::model::{poses, AxisLetter};
 use volmap::part::{self, ErrorSource, PartFile, Verdict};
 
 use super::args::{load_machine, JsonArg, OptionalMachineArg};
@@ -17,13 +18,38 @@ pub struct FeaturesArgs {
     /// The part file (TOML): placement, cutter and features with their tolerances.
     #[arg(long)]
     part: PathBuf,
-    /// Take the machine's error from this field file (trilinear interpolation).
+    /// Take the machine's error from this field file (trilinear interpolation); of a five-axis
+    /// map (`map --poses`), from the part at the part's pose.
     #[arg(long)]
     field: Option<PathBuf>,
     #[command(flatten)]
     machine: OptionalMachineArg,
     #[command(flatten)]
     json: JsonArg,
+}
+
+/// The field the part is evaluated in: a single-pose field file whole, or the part of a
+/// five-axis map (`map --poses`) at the part's pose (`placement.pose_deg`, axes not named at 0),
+/// found as `sample` finds a point's (within 1e-9°).
+fn open_field(path: &Path, part: &PartFile) -> Result<LoadedField, FieldError> {
+    let file = FieldFile::open(path)?;
+    if !file.is_multipart() {
+        return LoadedField::open_part(&file, 0);
+    }
+    let pose = part.pose();
+    let degrees = [pose[3], pose[4], pose[5]];
+    // The file's rotary axes, and any other the part turns.
+    let axes = file.info(0).pose_axes;
+    let letters: Vec<AxisLetter> = AxisLetter::ALL[3..]
+        .iter()
+        .copied()
+        .filter(|l| axes.contains(l.as_char()) || degrees[l.index() - 3] != 0.0)
+        .collect();
+    let words = format!(
+        "{} (the part's placement.pose_deg)",
+        poses::name_of(degrees, &letters)
+    );
+    LoadedField::open_part(&file, file.part_at(degrees, &words)?)
 }
 
 pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
@@ -33,7 +59,7 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
     let machine;
     let source = match (&args.field, &args.machine.machine) {
         (Some(path), _) => {
-            field = LoadedField::open(path).flag("--field")?;
+            field = open_field(path, &part).flag("--field")?;
             ErrorSource::Field(&field)
         }
         (None, Some(name)) => {

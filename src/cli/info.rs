@@ -1,13 +1,15 @@
-//! `volmap info`: the summary of a field file.
+//! `volmap info`: the summary of a field file; of a five-axis map, the summary of the sweep with
+//! the largest |VE| of each pose.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use volmap::engine::map::FieldStats;
-use volmap::io::field::FieldReader;
+use volmap::io::field::{FieldFile, FieldReader};
 
 use super::failure::Failure;
 use super::map::print_summary;
+use super::sweep::print_sweep_summary;
 
 #[derive(clap::Args)]
 pub struct InfoArgs {
@@ -16,15 +18,38 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
-    let mut reader = FieldReader::open(&args.file)?;
-    let info = reader.info().clone();
+    let file = FieldFile::open(&args.file)?;
+    if !file.is_multipart() {
+        let mut reader = file.reader(0)?;
+        let stats = field_stats(&mut reader)?;
+        print_summary(reader.info(), &stats);
+        println!("  field       {}", args.file.display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let mut names = Vec::with_capacity(file.parts());
+    let mut stats = Vec::with_capacity(file.parts());
+    let mut total = FieldStats::default();
+    for part in 0..file.parts() {
+        let part_stats = field_stats(&mut file.reader(part)?)?;
+        total.merge(&part_stats, part);
+        stats.push(part_stats);
+        names.push(file.name(part));
+    }
+    print_sweep_summary(&file.info(total.max_ve_pose), &names, &stats, &total);
+    println!(
+        "  field       {} ({} parts, one per pose)",
+        args.file.display(),
+        file.parts()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The statistics of one field, read in chunks.
+fn field_stats(reader: &mut FieldReader) -> Result<FieldStats, Failure> {
+    let nx = reader.info().dims[0];
     let mut stats = FieldStats::default();
-    let nx = info.dims[0];
-    let lines_per_chunk = (1u64 << 20) / nx as u64;
-    reader.for_each_chunk(lines_per_chunk, |first, lines, data| {
+    reader.for_each_chunk((1u64 << 20) / nx as u64, |first, lines, data| {
         stats.add_chunk(first, lines, nx, data)
     })?;
-    print_summary(&info, &stats);
-    println!("  field       {}", args.file.display());
-    Ok(ExitCode::SUCCESS)
+    Ok(stats)
 }

@@ -4,13 +4,16 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use volmap::engine::map::{self, FieldStats, MapOptions};
+use volmap::engine::map::{self, CheckResult, FieldStats, MapOptions};
+use volmap::engine::EngineError;
 use volmap::gpu::GpuError;
 use volmap::io::field::FieldInfo;
+use volmap::model::Machine;
 
-use super::args::{full_travel, DeviceArg, GridArg, MachineArg, PoseArg};
+use super::args::{sweep_grids, DeviceArg, GridArg, MachineArg, PoseArg, PosesArg};
 use super::failure::Failure;
 use super::output::progress;
+use super::sweep;
 
 #[derive(clap::Args)]
 pub struct MapArgs {
@@ -20,6 +23,8 @@ pub struct MapArgs {
     grid: GridArg,
     #[command(flatten)]
     pose: PoseArg,
+    #[command(flatten)]
+    poses: PosesArg,
     /// The field file to write.
     #[arg(long, default_value = "volmap-field.exr")]
     out: PathBuf,
@@ -36,7 +41,9 @@ pub struct MapArgs {
 
 pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     let machine = args.machine.load()?;
-    let grid = full_travel(&machine, &args.grid, &args.pose)?;
+    let sweep = sweep_grids(&machine, &args.grid, &args.pose, &args.poses)?;
+    let grid = sweep[0].clone();
+    let grids = args.poses.poses.is_some().then_some(sweep);
     if args
         .out
         .extension()
@@ -51,41 +58,60 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     if let Some(note) = note {
         eprintln!("volmap: {note}");
     }
-    let bar = progress(Some(grid.points()), "mapping", "points");
     let options = MapOptions {
         chunk_points: args.chunk_points,
         check_points: args.check,
     };
+    if let Some(grids) = &grids {
+        let summary = sweep::map_sweep(&machine, grids, &engine, &args.out, &options)
+            .map_err(|e| map_failure(e, &machine, &args.out))?;
+        sweep::print_map_summary(&machine, grids, &summary);
+        print_time(summary.seconds, summary.stats.points);
+        println!(
+            "  field       {} ({} parts, one per pose)",
+            args.out.display(),
+            grids.len()
+        );
+        return Ok(print_check(summary.check.as_ref()));
+    }
+    let bar = progress(Some(grid.points()), "mapping", "points");
     let summary = map::map_to_file(&machine, &grid, &engine, &args.out, &options, |done| {
         bar.set_position(done)
     });
     bar.finish_and_clear();
-    let summary = summary.map_err(|e| {
-        let angles = matches!(
-            e,
-            volmap::engine::EngineError::Gpu(GpuError::ErrorAngles { .. })
-        );
-        let failure = Failure::from(e).context(format!(
-            "mapping {} into {}",
-            machine.name,
-            args.out.display()
-        ));
-        if angles {
-            failure.hint("--device cpu maps it")
-        } else {
-            failure
-        }
-    })?;
+    let summary = summary.map_err(|e| map_failure(e, &machine, &args.out))?;
 
     let info = map::field_info(&machine, &grid, &summary.device);
     print_summary(&info, &summary.stats);
+    print_time(summary.seconds, summary.stats.points);
+    println!("  field       {}", args.out.display());
+    Ok(print_check(summary.check.as_ref()))
+}
+
+/// A failure of the map, said to have happened while mapping the machine into the file, with
+/// the way round a machine the GPU refuses.
+pub fn map_failure(error: EngineError, machine: &Machine, out: &std::path::Path) -> Failure {
+    let angles = matches!(error, EngineError::Gpu(GpuError::ErrorAngles { .. }));
+    let failure =
+        Failure::from(error).context(format!("mapping {} into {}", machine.name, out.display()));
+    if angles {
+        failure.hint("--device cpu maps it")
+    } else {
+        failure
+    }
+}
+
+fn print_time(seconds: f64, points: u64) {
     println!(
         "  time        {:.3} s, {:.2} Mpts/s",
-        summary.seconds,
-        summary.stats.points as f64 / summary.seconds.max(1e-9) / 1e6
+        seconds,
+        points as f64 / seconds.max(1e-9) / 1e6
     );
-    println!("  field       {}", args.out.display());
-    if let Some(check) = &summary.check {
+}
+
+/// Prints the spot check, if there was one: exit code 4 when it failed.
+fn print_check(check: Option<&CheckResult>) -> ExitCode {
+    if let Some(check) = check {
         println!(
             "  check       {} points against the f64 reference: max ΔVE {:.3e} mm, max ΔOE {:.3e} rad (tolerance {:e} mm, {:e} rad): {}",
             check.points,
@@ -96,10 +122,10 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
             if check.passed() { "ok" } else { "FAILED" }
         );
         if !check.passed() {
-            return Ok(ExitCode::from(4));
+            return ExitCode::from(4);
         }
     }
-    Ok(ExitCode::SUCCESS)
+    ExitCode::SUCCESS
 }
 
 /// The closing summary of a map or a field file: the machine, the grid, where the largest error

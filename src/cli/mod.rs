@@ -3,6 +3,8 @@
 
 pub mod args;
 pub mod bench;
+pub mod budget;
+pub mod budget_report;
 pub mod build;
 pub mod compensate;
 pub mod failure;
@@ -14,4 +16,5 @@ pub mod map;
 pub mod output;
 pub mod plot;
 pub mod sample;
+pub mod sweep;
 pub mod test;

@@ -4,12 +4,14 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use volmap::io::field::FieldError;
+use volmap::model::poses;
 use volmap::plot::{self, Color, Series};
 use volmap::query::{self, Quantity, QueryError};
 use volmap::standards::TestResult;
 
 use super::args::{full_travel, GridArg, MachineArg, PoseArg};
-use super::failure::Failure;
+use super::failure::{Failure, FlagContext};
 use super::output::{check_plot_paths, write_plot};
 
 const CURVE_COLOURS: [Color; 3] = [Color::BLUE, Color::ORANGE, Color::GREEN];
@@ -65,6 +67,10 @@ enum PlotKind {
         /// The field file (.exr) written by `volmap map`.
         #[arg(long)]
         field: PathBuf,
+        /// The pose whose part of a five-axis map (`map --poses`) to draw, degrees, e.g.
+        /// `B=30,C=45`; rotary axes not named are at 0.
+        #[arg(long, allow_hyphen_values = true)]
+        pose: Option<String>,
         /// The axis across the slice: x, y or z.
         #[arg(long, default_value = "z")]
         normal: String,
@@ -104,6 +110,7 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
     let drawing = match args.kind {
         PlotKind::Slice {
             field,
+            pose,
             normal,
             at,
             quantity,
@@ -115,14 +122,33 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
                     Quantity::choices()
                 )));
             }
-            let slice = query::field_slice(&field, &normal, at, &quantity).map_err(|e| {
-                let flag = match e {
-                    QueryError::SliceNormal(_) => "--normal",
-                    QueryError::SliceOutside { .. } => "--at",
-                    _ => "--field",
-                };
-                Failure::from(e).context(flag)
-            })?;
+            let degrees = pose
+                .as_deref()
+                .map(poses::parse_pose_degrees)
+                .transpose()
+                .flag("--pose")?;
+            let asked = degrees.zip(pose.as_deref().map(str::trim));
+            let slice =
+                query::field_slice_at_pose(&field, asked, &normal, at, &quantity).map_err(|e| {
+                    let (flag, hint) = match &e {
+                        QueryError::SliceNormal(_) => ("--normal", None),
+                        QueryError::SliceOutside { .. } => ("--at", None),
+                        QueryError::Field(FieldError::NoPose { .. }) => ("--pose", None),
+                        QueryError::Field(FieldError::Poses { poses, .. }) => (
+                            "--field",
+                            Some(format!(
+                                "--pose picks one, e.g. --pose {}",
+                                poses.split(' ').next().unwrap_or_default()
+                            )),
+                        ),
+                        _ => ("--field", None),
+                    };
+                    let failure = Failure::from(e).context(flag);
+                    match hint {
+                        Some(hint) => failure.hint(hint),
+                        None => failure,
+                    }
+                })?;
             plot::colour_map(
                 &slice.title,
                 (&slice.labels[0], &slice.labels[1]),

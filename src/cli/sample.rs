@@ -5,9 +5,8 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use volmap::io::field::LoadedField;
 use volmap::io::points::{self, QueryPoint};
-use volmap::query;
+use volmap::query::{self, SampledField};
 
 use super::args::{load_machine, DeviceArg, OptionalMachineArg, PoseArg};
 use super::failure::{Failure, FlagContext};
@@ -19,7 +18,8 @@ pub struct SampleArgs {
     /// Positions: CSV with a header row naming X, Y, Z (mm) and optionally A, B, C (degrees).
     #[arg(long)]
     points: PathBuf,
-    /// Interpolate (trilinear) in this field file; positions outside its grid are an error.
+    /// Interpolate (trilinear) in this field file; positions outside its grid are an error. In a
+    /// five-axis map (`map --poses`) the rotary columns pick the part of each point's pose.
     #[arg(long, conflicts_with = "exact")]
     field: Option<PathBuf>,
     /// Compute exactly from the machine model (the f64 reference) instead of a field.
@@ -38,9 +38,10 @@ pub struct SampleArgs {
 
 pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     // The points and the field are read side by side: both are mostly parsing.
+    // A five-axis map's parts are read later, one by one, as the points ask for them.
     let (points, loaded) = rayon::join(
         || points::read_points(&args.points),
-        || args.field.as_deref().map(LoadedField::open).transpose(),
+        || args.field.as_deref().map(SampledField::open).transpose(),
     );
     let points = points.flag("--points")?;
     let loaded = loaded.flag("--field")?;
@@ -51,10 +52,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             if let Some(note) = note {
                 eprintln!("note: {note}");
             }
-            match &sampler {
-                Some(sampler) => query::sample_field_gpu(loaded, &points, &path, sampler),
-                None => query::sample_field(loaded, &points, &path),
-            }?
+            query::sample_fields(loaded, &points, &path, sampler.as_ref())?
         }
         (None, Some(machine)) if args.exact => {
             let machine = load_machine(machine)?;

@@ -8,8 +8,8 @@ use super::reference;
 use super::{Engine, EngineError};
 use crate::io::field::{FieldInfo, FieldWriter};
 use crate::model::channels::CHANNELS;
-pub use crate::model::statistics::FieldStats;
 use crate::model::grid::Grid;
+pub use crate::model::statistics::FieldStats;
 use crate::model::Machine;
 use crate::reference::Twin;
 
@@ -112,18 +112,7 @@ pub fn map_to_file(
         |first_line, lines, data| -> Result<(), EngineError> {
             writer.write_lines(first_line, lines, data)?;
             stats.add_chunk(first_line, lines, nx, data);
-            let first_point = first_line * nx as u64;
-            let end_point = first_point + lines * nx as u64;
-            for &p in checked
-                .iter()
-                .skip(captured.len())
-                .take_while(|&&p| p < end_point)
-            {
-                let local = (p - first_point) as usize;
-                let (line, i) = (local / nx, local % nx);
-                let base = line * CHANNELS.len() * nx + i;
-                captured.push(std::array::from_fn(|c| data[base + c * nx]));
-            }
+            let end_point = capture(&checked, &mut captured, first_line, lines, nx, data);
             on_progress(end_point);
             Ok(())
         },
@@ -138,6 +127,31 @@ pub fn map_to_file(
         device,
         check,
     })
+}
+
+/// Keeps the values of the points of `checked` that a chunk holds (in point order, after those
+/// kept so far), and returns the number of the point after the chunk.
+pub(super) fn capture(
+    checked: &[u64],
+    captured: &mut Vec<[f32; 6]>,
+    first_line: u64,
+    lines: u64,
+    nx: usize,
+    data: &[f32],
+) -> u64 {
+    let first_point = first_line * nx as u64;
+    let end_point = first_point + lines * nx as u64;
+    for &p in checked
+        .iter()
+        .skip(captured.len())
+        .take_while(|&&p| p < end_point)
+    {
+        let local = (p - first_point) as usize;
+        let (line, i) = (local / nx, local % nx);
+        let base = line * CHANNELS.len() * nx + i;
+        captured.push(std::array::from_fn(|c| data[base + c * nx]));
+    }
+    end_point
 }
 
 /// Recomputes `points` with the f64 reference and compares with `values` (channel order).

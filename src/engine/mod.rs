@@ -2,11 +2,13 @@
 //! the GPU's passes in f64 on all cores) and the reference over a grid ([`reference`](mod@reference): the f64
 //! truth at every point) each compute a map chunk by chunk of whole grid lines, in the layout of
 //! [`crate::model::channels`], and hand the chunks to a callback; [`map`] is the one map run,
-//! streaming them into a field file with the statistics and the spot check.
+//! streaming them into a field file with the statistics and the spot check; [`sweep`] runs it at
+//! every pose of a sweep of the rotary axes into one multi-part file.
 
 pub mod cpu;
 pub mod map;
 pub mod reference;
+pub mod sweep;
 pub mod variants;
 
 use crate::error::{Classify, ErrorKind};

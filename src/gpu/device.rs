@@ -223,15 +223,13 @@ impl Gpu {
         Ok(Kernel { pipeline })
     }
 
-    /// A read-only storage buffer holding `bytes` (never empty: wgpu rejects empty bindings).
-    pub fn storage(&self, label: &str, bytes: &[u8]) -> Buffer {
-        let padded;
-        let contents = if bytes.is_empty() {
-            padded = [0u8; 16];
-            &padded[..]
-        } else {
-            bytes
-        };
+    /// A read-only storage buffer holding `items`; never empty (wgpu rejects a binding smaller
+    /// than one element of its array): no items give one zeroed item, which the kernels never
+    /// read past their counts.
+    pub fn storage<T: bytemuck::Pod>(&self, label: &str, items: &[T]) -> Buffer {
+        let zeroed = [T::zeroed()];
+        let items = if items.is_empty() { &zeroed[..] } else { items };
+        let contents: &[u8] = bytemuck::cast_slice(items);
         Buffer {
             inner: self
                 .device

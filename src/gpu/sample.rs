@@ -98,9 +98,7 @@ impl GpuSampler {
             let last_plane = (first_plane + step).min(nz - 1);
             let slab_points =
                 &field[(first_plane * nx * ny) as usize..((last_plane + 1) * nx * ny) as usize];
-            let field_buffer = self
-                .gpu
-                .storage("field slab", bytemuck::cast_slice(slab_points));
+            let field_buffer = self.gpu.storage("field slab", slab_points);
             for batch in members.chunks(per_dispatch) {
                 let batch_points: Vec<SamplePoint> = batch.iter().map(|&n| points[n]).collect();
                 let params = SampleParams {
@@ -127,9 +125,7 @@ impl GpuSampler {
         let params = self
             .gpu
             .uniform("sample params", bytemuck::bytes_of(params));
-        let point_buffer = self
-            .gpu
-            .storage("sample points", bytemuck::cast_slice(points));
+        let point_buffer = self.gpu.storage("sample points", points);
         let output = self.gpu.output("samples", bytes);
         let staging = self.gpu.staging("samples staging", bytes);
         let bindings = self.gpu.bind(

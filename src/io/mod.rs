@@ -10,6 +10,7 @@ pub mod field;
 pub mod machine_file;
 pub mod mesh;
 pub mod points;
+pub mod tolerance_file;
 
 use std::path::Path;
 

@@ -18,6 +18,10 @@ pub enum GridError {
     TooLarge(String),
     #[error("`{0}`: expected LETTER=DEGREES pairs separated by commas, e.g. B=30,C=-45")]
     PoseSyntax(String),
+    #[error("`{0}`: expected LETTER=DEGREES or LETTER=START:STOP:STEP separated by commas, e.g. B=-90:90:15,C=0:345:15")]
+    SweepSyntax(String),
+    #[error("`{sweep}` has more than {most} poses")]
+    SweepSize { sweep: String, most: usize },
     #[error("{axis} is {what}")]
     PoseAxis { axis: String, what: String },
 }
@@ -167,32 +171,18 @@ pub fn parse_pose(text: &str, machine: &Machine) -> Result<Command, GridError> {
             axis: name.to_string(),
             what,
         };
-        let letter = match name.chars().collect::<Vec<_>>()[..] {
-            [c] => AxisLetter::from_char(c),
-            _ => None,
-        }
-        .ok_or_else(|| axis_err("not an axis letter (A, B or C)".into()))?;
-        if letter.is_linear() {
-            return Err(axis_err(
-                "a linear axis: the map covers X, Y and Z over their travels".into(),
-            ));
-        }
-        let axis = machine.axis(letter).ok_or_else(|| {
-            axis_err(format!(
-                "not an axis of this machine (chain {})",
-                machine.chain.hwang_notation()
-            ))
-        })?;
+        let letter = super::poses::rotary_letter(name, machine)?;
+        let range = machine.axis(letter).map_or([0.0, 0.0], |a| a.range);
         let degrees: f64 = value
             .trim()
             .parse()
             .ok()
             .filter(|v: &f64| v.is_finite())
             .ok_or_else(|| axis_err(format!("`{}`, not a number of degrees", value.trim())))?;
-        if degrees < axis.range[0] || degrees > axis.range[1] {
+        if degrees < range[0] || degrees > range[1] {
             return Err(axis_err(format!(
                 "{degrees}°, outside its range [{}, {}]",
-                axis.range[0], axis.range[1]
+                range[0], range[1]
             )));
         }
         pose[letter.index()] = degrees;

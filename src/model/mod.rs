@@ -8,6 +8,7 @@ pub mod channels;
 pub mod errorfn;
 pub mod grid;
 pub mod perturbation;
+pub mod poses;
 pub mod statistics;
 
 pub use chain::{AxisLetter, Chain, ChainError};

@@ -103,6 +103,60 @@ pub struct Perturbation {
     pub shape: Shape,
 }
 
+/// How a tolerance's amplitude `s` is distributed over the machines built to it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Distribution {
+    /// `s ~ U(−h, +h)`.
+    Uniform { half_width: f64 },
+    /// `s ~ N(0, σ²)`.
+    Normal { sigma: f64 },
+}
+
+impl Distribution {
+    /// The amplitude of an error budget's row: `+h` for uniform, `+2σ` for normal.
+    pub fn limit(self) -> f64 {
+        match self {
+            Distribution::Uniform { half_width } => half_width,
+            Distribution::Normal { sigma } => 2.0 * sigma,
+        }
+    }
+
+    /// The width as the tolerance file writes it (`h` or `σ`).
+    pub fn width(self) -> f64 {
+        match self {
+            Distribution::Uniform { half_width } => half_width,
+            Distribution::Normal { sigma } => sigma,
+        }
+    }
+
+    /// Its key in a tolerance file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Distribution::Uniform { .. } => "uniform",
+            Distribution::Normal { .. } => "normal",
+        }
+    }
+
+    /// The same distribution with its width times `factor`.
+    pub fn scaled(self, factor: f64) -> Distribution {
+        match self {
+            Distribution::Uniform { half_width } => Distribution::Uniform {
+                half_width: half_width * factor,
+            },
+            Distribution::Normal { sigma } => Distribution::Normal {
+                sigma: sigma * factor,
+            },
+        }
+    }
+}
+
+/// A tolerance: how far one error value of the machines built may lie from the machine file's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tolerance {
+    pub perturbation: Perturbation,
+    pub distribution: Distribution,
+}
+
 impl Machine {
     /// The machine with `amplitudes[t]` times the shape of `perturbations[t]` added to each
     /// target error value (over the travel of the target's axis). A zero amplitude changes

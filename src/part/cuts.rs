@@ -2,12 +2,17 @@
 //! every cutter position, turned into the machined surface's deviation along its normal (see the
 //! module's documentation for the formulas).
 
+use std::collections::hash_map::Entry;
+use std::collections::HashMap;
+use std::sync::Mutex;
+
 use nalgebra::Vector3;
 
 use super::file::{PartFile, Wall};
 use super::tolerance::ToleranceError;
 use super::FeatureError;
 use crate::io::field::LoadedField;
+use crate::model::channels::Sample;
 use crate::model::Command;
 use crate::reference::Twin;
 
@@ -54,10 +59,38 @@ pub(super) struct Evaluator<'a> {
 }
 
 /// Where the evaluator takes the machine's error from: the machine with its ideal twin, or a
-/// field.
+/// field; or, to evaluate a part on many machines, nowhere (the positions asked for are
+/// recorded) and then values found beforehand at those positions.
 pub(super) enum Errors<'a> {
     Exact(Box<Twin>),
     Field(&'a LoadedField),
+    Record(&'a Mutex<CutterPositions>),
+    Replay(&'a CutterPositions, &'a [Sample]),
+}
+
+/// Every cutter position (commanded X Y Z, mm) a part's evaluation asks the machine's error at,
+/// each once. The positions depend on the part alone, never on the machine's error.
+#[derive(Debug, Clone, Default)]
+pub struct CutterPositions {
+    index: HashMap<[u64; 3], usize>,
+    pub positions: Vec<[f64; 3]>,
+}
+
+impl CutterPositions {
+    fn key(tip: &Vector3<f64>) -> [u64; 3] {
+        [tip.x.to_bits(), tip.y.to_bits(), tip.z.to_bits()]
+    }
+
+    fn record(&mut self, tip: &Vector3<f64>) {
+        if let Entry::Vacant(entry) = self.index.entry(Self::key(tip)) {
+            entry.insert(self.positions.len());
+            self.positions.push([tip.x, tip.y, tip.z]);
+        }
+    }
+
+    fn find(&self, tip: &Vector3<f64>) -> Option<usize> {
+        self.index.get(&Self::key(tip)).copied()
+    }
 }
 
 impl Evaluator<'_> {
@@ -75,6 +108,30 @@ impl Evaluator<'_> {
             Errors::Exact(twin) => {
                 let d = twin.deviation(&command);
                 Ok((d.volumetric_mm, d.orientation_rad))
+            }
+            Errors::Record(positions) => {
+                positions
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .record(tip);
+                Ok((Vector3::zeros(), Vector3::zeros()))
+            }
+            Errors::Replay(positions, values) => {
+                let s = positions
+                    .find(tip)
+                    .and_then(|i| values.get(i))
+                    .ok_or_else(|| FeatureError::Feature {
+                        file: self.file.to_string(),
+                        feature: feature.to_string(),
+                        message: format!(
+                            "the cutter position ({:.6}, {:.6}, {:.6}) was not among the recorded ones",
+                            tip.x, tip.y, tip.z
+                        ),
+                    })?;
+                Ok((
+                    Vector3::new(s[0], s[1], s[2]),
+                    Vector3::new(s[3], s[4], s[5]),
+                ))
             }
             Errors::Field(field) => {
                 let s = field.sample(&command).map_err(|(d, lo, hi)| FeatureError::Feature {

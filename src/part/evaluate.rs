@@ -6,11 +6,14 @@ use std::collections::HashMap;
 
 use nalgebra::{Vector2, Vector3};
 
-use super::cuts::{Cut, Errors, Evaluator};
+use std::sync::Mutex;
+
+use super::cuts::{Cut, CutterPositions, Errors, Evaluator};
 use super::file::{FeatureSpec, PartFile};
 use super::geometry::{datum_shift, enclosing_diameter, median_line, worst};
 use super::{tolerance, ErrorSource, FeatureError, FeatureResult, Verdict};
 use crate::io::mesh::Mesh;
+use crate::model::channels::Sample;
 use crate::reference::Twin;
 
 /// What the features evaluated so far leave for the datums of later ones.
@@ -49,6 +52,33 @@ pub fn evaluate(
         ErrorSource::Exact(machine) => Errors::Exact(Box::new(Twin::of(machine))),
         ErrorSource::Field(field) => Errors::Field(field),
     };
+    evaluate_with(part, errors, file)
+}
+
+/// Every cutter position the evaluation of `part` asks the machine's error at.
+pub fn cutter_positions(part: &PartFile, file: &str) -> Result<CutterPositions, FeatureError> {
+    let positions = Mutex::new(CutterPositions::default());
+    evaluate_with(part, Errors::Record(&positions), file)?;
+    Ok(positions.into_inner().unwrap_or_else(|e| e.into_inner()))
+}
+
+/// Evaluates every feature of the part from the machine's VE and OE (in
+/// [`crate::model::channels::SAMPLE_COLUMNS`] order) at each of `positions`, found beforehand.
+pub fn evaluate_at(
+    part: &PartFile,
+    file: &str,
+    positions: &CutterPositions,
+    values: &[Sample],
+) -> Result<Vec<FeatureResult>, FeatureError> {
+    evaluate_with(part, Errors::Replay(positions, values), file)
+}
+
+fn evaluate_with(
+    part: &PartFile,
+    errors: Errors,
+    file: &str,
+) -> Result<Vec<FeatureResult>, FeatureError> {
+    let pose = part.pose();
     let evaluator = Evaluator {
         part,
         pose,
@@ -242,7 +272,9 @@ impl Evaluator<'_> {
         };
         let mesh = Mesh::read_stl(&self.part.base.join(mesh)).map_err(mesh_error)?;
         let profile = self.profile(name, &mesh, tolerance_mm)?;
-        if let Some(ply) = ply {
+        // A part evaluated on many machines (recorded, replayed) writes no per-machine file.
+        let one_machine = matches!(self.errors, Errors::Exact(_) | Errors::Field(_));
+        if let (Some(ply), true) = (ply, one_machine) {
             mesh.write_ply(
                 &self.part.base.join(ply),
                 "deviation_mm",

@@ -301,7 +301,8 @@ impl PartFile {
         Vector3::new(a.cos(), a.sin(), 0.0)
     }
 
-    pub(super) fn pose(&self) -> Command {
+    /// The rotary axes' positions the part is machined at (X Y Z zero).
+    pub fn pose(&self) -> Command {
         let mut command = [0.0; 6];
         for (axis, value) in &self.placement.pose_deg {
             if let Some(letter) = axis.chars().next().and_then(AxisLetter::from_char) {

@@ -44,7 +44,8 @@ mod geometry;
 mod profile;
 pub mod tolerance;
 
-pub use evaluate::evaluate;
+pub use cuts::CutterPositions;
+pub use evaluate::{cutter_positions, evaluate, evaluate_at};
 pub use file::{Cutter, FeatureSpec, PartFile, Placement, Sampling};
 
 use serde::Serialize;

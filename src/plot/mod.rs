@@ -1,7 +1,7 @@
 //! Plots people would rather look at than read, as SVG and PNG from one drawing: error curves of
 //! the standard tests (polar for circular tests, with the scale marked), colour maps of a field
 //! slice with a scale bar, and the exaggerated deformed grid of a workspace (Hwang et al.,
-//! Fig. 9).
+//! Fig. 9), error budgets as bar charts and histograms over sampled machines.
 //!
 //! A [`Drawing`] is a list of shapes in pixel coordinates (y down). SVG writes them as elements
 //! (text as text); PNG rasterises them with tiny-skia, the text with the embedded DejaVu Sans.
@@ -13,11 +13,13 @@ use crate::error::{Classify, ErrorKind};
 use crate::io::atomic::write_atomically;
 use crate::io::FileError;
 
+mod bars;
 mod charts;
 mod maps;
 mod png;
 mod svg;
 
+pub use bars::{bar_chart, histogram, stacked, Bar};
 pub use charts::{line_chart, polar_chart, ticks, Series};
 pub use maps::{colour, colour_map, deformed_grid};
 

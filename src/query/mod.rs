@@ -1,5 +1,6 @@
 //! Answers at arbitrary commanded positions: VE and OE interpolated in a field or computed exactly
-//! ([`sample_field`], [`sample_exact`]), a plane of a field for a colour map ([`field_slice`]), the
+//! ([`sample_field`], [`sample_exact`]; [`sample_fields`] in the parts of a sweep, each point in
+//! the part of its pose), a plane of a field for a colour map ([`field_slice`]), the
 //! workspace grid deformed by its error ([`deformed_grid`]).
 
 mod deformed;
@@ -7,8 +8,10 @@ mod sample;
 mod slice;
 
 pub use deformed::{deformed_grid, DeformedGrid};
-pub use sample::{open_sampler, sample_exact, sample_field, sample_field_gpu};
-pub use slice::{field_slice, FieldSlice, Quantity};
+pub use sample::{
+    open_sampler, sample_exact, sample_field, sample_field_gpu, sample_fields, SampledField,
+};
+pub use slice::{field_slice, field_slice_at_pose, FieldSlice, Quantity};
 
 use crate::error::{Classify, ErrorKind};
 use crate::gpu::GpuError;
@@ -38,6 +41,25 @@ pub enum QueryError {
         axis: char,
         value: f64,
         field: f64,
+    },
+    #[error("{path}: line {line}: {field} holds no field at the pose {pose}; its poses: {poses}")]
+    NoPose {
+        path: String,
+        line: usize,
+        pose: String,
+        field: String,
+        poses: String,
+    },
+    #[error(
+        "{path}: line {line}: {pose} matches {count} poses of {field}: add the column {missing}"
+    )]
+    PartialPose {
+        path: String,
+        line: usize,
+        pose: String,
+        count: usize,
+        field: String,
+        missing: String,
     },
     #[error(transparent)]
     Field(#[from] FieldError),

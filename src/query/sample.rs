@@ -1,12 +1,15 @@
 //! VE and OE at arbitrary commanded positions: interpolated (trilinear) in a field, on the CPU or
 //! the GPU, or exactly from the machine model (the f64 reference).
 
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
 use rayon::prelude::*;
 
 use super::QueryError;
 use crate::engine::DeviceChoice;
 use crate::gpu::GpuSampler;
-use crate::io::field::{GridCell, LoadedField};
+use crate::io::field::{FieldError, FieldFile, GridCell, LoadedField};
 use crate::io::points::QueryPoint;
 use crate::model::channels::Sample;
 use crate::model::Machine;
@@ -80,6 +83,120 @@ fn locate(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<GridCell, Q
 
 fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample, QueryError> {
     Ok(field.blend(&locate(field, p, path)?))
+}
+
+/// A field file opened for sampling: a single-pose field read whole, or a five-axis map (one
+/// part per pose) whose parts are read one by one as the points ask for them.
+pub enum SampledField {
+    One(LoadedField),
+    Parts(FieldFile),
+}
+
+impl SampledField {
+    pub fn open(path: &Path) -> Result<SampledField, FieldError> {
+        let file = FieldFile::open(path)?;
+        Ok(if file.is_multipart() {
+            SampledField::Parts(file)
+        } else {
+            SampledField::One(LoadedField::open_part(&file, 0)?)
+        })
+    }
+}
+
+/// Samples a field file at every point, on the GPU where `sampler` is given: a single-pose
+/// field as [`sample_field`] does; in a five-axis map each point in the part whose pose its
+/// rotary columns name (within 1e-9°; a rotary axis without a column matches any pose, so the
+/// columns must leave one part). A point whose pose no part holds is an error naming its line
+/// and listing the file's poses. The parts are read one at a time.
+pub fn sample_fields(
+    field: &SampledField,
+    points: &[QueryPoint],
+    path: &str,
+    sampler: Option<&GpuSampler>,
+) -> Result<Vec<Sample>, QueryError> {
+    let sample = |field: &LoadedField, points: &[QueryPoint]| match sampler {
+        Some(sampler) => sample_field_gpu(field, points, path, sampler),
+        None => sample_field(field, points, path),
+    };
+    let file = match field {
+        SampledField::One(field) => return sample(field, points),
+        SampledField::Parts(file) => file,
+    };
+    let parts = part_of_each(file, points, path)?;
+    let mut by_part: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (n, &part) in parts.iter().enumerate() {
+        by_part.entry(part).or_default().push(n);
+    }
+    let mut samples = vec![[0.0; 6]; points.len()];
+    for (part, indices) in by_part {
+        let field = LoadedField::open_part(file, part)?;
+        let subset: Vec<QueryPoint> = indices.iter().map(|&n| points[n].clone()).collect();
+        for (n, s) in indices.into_iter().zip(sample(&field, &subset)?) {
+            samples[n] = s;
+        }
+    }
+    Ok(samples)
+}
+
+/// The part of a multi-part field each point's rotary columns pick.
+fn part_of_each(
+    file: &FieldFile,
+    points: &[QueryPoint],
+    path: &str,
+) -> Result<Vec<usize>, QueryError> {
+    let pose_axes = file.info(0).pose_axes;
+    // Points come at few poses: each distinct one is looked up once.
+    let mut found: HashMap<([u64; 3], [bool; 3]), usize> = HashMap::new();
+    let mut parts = Vec::with_capacity(points.len());
+    for p in points {
+        let given = [p.given[3], p.given[4], p.given[5]];
+        let degrees = [p.command[3], p.command[4], p.command[5]];
+        let key = (degrees.map(f64::to_bits), given);
+        if let Some(&part) = found.get(&key) {
+            parts.push(part);
+            continue;
+        }
+        let matching = file.parts_at(degrees, given);
+        let named: Vec<String> = (0..3)
+            .filter(|&n| given[n])
+            .map(|n| format!("{}={}", ['A', 'B', 'C'][n], degrees[n]))
+            .collect();
+        let pose = if named.is_empty() {
+            "a position without rotary columns".to_string()
+        } else {
+            named.join(",")
+        };
+        let missing: Vec<String> = pose_axes
+            .chars()
+            .filter(|a| "ABC".find(*a).is_some_and(|n| !given[n]))
+            .map(String::from)
+            .collect();
+        let part = match matching[..] {
+            [] => {
+                return Err(QueryError::NoPose {
+                    path: path.to_string(),
+                    line: p.line,
+                    pose,
+                    field: file.path().display().to_string(),
+                    poses: file.pose_list(),
+                })
+            }
+            [_, _, ..] if !missing.is_empty() => {
+                return Err(QueryError::PartialPose {
+                    path: path.to_string(),
+                    line: p.line,
+                    pose,
+                    count: matching.len(),
+                    field: file.path().display().to_string(),
+                    missing: missing.join(", "),
+                })
+            }
+            [first, ..] => first,
+        };
+        found.insert(key, part);
+        parts.push(part);
+    }
+    Ok(parts)
 }
 
 /// The GPU sampler `choice` asks for, or `None` for the CPU. `Auto` takes a hardware GPU only: on

@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use super::QueryError;
-use crate::io::field::{FieldInfo, FieldReader};
+use crate::io::field::{FieldFile, FieldInfo, FieldReader};
 use crate::model::channels::CHANNELS;
 
 /// A plane of a field for a colour map: `values[r * cols + c]`, row 0 at the low end of the
@@ -62,9 +62,24 @@ impl Quantity {
 
 /// Reads the grid plane across axis `normal` (`x`, `y` or `z`) nearest to `at` (mm; default the
 /// middle) and takes `quantity` there: `VE` (|VE|, mm), `OE` (|OE|, rad) or one channel
-/// (`VE.X` … `OE.Z`). Only the lines the plane crosses are read.
+/// (`VE.X` … `OE.Z`). Only the lines the plane crosses are read. A five-axis map (a multi-part
+/// file) needs [`field_slice_at_pose`].
 pub fn field_slice(
     path: &Path,
+    normal: &str,
+    at: Option<f64>,
+    quantity: &str,
+) -> Result<FieldSlice, QueryError> {
+    field_slice_at_pose(path, None, normal, at, quantity)
+}
+
+/// [`field_slice`] in the part of the field file that holds `pose` (degrees of A, B, C, with its
+/// words for messages): a five-axis map has one part per pose, and one not holding the pose is an
+/// error listing those it holds; so is a single-part file at another pose. Without a pose, a
+/// file of several poses is an error listing them.
+pub fn field_slice_at_pose(
+    path: &Path,
+    pose: Option<([f64; 3], &str)>,
     normal: &str,
     at: Option<f64>,
     quantity: &str,
@@ -78,7 +93,12 @@ pub fn field_slice(
     let parsed = Quantity::parse(quantity)
         .ok_or_else(|| QueryError::SliceQuantity(quantity.trim().to_string()))?;
     let (channels, magnitude, unit) = parsed.channels();
-    let mut reader = FieldReader::open(path)?;
+    let file = FieldFile::open(path)?;
+    let part = match pose {
+        Some((degrees, words)) => file.part_at(degrees, words)?,
+        None => file.single()?,
+    };
+    let mut reader = file.reader(part)?;
     let info = reader.info().clone();
     let index = plane_index(&info, d, at)?;
     let (h, v) = match d {
@@ -104,10 +124,15 @@ pub fn field_slice(
     let (h_lo, h_hi) = span(h);
     let (v_lo, v_hi) = span(v);
     let position = info.origin_mm[d] + index as f64 * info.spacing_mm[d];
+    // The part of a sweep says its pose; a single-pose field's title stays as it was.
+    let machine = if file.is_multipart() {
+        format!("{} at {}", info.machine_name, file.name(part))
+    } else {
+        info.machine_name.clone()
+    };
     Ok(FieldSlice {
         title: format!(
-            "{}: {} at {}={position:.1} mm",
-            info.machine_name,
+            "{machine}: {} at {}={position:.1} mm",
             if magnitude {
                 format!("|{}|", quantity.trim())
             } else {

@@ -170,7 +170,7 @@ fn files_that_are_not_fields_are_rejected() {
 
 /// `VOLMAP_REQUIRE_EXR_TOOLS` (set by CI, which installs them) turns a missing tool into a
 /// failure; elsewhere the test skips with a line on stderr.
-fn tool_available(check: &mut std::process::Command, what: &str) -> bool {
+pub(crate) fn tool_available(check: &mut std::process::Command, what: &str) -> bool {
     let ok = check.output().is_ok_and(|o| o.status.success());
     if !ok {
         if std::env::var_os("VOLMAP_REQUIRE_EXR_TOOLS").is_some() {
@@ -259,4 +259,129 @@ fn exrheader_reads_the_field() {
     ] {
         assert!(text.contains(expected), "exrheader output lacks `{expected}`:\n{text}");
     }
+}
+
+/// A sweep's parts: the multi-part writer streams them in order, and the readers find them.
+fn two_poses(path: &std::path::Path) -> (volmap::model::Machine, Vec<Grid>) {
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let grids: Vec<Grid> = volmap::model::poses::parse_sweep("B=-45:45:90,C=30", &machine)
+        .unwrap()
+        .into_iter()
+        .map(|pose| Grid::full_travel(&machine, [4, 3, 2], pose).unwrap())
+        .collect();
+    let options = MapOptions {
+        chunk_points: Some(4),
+        check_points: 3,
+    };
+    let summary = volmap::engine::sweep::map_sweep_to_file(
+        &machine,
+        &grids,
+        &Engine::Cpu,
+        path,
+        &options,
+        |_| {},
+    )
+    .unwrap();
+    assert_eq!(summary.poses.len(), 2);
+    assert_eq!(summary.poses[1].name, "B=45,C=30");
+    assert_eq!(summary.stats.points, 48);
+    assert!(summary
+        .check
+        .as_ref()
+        .is_some_and(|c| c.points == 6 && c.passed()));
+    (machine, grids)
+}
+
+#[test]
+fn a_multi_part_field_holds_each_pose_as_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sweep.exr");
+    let (machine, grids) = two_poses(&path);
+    let file = volmap::io::field::FieldFile::open(&path).unwrap();
+    assert!(file.is_multipart());
+    assert_eq!(file.parts(), 2);
+    assert_eq!(file.pose_list(), "B=-45,C=30 B=45,C=30");
+    assert_eq!(file.parts_at([0.0, 45.0, 30.0], [true; 3]), [1]);
+    assert_eq!(
+        file.parts_at([0.0, 45.0 + 2e-9, 30.0], [true; 3]),
+        [] as [usize; 0]
+    );
+    assert_eq!(
+        file.parts_at([0.0, 0.0, 30.0], [false, false, true]),
+        [0, 1]
+    );
+    for (p, grid) in grids.iter().enumerate() {
+        let expected = engine_values(&machine, grid);
+        let mut reader = file.reader(p).unwrap();
+        assert_eq!(reader.info().pose_deg, [0.0, grid.pose[4], 30.0]);
+        assert_eq!(reader.info().machine_toml, machine.source.toml);
+        let mut line = vec![0.0f32; CHANNELS.len() * 4];
+        for k in 0..2 {
+            for j in 0..3 {
+                reader.read_line((j + 3 * k) as u64, &mut line).unwrap();
+                for i in 0..4 {
+                    for c in 0..6 {
+                        assert_eq!(line[c * 4 + i], expected([i, j, k], c));
+                    }
+                }
+            }
+        }
+    }
+    // A reader of one field refuses a sweep, listing its poses.
+    let message = FieldReader::open(&path).err().expect("refused").to_string();
+    assert!(
+        message.contains("holds 2 poses") && message.contains("B=-45,C=30 B=45,C=30"),
+        "{message}"
+    );
+    let message = file
+        .part_at([0.0, 10.0, 30.0], "B=10,C=30")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("no field at the pose B=10,C=30") && message.contains("B=45,C=30"),
+        "{message}"
+    );
+    // A truncated sweep is refused.
+    let bytes = std::fs::read(&path).unwrap();
+    let cut = dir.path().join("cut.exr");
+    std::fs::write(&cut, &bytes[..bytes.len() - 10]).unwrap();
+    let message = volmap::io::field::FieldFile::open(&cut)
+        .err()
+        .expect("truncated")
+        .to_string();
+    assert!(message.contains("truncated"), "{message}");
+}
+
+#[test]
+fn an_unfinished_sweep_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let grid = Grid::full_travel(&machine, [2, 2, 2], [0.0; 6]).unwrap();
+    let path = dir.path().join("partial.exr");
+    let mut writer = volmap::io::field::PartsWriter::create(&path, 3, |p| {
+        (
+            format!("part {p}"),
+            map::field_info(&machine, &grid, "test"),
+        )
+    })
+    .unwrap();
+    writer.write_lines(0, 0, 4, &[0.0; 4 * 6 * 2]).unwrap();
+    let error = writer.write_lines(2, 0, 1, &[0.0; 12]).unwrap_err();
+    assert!(
+        error.to_string().contains("expected part 0, got 2"),
+        "{error}"
+    );
+    writer.write_lines(1, 0, 1, &[0.0; 12]).unwrap();
+    let error = writer.write_lines(2, 0, 1, &[0.0; 12]).unwrap_err();
+    assert!(
+        error.to_string().contains("expected part 1, got 2"),
+        "{error}"
+    );
+    let incomplete = writer.finish().unwrap_err();
+    assert!(
+        incomplete.to_string().contains("only 5 of 12 lines"),
+        "{incomplete}"
+    );
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert!(left.is_empty(), "nothing may be left behind: {left:?}");
 }

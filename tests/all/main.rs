@@ -5,6 +5,7 @@ mod calibrate;
 mod cli;
 mod common;
 mod cpu;
+mod design;
 mod features;
 mod field;
 mod golden;

@@ -64,8 +64,16 @@ fn gpu_statistics_of_sampled_machines_match_the_cpu_engine_sample_by_sample() {
     let Some(gpu) = gpu() else { return };
     for (name, pose, dims) in [
         ("vmc-li2015", [0.0; 6], [17, 9, 6]),
-        ("5axis-hwang2014", [0.0, 0.0, 0.0, 0.0, 30.0, 60.0], [13, 7, 5]),
-        ("4axis-hwang2014", [0.0, 0.0, 0.0, 0.0, 0.0, 40.0], [9, 11, 4]),
+        (
+            "5axis-hwang2014",
+            [0.0, 0.0, 0.0, 0.0, 30.0, 60.0],
+            [13, 7, 5],
+        ),
+        (
+            "4axis-hwang2014",
+            [0.0, 0.0, 0.0, 0.0, 0.0, 40.0],
+            [9, 11, 4],
+        ),
     ] {
         let machine = embedded::load(name).unwrap();
         let perturbations = perturbations(&machine);
@@ -89,7 +97,12 @@ fn gpu_statistics_of_sampled_machines_match_the_cpu_engine_sample_by_sample() {
             close(g.rms_ve_mm(), c.rms_ve_mm(), 1e-6, "RMS |VE|");
             close(g.max_oe_rad, c.max_oe_rad, 1e-9, "max |OE|");
             for d in 0..3 {
-                close(g.max_axis_mm[d], c.max_axis_mm[d], 1e-6, "max |VE| along an axis");
+                close(
+                    g.max_axis_mm[d],
+                    c.max_axis_mm[d],
+                    1e-6,
+                    "max |VE| along an axis",
+                );
             }
             assert_eq!(g.points, c.points);
             assert!(c.max_ve_mm > 1e-3, "{name}: the samples have errors");

@@ -248,7 +248,8 @@ impl FunctionTables {
             let Some(f) = component.as_ref().filter(|f| !f.is_zero()) else {
                 continue;
             };
-            let terms: Vec<&ErrorFunction> = f.terms().into_iter().filter(|t| !t.is_zero()).collect();
+            let terms: Vec<&ErrorFunction> =
+                f.terms().into_iter().filter(|t| !t.is_zero()).collect();
             indices[n] = self.functions.len() as u32;
             for (k, term) in terms.iter().enumerate() {
                 let form = term.pieces().expect("the terms of a sum are not sums");

@@ -15,8 +15,8 @@ use super::pack::{
 use super::MAX_ERROR_ANGLE_RAD;
 use crate::gpu::device::{Buffer, Pass, Readback};
 use crate::gpu::layout::{
-    DevData, Location, Partial, Term, XPoly, CONSTANTS_PER_SAMPLE, SHAPE_BOW,
-    SHAPE_CONSTANT, SHAPE_LINE, TERM_NO_AXIS, WORKGROUP_SIZE,
+    DevData, Location, Partial, Term, XPoly, CONSTANTS_PER_SAMPLE, SHAPE_BOW, SHAPE_CONSTANT,
+    SHAPE_LINE, TERM_NO_AXIS, WORKGROUP_SIZE,
 };
 use crate::gpu::GpuError;
 use crate::model::channels::Sample;
@@ -234,7 +234,11 @@ impl GpuMapper {
     /// and statistics take `bytes_per_sample`.
     fn batch_size(&self, bytes_per_sample: u64) -> usize {
         let binding = self.gpu.max_storage_binding_bytes();
-        let budget = if self.gpu.is_software() { 1 << 26 } else { 1 << 28 };
+        let budget = if self.gpu.is_software() {
+            1 << 26
+        } else {
+            1 << 28
+        };
         let by_memory = (budget.min(binding) / bytes_per_sample.max(1)).max(1);
         by_memory.min(self.gpu.max_workgroups_per_dimension() as u64) as usize
     }
@@ -267,13 +271,13 @@ impl Buffers {
         let batch64 = batch as u64;
         let zeros = |label: &str, bytes: u64| gpu.writable(label, bytes.max(16));
         Buffers {
-            axes: gpu.storage("axes", bytemuck::cast_slice(&packed.axes)),
-            functions: gpu.storage("functions", bytemuck::cast_slice(&packed.functions)),
-            pieces: gpu.storage("pieces", bytemuck::cast_slice(&packed.pieces)),
-            coefficients: gpu.storage("coefficients", bytemuck::cast_slice(&packed.coefficients)),
-            groups: gpu.storage("groups", bytemuck::cast_slice(&packed.groups)),
-            factors: gpu.storage("factors", bytemuck::cast_slice(&packed.factors)),
-            terms: gpu.storage("terms", bytemuck::cast_slice(&base.terms)),
+            axes: gpu.storage("axes", &packed.axes),
+            functions: gpu.storage("functions", &packed.functions),
+            pieces: gpu.storage("pieces", &packed.pieces),
+            coefficients: gpu.storage("coefficients", &packed.coefficients),
+            groups: gpu.storage("groups", &packed.groups),
+            factors: gpu.storage("factors", &packed.factors),
+            terms: gpu.storage("terms", &base.terms),
             amplitudes: zeros("amplitudes", batch64 * terms as u64 * 4),
             locations: zeros(
                 "locations",
@@ -285,7 +289,10 @@ impl Buffers {
             ),
             x_polys: zeros("x polys", batch64 * std::mem::size_of::<XPoly>() as u64),
             axis_values: gpu.output("axis values", (batch64 * entries).max(1) * entry_bytes),
-            group_values: gpu.output("group values", (batch64 * group_entries).max(1) * entry_bytes),
+            group_values: gpu.output(
+                "group values",
+                (batch64 * group_entries).max(1) * entry_bytes,
+            ),
             x_errors: gpu.output("x errors", batch64 * 2 * 16 * nx.max(1)),
         }
     }
@@ -331,7 +338,11 @@ impl GpuMapper {
         })?;
         let chunks = grid.chunks(max_groups * tiles.lines_per_workgroup * nx);
         let chunk_groups = |lines: u64| tiles.x_groups as u64 * tiles.line_groups(lines) as u64;
-        let most_groups = chunks.iter().map(|&(_, l)| chunk_groups(l)).max().unwrap_or(1);
+        let most_groups = chunks
+            .iter()
+            .map(|&(_, l)| chunk_groups(l))
+            .max()
+            .unwrap_or(1);
         let packed = &base.packed;
         let [entries, group_entries, _, _] = packed.params.counts.map(u64::from);
         let terms = perturbations.len().max(1);
@@ -516,10 +527,10 @@ impl GpuMapper {
             .min(rows.len().max(1))
             .min((self.gpu.max_storage_binding_bytes() / value_bytes).max(1) as usize);
         let buffers = Buffers::new(self, &base, terms, batch, 1);
-        let position_buffer = self
+        let position_buffer = self.gpu.storage("positions", &positions);
+        let output = self
             .gpu
-            .storage("positions", bytemuck::cast_slice(&positions));
-        let output = self.gpu.output("position values", batch as u64 * value_bytes);
+            .output("position values", batch as u64 * value_bytes);
         let staging = self
             .gpu
             .staging("position values staging", batch as u64 * value_bytes);

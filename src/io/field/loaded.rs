@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::{FieldError, FieldInfo, FieldReader};
+use super::{FieldError, FieldFile, FieldInfo, FieldReader};
 use crate::model::channels::{Sample, CHANNELS};
 use crate::model::Command;
 
@@ -24,8 +24,18 @@ pub struct LoadedField {
 }
 
 impl LoadedField {
+    /// Reads a single-part field file (or a sweep of one pose); a file of several poses is an
+    /// error listing them.
     pub fn open(path: &Path) -> Result<LoadedField, FieldError> {
-        let mut reader = FieldReader::open(path)?;
+        LoadedField::read(FieldReader::open(path)?)
+    }
+
+    /// Reads part `part` of a field file.
+    pub fn open_part(file: &FieldFile, part: usize) -> Result<LoadedField, FieldError> {
+        LoadedField::read(file.reader(part)?)
+    }
+
+    fn read(mut reader: FieldReader) -> Result<LoadedField, FieldError> {
         let info = reader.info().clone();
         let nx = info.dims[0];
         let mut values = Vec::with_capacity(reader.lines() as usize * nx);

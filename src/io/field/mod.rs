@@ -1,23 +1,27 @@
 //! Field files: OpenEXR, one part, scanlines, no compression, FLOAT channels
 //! `OE.X OE.Y OE.Z VE.X VE.Y VE.Z`. The image is `nx` wide and `ny·nz` tall; pixel
-//! `(i, j + k·ny)` holds grid point `(i, j, k)`.
+//! `(i, j + k·ny)` holds grid point `(i, j, k)`. A five-axis map over the rotary axes is one
+//! multi-part file: one such field per pose of the sweep, each part named by its pose
+//! (`B=-90,C=0`) and carrying every attribute a single-pose field has.
 //!
-//! Uncompressed scanline chunks have a fixed size, so the offset table is known before any pixel
-//! is computed: the writer streams lines as they arrive and memory does not grow with the grid.
-//! It writes to a temporary file in the target's folder and renames it only when every line is
-//! written, so an interrupted run never leaves a truncated field.
+//! Uncompressed scanline chunks have a fixed size, so the offset tables are known before any
+//! pixel is computed: the writers stream lines as they arrive and memory does not grow with the
+//! grid, nor with the sweep. They write to a temporary file in the target's folder and rename it
+//! only when every line is written, so an interrupted run never leaves a truncated field.
 
+mod header;
 mod loaded;
 mod read;
 mod write;
 
 pub use loaded::{GridCell, LoadedField};
-pub use read::FieldReader;
-pub use write::FieldWriter;
+pub use read::{FieldFile, FieldReader};
+pub use write::{FieldWriter, PartsWriter};
 
 use super::FileError;
 use crate::error::{Classify, ErrorKind};
 use crate::model::grid::Grid;
+use crate::model::{poses, AxisLetter};
 
 #[derive(Debug, thiserror::Error)]
 pub enum FieldError {
@@ -37,6 +41,24 @@ pub enum FieldError {
         written: u64,
         total: u64,
     },
+    #[error("{path}: parts must arrive in order: expected part {expected}, got {got}")]
+    PartOutOfOrder {
+        path: String,
+        expected: usize,
+        got: usize,
+    },
+    #[error("{path} holds {count} poses, one field each ({poses}): say which one")]
+    Poses {
+        path: String,
+        count: usize,
+        poses: String,
+    },
+    #[error("{path} holds no field at the pose {pose}; its poses: {poses}")]
+    NoPose {
+        path: String,
+        pose: String,
+        poses: String,
+    },
 }
 
 impl Classify for FieldError {
@@ -45,8 +67,12 @@ impl Classify for FieldError {
     fn kind(&self) -> ErrorKind {
         match self {
             FieldError::File(e) => e.kind(),
-            FieldError::Format { .. } => ErrorKind::Input,
-            FieldError::OutOfOrder { .. } | FieldError::Incomplete { .. } => ErrorKind::Work,
+            FieldError::Format { .. } | FieldError::Poses { .. } | FieldError::NoPose { .. } => {
+                ErrorKind::Input
+            }
+            FieldError::OutOfOrder { .. }
+            | FieldError::Incomplete { .. }
+            | FieldError::PartOutOfOrder { .. } => ErrorKind::Work,
         }
     }
 }
@@ -77,6 +103,17 @@ pub struct FieldInfo {
 }
 
 impl FieldInfo {
+    /// The name of the field's pose: every rotary axis of the machine in the order A, B, C
+    /// (`B=-90,C=0`), as the parts of a multi-part file are named.
+    pub fn pose_name(&self) -> String {
+        let axes: Vec<AxisLetter> = self
+            .pose_axes
+            .chars()
+            .filter_map(AxisLetter::from_char)
+            .collect();
+        poses::name_of(self.pose_deg, &axes)
+    }
+
     /// The grid of commanded positions the field covers.
     pub fn grid(&self) -> Grid {
         let mut pose = [0.0; 6];
@@ -94,6 +131,34 @@ impl FieldInfo {
 pub const UNITS: &str = "VE.X VE.Y VE.Z: mm, volumetric error p_real - p_ideal, workpiece frame; \
 OE.X OE.Y OE.Z: rad, rotation vector of R_real R_ideal^T, workpiece frame; \
 origin, spacing: mm (commanded X Y Z); pose: degrees (commanded A B C)";
+
+/// How far a rotary position may lie from a part's pose and still pick that part, degrees.
+pub const POSE_TOLERANCE_DEG: f64 = 1e-9;
+
+/// The most poses a message lists before it says how many more there are.
+const LISTED_POSES: usize = 16;
+
+/// Poses in words for a message: their names separated by spaces, the first
+/// few where there are many (`B=-90,C=0 B=-90,C=90 … and 10 more`); a pose of a machine without
+/// rotary axes is `(no rotary axis)`.
+pub fn pose_list(names: &[String]) -> String {
+    let shown: Vec<&str> = names
+        .iter()
+        .take(LISTED_POSES)
+        .map(|n| {
+            if n.is_empty() {
+                "(no rotary axis)"
+            } else {
+                n.as_str()
+            }
+        })
+        .collect();
+    let mut text = shown.join(" ");
+    if names.len() > LISTED_POSES {
+        text.push_str(&format!(" … and {} more", names.len() - LISTED_POSES));
+    }
+    text
+}
 
 pub(crate) const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
 pub(crate) const VERSION: u32 = 2;

@@ -1,210 +1,40 @@
-//! Reading a field written by volmap: the header checked against what volmap writes, then lines
-//! one by one or in chunks, in order.
+//! Reading a field written by volmap: the headers checked against what volmap writes, the parts
+//! of a multi-part file (one per pose of a sweep) found by their pose, then lines one by one or
+//! in chunks, in order.
 
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use super::{FieldError, FieldInfo, FLAG_DEEP, FLAG_MULTIPART, FLAG_TILED, MAGIC, PIXEL_FLOAT};
+use super::header::Cursor;
+use super::{
+    pose_list, FieldError, FieldInfo, FLAG_DEEP, FLAG_MULTIPART, FLAG_TILED, MAGIC,
+    POSE_TOLERANCE_DEG,
+};
 use crate::io::FileError;
 use crate::model::channels::CHANNELS;
 
-/// Reads fields written by volmap (single-part, scanline, uncompressed) line by line.
-pub struct FieldReader {
-    path: String,
-    file: BufReader<File>,
-    /// Where the file stands after the last line read, if known.
-    position: Option<u64>,
-    /// The bytes of the last line read.
-    scratch: Vec<u8>,
+/// One part of a field file: its name (empty in a single-part file), its header and where its
+/// offset table starts.
+struct Part {
+    name: String,
     info: FieldInfo,
-    offsets: Vec<u64>,
+    table: u64,
 }
 
-struct Cursor<'a> {
-    path: &'a str,
-    reader: &'a mut BufReader<File>,
+/// A field file with its headers read: one part, or (a five-axis map over the rotary axes) one
+/// part per pose, each a field of its own. Lines are read through a [`FieldReader`] of a part.
+pub struct FieldFile {
+    path: PathBuf,
+    display: String,
+    multipart: bool,
+    /// Parts after the first whose machine file and CSV tables are the first's keep them empty
+    /// here (a sweep repeats them in every part): [`FieldFile::info`] puts them back.
+    parts: Vec<Part>,
 }
 
-impl Cursor<'_> {
-    fn format(&self, what: impl Into<String>) -> FieldError {
-        FieldError::Format {
-            path: self.path.to_string(),
-            what: what.into(),
-        }
-    }
-
-    fn bytes(&mut self, n: usize) -> Result<Vec<u8>, FieldError> {
-        let mut buf = vec![0; n];
-        self.reader
-            .read_exact(&mut buf)
-            .map_err(|_| self.format("the file ends inside its header"))?;
-        Ok(buf)
-    }
-
-    fn u32(&mut self) -> Result<u32, FieldError> {
-        let b = self.bytes(4)?;
-        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-    }
-
-    fn text(&mut self) -> Result<String, FieldError> {
-        let mut s = Vec::new();
-        loop {
-            let b = self.bytes(1)?[0];
-            if b == 0 {
-                break;
-            }
-            s.push(b);
-            if s.len() > 255 {
-                return Err(self.format("an attribute name is longer than 255 bytes"));
-            }
-        }
-        String::from_utf8(s).map_err(|_| self.format("an attribute name is not UTF-8"))
-    }
-}
-
-fn f64s<const N: usize>(b: &[u8]) -> [f64; N] {
-    std::array::from_fn(|n| f64::from_le_bytes(b[8 * n..8 * n + 8].try_into().unwrap_or([0; 8])))
-}
-
-/// The header attributes volmap checks besides its own: the channels with their pixel types, the
-/// compression, the data window.
-#[derive(Default)]
-struct ImageAttributes {
-    channels: Vec<(String, Option<i32>)>,
-    compression: Option<u8>,
-    window: Option<[i32; 4]>,
-}
-
-impl Cursor<'_> {
-    /// Reads the header's attributes up to the empty name that ends them.
-    fn header(&mut self) -> Result<(FieldInfo, ImageAttributes), FieldError> {
-        let mut info = FieldInfo::default();
-        let mut image = ImageAttributes::default();
-        loop {
-            let name = self.text()?;
-            if name.is_empty() {
-                return Ok((info, image));
-            }
-            let kind = self.text()?;
-            let size = self.u32()? as usize;
-            if size > 1 << 30 {
-                return Err(self.format(format!("attribute {name} claims {size} bytes")));
-            }
-            let value = self.bytes(size)?;
-            self.attribute(&name, &kind, &value, &mut info, &mut image)?;
-        }
-    }
-
-    /// One attribute into the field's info or the image attributes; others are skipped.
-    fn attribute(
-        &self,
-        name: &str,
-        kind: &str,
-        value: &[u8],
-        info: &mut FieldInfo,
-        image: &mut ImageAttributes,
-    ) -> Result<(), FieldError> {
-        let string = || String::from_utf8_lossy(value).into_owned();
-        let need = |n: usize| {
-            if value.len() == n {
-                Ok(())
-            } else {
-                Err(self.format(format!(
-                    "attribute {name} has {} bytes, expected {n}",
-                    value.len()
-                )))
-            }
-        };
-        let i32_at =
-            |k: usize| i32::from_le_bytes(value[4 * k..4 * k + 4].try_into().unwrap_or([0; 4]));
-        match (name, kind) {
-            ("channels", "chlist") => {
-                let mut rest = value;
-                while let Some(end) = rest.iter().position(|&b| b == 0) {
-                    if end == 0 {
-                        break;
-                    }
-                    let channel = String::from_utf8_lossy(&rest[..end]).into_owned();
-                    let pixel = rest
-                        .get(end + 1..end + 5)
-                        .map(|b| i32::from_le_bytes(b.try_into().unwrap_or([0; 4])));
-                    image.channels.push((channel, pixel));
-                    rest = rest.get(end + 17..).unwrap_or(&[]);
-                }
-            }
-            ("compression", "compression") => image.compression = value.first().copied(),
-            ("dataWindow", "box2i") => {
-                need(16)?;
-                image.window = Some(std::array::from_fn(i32_at));
-            }
-            ("volmap.dims", "v3i") => {
-                need(12)?;
-                info.dims = std::array::from_fn(|d| i32_at(d).max(0) as usize);
-            }
-            ("volmap.origin", "v3d") => {
-                need(24)?;
-                info.origin_mm = f64s::<3>(value);
-            }
-            ("volmap.spacing", "v3d") => {
-                need(24)?;
-                info.spacing_mm = f64s::<3>(value);
-            }
-            ("volmap.pose", "v3d") => {
-                need(24)?;
-                info.pose_deg = f64s::<3>(value);
-            }
-            ("volmap.poseAxes", _) => info.pose_axes = string(),
-            ("volmap.machine", _) => info.machine_name = string(),
-            ("volmap.chain", _) => info.chain = string(),
-            ("volmap.machineToml", _) => info.machine_toml = string(),
-            ("volmap.device", _) => info.device = string(),
-            (n, _) if n.starts_with("volmap.csv.") => info
-                .csv_files
-                .push((n["volmap.csv.".len()..].to_string(), string())),
-            _ => {}
-        }
-        Ok(())
-    }
-
-    /// Checks that the image is the field volmap writes for `info`: its channels, no
-    /// compression, a data window of the grid's size.
-    fn check_image(&self, info: &FieldInfo, image: &ImageAttributes) -> Result<(), FieldError> {
-        let expected: Vec<(String, Option<i32>)> = CHANNELS
-            .iter()
-            .map(|n| (n.to_string(), Some(PIXEL_FLOAT)))
-            .collect();
-        if image.channels != expected {
-            return Err(self.format(format!(
-                "channels must be FLOAT {}, found {}",
-                CHANNELS.join(" "),
-                image
-                    .channels
-                    .iter()
-                    .map(|(n, _)| n.as_str())
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            )));
-        }
-        if image.compression != Some(0) {
-            return Err(self
-                .format("the file is compressed; volmap reads the uncompressed fields it writes"));
-        }
-        let [nx, ny, nz] = info.dims;
-        if info.dims.contains(&0) {
-            return Err(self.format("missing or empty volmap.dims"));
-        }
-        if image.window != Some([0, 0, nx as i32 - 1, (ny * nz) as i32 - 1]) {
-            return Err(self.format(format!(
-                "the data window does not match volmap.dims {nx}x{ny}x{nz}"
-            )));
-        }
-        Ok(())
-    }
-}
-
-impl FieldReader {
-    pub fn open(path: &Path) -> Result<FieldReader, FieldError> {
+impl FieldFile {
+    pub fn open(path: &Path) -> Result<FieldFile, FieldError> {
         let display = path.display().to_string();
         let file = File::open(path).map_err(|e| FileError::read(path, e))?;
         let mut reader = BufReader::with_capacity(1 << 20, file);
@@ -216,34 +46,212 @@ impl FieldReader {
             return Err(c.format("not an OpenEXR file (wrong magic number)"));
         }
         let version = c.u32()?;
-        if version & 0xff != 2 || version & (FLAG_TILED | FLAG_DEEP | FLAG_MULTIPART) != 0 {
-            return Err(c.format("not a single-part scanline OpenEXR file"));
+        if version & 0xff != 2 || version & (FLAG_TILED | FLAG_DEEP) != 0 {
+            return Err(c.format("not a scanline OpenEXR file"));
         }
-        let (info, image) = c.header()?;
-        c.check_image(&info, &image)?;
-        let [nx, ny, nz] = info.dims;
-        let lines = ny * nz;
+        let multipart = version & FLAG_MULTIPART != 0;
+        let mut parts: Vec<Part> = Vec::new();
+        while let Some((mut info, image)) = c.header()? {
+            c.check_image(&info, &image)?;
+            let name = if multipart {
+                let name = c.check_part(parts.len(), &info, &image)?;
+                if let Some(first) = parts.first() {
+                    if info.machine_toml == first.info.machine_toml
+                        && info.csv_files == first.info.csv_files
+                    {
+                        info.machine_toml = String::new();
+                        info.csv_files = Vec::new();
+                    }
+                }
+                name
+            } else {
+                String::new()
+            };
+            parts.push(Part {
+                name,
+                info,
+                table: 0,
+            });
+            if !multipart {
+                break;
+            }
+        }
+        if parts.is_empty() {
+            return Err(c.format("the file has no header"));
+        }
+        // The offset tables follow the headers, one per part; then the lines, each with its part
+        // number in a multi-part file.
+        let mut at = c.reader.stream_position().unwrap_or(0);
+        let mut data_bytes = at;
+        for part in &mut parts {
+            // Dimensions come from the file: sums that overflow count as more than it has.
+            let [nx, ny, nz] = part.info.dims.map(|d| d as u64);
+            let chunk_head = if multipart { 12 } else { 8 };
+            let lines = ny.saturating_mul(nz);
+            let chunk = (CHANNELS.len() as u64 * 4).saturating_mul(nx) + 8 + chunk_head;
+            part.table = at;
+            at = at.saturating_add(lines.saturating_mul(8));
+            data_bytes = data_bytes.saturating_add(lines.saturating_mul(chunk));
+        }
         let file_bytes = c.reader.get_ref().metadata().map(|m| m.len()).unwrap_or(0);
-        let header_bytes = c.reader.stream_position().unwrap_or(0);
-        let data_bytes = header_bytes + lines as u64 * (8 + 8 + (CHANNELS.len() * 4 * nx) as u64);
         if data_bytes > file_bytes {
+            let what = match &parts[..] {
+                [one] => {
+                    let [nx, ny, nz] = one.info.dims;
+                    format!("volmap.dims {nx}x{ny}x{nz} needs")
+                }
+                many => format!("its {} parts need", many.len()),
+            };
             return Err(c.format(format!(
-                "volmap.dims {nx}x{ny}x{nz} needs {data_bytes} bytes but the file has {file_bytes}: truncated"
+                "{what} {data_bytes} bytes but the file has {file_bytes}: truncated"
             )));
         }
-        let table = c.bytes(8 * lines)?;
+        Ok(FieldFile {
+            path: path.to_path_buf(),
+            display,
+            multipart,
+            parts,
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Whether the file has the parts of a sweep (even one), rather than the one field of a map
+    /// at one pose.
+    pub fn is_multipart(&self) -> bool {
+        self.multipart
+    }
+
+    /// The number of parts: the poses of the file.
+    pub fn parts(&self) -> usize {
+        self.parts.len()
+    }
+
+    /// The header of part `part`.
+    pub fn info(&self, part: usize) -> FieldInfo {
+        let mut info = self.parts[part].info.clone();
+        if part > 0 && info.machine_toml.is_empty() {
+            info.machine_toml = self.parts[0].info.machine_toml.clone();
+            info.csv_files = self.parts[0].info.csv_files.clone();
+        }
+        info
+    }
+
+    /// The pose of part `part`, degrees of A, B, C.
+    pub fn pose_deg(&self, part: usize) -> [f64; 3] {
+        self.parts[part].info.pose_deg
+    }
+
+    /// The name of part `part`: the pose it holds (`B=-90,C=0`); in a single-part file the
+    /// name of its pose.
+    pub fn name(&self, part: usize) -> String {
+        let part = &self.parts[part];
+        if self.multipart {
+            part.name.clone()
+        } else {
+            part.info.pose_name()
+        }
+    }
+
+    /// Every part's pose in words, for messages (the first few where there are many).
+    pub fn pose_list(&self) -> String {
+        pose_list(&(0..self.parts()).map(|p| self.name(p)).collect::<Vec<_>>())
+    }
+
+    /// The parts whose pose equals `pose_deg` (A, B, C) within 1e-9° on every axis `given`.
+    pub fn parts_at(&self, pose_deg: [f64; 3], given: [bool; 3]) -> Vec<usize> {
+        (0..self.parts())
+            .filter(|&p| {
+                let held = self.pose_deg(p);
+                (0..3).all(|n| !given[n] || (pose_deg[n] - held[n]).abs() <= POSE_TOLERANCE_DEG)
+            })
+            .collect()
+    }
+
+    /// The part at the pose `pose_deg` (A, B, C, every axis): an error listing the poses the
+    /// file holds where none is at it. `pose` is the pose in words, for that message.
+    pub fn part_at(&self, pose_deg: [f64; 3], pose: &str) -> Result<usize, FieldError> {
+        self.parts_at(pose_deg, [true; 3])
+            .first()
+            .copied()
+            .ok_or_else(|| FieldError::NoPose {
+                path: self.display.clone(),
+                pose: pose.to_string(),
+                poses: self.pose_list(),
+            })
+    }
+
+    /// The one part of a single-part file (or of a sweep of one pose); a file of several poses
+    /// is an error listing them.
+    pub fn single(&self) -> Result<usize, FieldError> {
+        if self.parts() > 1 {
+            return Err(FieldError::Poses {
+                path: self.display.clone(),
+                count: self.parts(),
+                poses: self.pose_list(),
+            });
+        }
+        Ok(0)
+    }
+
+    /// A reader of the lines of part `part`.
+    pub fn reader(&self, part: usize) -> Result<FieldReader, FieldError> {
+        let file = File::open(&self.path).map_err(|e| FileError::read(&self.path, e))?;
+        let mut file = BufReader::with_capacity(1 << 20, file);
+        let info = self.info(part);
+        let [_, ny, nz] = info.dims;
+        let lines = ny * nz;
+        let read = |source| FileError::Read {
+            path: self.display.clone(),
+            source,
+        };
+        file.seek(SeekFrom::Start(self.parts[part].table))
+            .map_err(read)?;
+        let mut table = vec![0u8; 8 * lines];
+        file.read_exact(&mut table)
+            .map_err(|_| FieldError::Format {
+                path: self.display.clone(),
+                what: "the file ends inside its offset tables".into(),
+            })?;
         let offsets = table
             .chunks(8)
             .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
             .collect();
         Ok(FieldReader {
-            path: display,
-            file: reader,
+            path: self.display.clone(),
+            file,
             position: None,
             scratch: Vec::new(),
             info,
+            part: self.multipart.then_some(part as u32),
             offsets,
         })
+    }
+}
+
+/// Reads the lines of one field (a single-part file, or one part of a multi-part file) written
+/// by volmap: scanline, uncompressed.
+pub struct FieldReader {
+    path: String,
+    file: BufReader<File>,
+    /// Where the file stands after the last line read, if known.
+    position: Option<u64>,
+    /// The bytes of the last line read.
+    scratch: Vec<u8>,
+    info: FieldInfo,
+    /// The part number every line's chunk starts with, in a multi-part file.
+    part: Option<u32>,
+    offsets: Vec<u64>,
+}
+
+impl FieldReader {
+    /// Opens a single-part field file (or a sweep of one pose); a file of several poses is an
+    /// error listing them (see [`FieldFile`] to read one of its parts).
+    pub fn open(path: &Path) -> Result<FieldReader, FieldError> {
+        let file = FieldFile::open(path)?;
+        file.reader(file.single()?)
     }
 
     pub fn info(&self) -> &FieldInfo {
@@ -274,12 +282,24 @@ impl FieldReader {
         if self.position != Some(offset) {
             self.file.seek(SeekFrom::Start(offset)).map_err(io)?;
         }
-        let mut head = [0u8; 8];
+        let head_bytes = if self.part.is_some() { 12 } else { 8 };
+        let mut head = [0u8; 12];
         self.file
-            .read_exact(&mut head)
+            .read_exact(&mut head[..head_bytes])
             .map_err(|_| format(format!("line {line} is truncated")))?;
-        let y = i32::from_le_bytes([head[0], head[1], head[2], head[3]]);
-        let size = i32::from_le_bytes([head[4], head[5], head[6], head[7]]);
+        let word = |at: usize| [head[at], head[at + 1], head[at + 2], head[at + 3]];
+        let (y, size) = (
+            i32::from_le_bytes(word(head_bytes - 8)),
+            i32::from_le_bytes(word(head_bytes - 4)),
+        );
+        if let Some(part) = self.part {
+            let got = u32::from_le_bytes(word(0));
+            if got != part {
+                return Err(format(format!(
+                    "line {line} of part {part}: chunk header says part {got}"
+                )));
+            }
+        }
         if y as u64 != line || size as usize != CHANNELS.len() * 4 * nx {
             return Err(format(format!(
                 "line {line}: chunk header says line {y} of {size} bytes"
@@ -292,7 +312,7 @@ impl FieldReader {
         for (v, b) in out.iter_mut().zip(self.scratch.chunks_exact(4)) {
             *v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
         }
-        self.position = Some(offset + 8 + size as u64);
+        self.position = Some(offset + head_bytes as u64 + size as u64);
         Ok(())
     }
 

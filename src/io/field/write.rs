@@ -1,11 +1,13 @@
 //! Writing a field: the header, the offset table (known before any pixel is computed, since
-//! uncompressed scanline chunks have a fixed size), then the lines as they arrive.
+//! uncompressed scanline chunks have a fixed size), then the lines as they arrive; a multi-part
+//! field (a sweep of poses) the same way, every header and offset table first.
 
 use std::io::Write;
 use std::path::Path;
 
 use super::{
-    grid_text, FieldError, FieldInfo, FLAG_LONG_NAMES, MAGIC, PIXEL_FLOAT, UNITS, VERSION,
+    grid_text, FieldError, FieldInfo, FLAG_LONG_NAMES, FLAG_MULTIPART, MAGIC, PIXEL_FLOAT, UNITS,
+    VERSION,
 };
 use crate::io::atomic::AtomicFile;
 use crate::model::channels::CHANNELS;
@@ -37,7 +39,16 @@ impl HeaderBuilder {
     }
 }
 
-fn encode_header(info: &FieldInfo) -> Vec<u8> {
+/// The attributes of a part of a multi-part file besides a single-part field's: its name and
+/// its number of chunks (lines).
+struct PartAttributes<'a> {
+    name: &'a str,
+    chunks: u64,
+}
+
+/// The header of a field (a single-part file, or one part of a multi-part file), ended by its
+/// null byte, and whether it has attribute names longer than 31 bytes.
+fn header_attributes(info: &FieldInfo, part: Option<PartAttributes>) -> HeaderBuilder {
     let [nx, ny, nz] = info.dims;
     let mut h = HeaderBuilder {
         bytes: Vec::new(),
@@ -65,6 +76,11 @@ fn encode_header(info: &FieldInfo) -> Vec<u8> {
     h.attribute("pixelAspectRatio", "float", &1.0f32.to_le_bytes());
     h.attribute("screenWindowCenter", "v2f", &[0u8; 8]);
     h.attribute("screenWindowWidth", "float", &1.0f32.to_le_bytes());
+    if let Some(part) = part {
+        h.string("name", part.name);
+        h.string("type", "scanlineimage");
+        h.attribute("chunkCount", "int", &(part.chunks as i32).to_le_bytes());
+    }
     let dims: Vec<u8> = info
         .dims
         .iter()
@@ -87,7 +103,11 @@ fn encode_header(info: &FieldInfo) -> Vec<u8> {
     h.string("volmap.device", &info.device);
     h.string("volmap.version", env!("CARGO_PKG_VERSION"));
     h.bytes.push(0);
+    h
+}
 
+fn encode_header(info: &FieldInfo) -> Vec<u8> {
+    let h = header_attributes(info, None);
     let flags = if h.long_names { FLAG_LONG_NAMES } else { 0 };
     let mut out = MAGIC.to_vec();
     out.extend_from_slice(&(VERSION | flags).to_le_bytes());
@@ -145,26 +165,15 @@ impl FieldWriter {
                 got: first_line,
             });
         }
-        let values_per_line = CHANNELS.len() * self.nx;
-        let (out, line_bytes) = (&mut self.out, &mut self.line_bytes);
-        let result = (|| -> std::io::Result<()> {
-            for (n, line) in data
-                .chunks_exact(values_per_line)
-                .take(lines as usize)
-                .enumerate()
-            {
-                out.write_all(&((first_line + n as u64) as i32).to_le_bytes())?;
-                out.write_all(&((values_per_line * 4) as i32).to_le_bytes())?;
-                if cfg!(target_endian = "little") {
-                    out.write_all(bytemuck::cast_slice(line))?;
-                } else {
-                    line_bytes.clear();
-                    line_bytes.extend(line.iter().flat_map(|v| v.to_le_bytes()));
-                    out.write_all(line_bytes)?;
-                }
-            }
-            Ok(())
-        })();
+        let result = write_chunks(
+            &mut self.out,
+            None,
+            self.nx,
+            first_line,
+            lines,
+            data,
+            &mut self.line_bytes,
+        );
         result.map_err(|e| self.out.error(e))?;
         self.next_line += lines;
         Ok(())
@@ -177,6 +186,192 @@ impl FieldWriter {
                 path: self.out.path().display().to_string(),
                 written: self.next_line,
                 total: self.total_lines,
+            });
+        }
+        Ok(self.out.commit()?)
+    }
+}
+
+/// Writes `lines` lines from `first_line` as scanline chunks, each with its part number first
+/// where `part` is given (a multi-part file).
+fn write_chunks(
+    out: &mut AtomicFile,
+    part: Option<u32>,
+    nx: usize,
+    first_line: u64,
+    lines: u64,
+    data: &[f32],
+    line_bytes: &mut Vec<u8>,
+) -> std::io::Result<()> {
+    let values_per_line = CHANNELS.len() * nx;
+    for (n, line) in data
+        .chunks_exact(values_per_line)
+        .take(lines as usize)
+        .enumerate()
+    {
+        if let Some(part) = part {
+            out.write_all(&part.to_le_bytes())?;
+        }
+        out.write_all(&((first_line + n as u64) as i32).to_le_bytes())?;
+        out.write_all(&((values_per_line * 4) as i32).to_le_bytes())?;
+        if cfg!(target_endian = "little") {
+            out.write_all(bytemuck::cast_slice(line))?;
+        } else {
+            line_bytes.clear();
+            line_bytes.extend(line.iter().flat_map(|v| v.to_le_bytes()));
+            out.write_all(line_bytes)?;
+        }
+    }
+    Ok(())
+}
+
+/// Streams a multi-part field (one part per pose of a sweep) into a temporary file, renamed into
+/// place by [`PartsWriter::finish`]; dropped before that, it leaves nothing behind.
+///
+/// Every chunk of an uncompressed scanline part has a fixed size, so the headers and all the
+/// offset tables are written first, and then the parts' lines as they are computed, part after
+/// part: memory holds one chunk at a time, whatever the sweep.
+pub struct PartsWriter {
+    out: AtomicFile,
+    /// Each part's `nx` and number of lines.
+    parts: Vec<(usize, u64)>,
+    part: usize,
+    next_line: u64,
+    written: u64,
+    line_bytes: Vec<u8>,
+}
+
+impl PartsWriter {
+    /// Starts writing `path` with `count` parts; `part(p)` gives part `p`'s name (unique) and
+    /// header, asked once per part and not kept.
+    pub fn create(
+        path: &Path,
+        count: usize,
+        part: impl Fn(usize) -> (String, FieldInfo),
+    ) -> Result<PartsWriter, FieldError> {
+        let mut out = AtomicFile::create(path, 8 << 20)?;
+        let mut parts = Vec::with_capacity(count);
+        let written = (|| -> std::io::Result<()> {
+            if count == 0 {
+                return Err(std::io::Error::other("a multi-part field needs a part"));
+            }
+            // The version field before the headers says whether attribute names may be long:
+            // every part of a sweep has the attribute names of the first.
+            let mut long_names = None;
+            let mut header_bytes = 0u64;
+            for p in 0..count {
+                let (name, info) = part(p);
+                let [nx, ny, nz] = info.dims;
+                let lines = (ny * nz) as u64;
+                let h = header_attributes(
+                    &info,
+                    Some(PartAttributes {
+                        name: &name,
+                        chunks: lines,
+                    }),
+                );
+                let long = *long_names.get_or_insert(h.long_names);
+                if p == 0 {
+                    out.write_all(&MAGIC)?;
+                    let flags = FLAG_MULTIPART | if long { FLAG_LONG_NAMES } else { 0 };
+                    out.write_all(&(VERSION | flags).to_le_bytes())?;
+                }
+                if h.long_names && !long {
+                    return Err(std::io::Error::other(format!(
+                        "part {name} has attribute names longer than 31 bytes, the first part none"
+                    )));
+                }
+                out.write_all(&h.bytes)?;
+                header_bytes += h.bytes.len() as u64;
+                parts.push((nx, lines));
+            }
+            // The empty header that ends the headers.
+            out.write_all(&[0])?;
+            let tables: u64 = parts.iter().map(|&(_, lines)| 8 * lines).sum();
+            let mut offset = MAGIC.len() as u64 + 4 + header_bytes + 1 + tables;
+            for &(nx, lines) in &parts {
+                let chunk_bytes = 12 + (CHANNELS.len() * 4 * nx) as u64;
+                for _ in 0..lines {
+                    out.write_all(&offset.to_le_bytes())?;
+                    offset += chunk_bytes;
+                }
+            }
+            Ok(())
+        })();
+        written.map_err(|e| out.error(e))?;
+        Ok(PartsWriter {
+            out,
+            parts,
+            part: 0,
+            next_line: 0,
+            written: 0,
+            line_bytes: Vec::new(),
+        })
+    }
+
+    /// Appends `lines` lines of part `part` starting at `first_line`: the lines of a part in
+    /// order, the parts in order, each part whole before the next begins. `data` holds, per
+    /// line, `nx` values of each channel in [`CHANNELS`] order.
+    pub fn write_lines(
+        &mut self,
+        part: usize,
+        first_line: u64,
+        lines: u64,
+        data: &[f32],
+    ) -> Result<(), FieldError> {
+        let path = || self.out.path().display().to_string();
+        if part != self.part {
+            let done = self
+                .parts
+                .get(self.part)
+                .is_some_and(|&(_, total)| self.next_line == total);
+            if part != self.part + 1 || !done {
+                return Err(FieldError::PartOutOfOrder {
+                    path: path(),
+                    expected: self.part,
+                    got: part,
+                });
+            }
+            self.part = part;
+            self.next_line = 0;
+        }
+        let Some(&(nx, _)) = self.parts.get(part) else {
+            return Err(FieldError::PartOutOfOrder {
+                path: path(),
+                expected: self.part,
+                got: part,
+            });
+        };
+        if first_line != self.next_line {
+            return Err(FieldError::OutOfOrder {
+                path: path(),
+                expected: self.next_line,
+                got: first_line,
+            });
+        }
+        let result = write_chunks(
+            &mut self.out,
+            Some(part as u32),
+            nx,
+            first_line,
+            lines,
+            data,
+            &mut self.line_bytes,
+        );
+        result.map_err(|e| self.out.error(e))?;
+        self.next_line += lines;
+        self.written += lines;
+        Ok(())
+    }
+
+    /// Checks that every line of every part was written, and puts the file in place.
+    pub fn finish(self) -> Result<(), FieldError> {
+        let total: u64 = self.parts.iter().map(|&(_, lines)| lines).sum();
+        if self.written != total {
+            return Err(FieldError::Incomplete {
+                path: self.out.path().display().to_string(),
+                written: self.written,
+                total,
             });
         }
         Ok(self.out.commit()?)

@@ -1,10 +1,13 @@
 //! The `volmap` binary as a user runs it, command by command.
 
+mod budget;
 mod compensate;
 mod map;
 mod plot;
 mod query;
 mod standards;
+mod sweep;
+mod sweep_readers;
 
 use assert_cmd::Command;
 use predicates::prelude::*;

@@ -1,0 +1,322 @@
+//! `volmap budget`: machine design from tolerances. The error budget (each toleranced term alone
+//! at its limit on the ideal machine), Monte Carlo over machines built to the tolerances, and
+//! tolerance allocation against a specification.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use serde_json::{json, Value};
+use volmap::design::allocate::{allocate, Allocation, Target};
+use volmap::design::budget::{budget, Budget};
+use volmap::design::monte_carlo::{check_confidence, check_spec, MonteCarlo, Study};
+use volmap::io::tolerance_file::ToleranceFile;
+use volmap::model::grid::Grid;
+use volmap::model::perturbation::{Distribution, Tolerance};
+use volmap::model::poses::pose_name;
+use volmap::model::Machine;
+
+use super::args::{sweep_grids, DeviceArg, GridArg, JsonArg, MachineArg, PoseArg, PosesArg};
+use super::budget_report::{self, axis_positions};
+use super::failure::{Failure, FlagContext};
+use super::output::{check_plot_paths, progress, write_file, write_json};
+
+#[derive(clap::Args)]
+pub struct BudgetArgs {
+    #[command(flatten)]
+    machine: MachineArg,
+    /// The tolerance file (TOML): how far each error of the machines built may lie from the
+    /// machine file's value.
+    #[arg(long)]
+    tolerances: PathBuf,
+    #[command(flatten)]
+    grid: GridArg,
+    #[command(flatten)]
+    pose: PoseArg,
+    #[command(flatten)]
+    poses: PosesArg,
+    /// Also draw N machines built to the tolerances and give the statistics of their fields.
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    samples: Option<u64>,
+    /// A specification of max |VE|, mm: the fraction of sampled machines at or below it.
+    #[arg(long, requires = "samples", allow_negative_numbers = true)]
+    spec: Option<f64>,
+    /// The seed of the draws: the same seed gives the same machines on every device.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The fraction of machines that must hold the specification (allocation).
+    #[arg(long, default_value_t = 0.95, allow_negative_numbers = true)]
+    confidence: f64,
+    /// Find the largest common factor on the tolerances for which the fraction of machines
+    /// within --spec reaches --confidence.
+    #[arg(long, requires = "spec")]
+    allocate: bool,
+    /// Scale only these terms in the allocation (comma-separated keys: axes.Y.EC0Y or EC0Y).
+    #[arg(long, requires = "allocate", value_delimiter = ',')]
+    allocate_terms: Vec<String>,
+    /// Write the tolerance file scaled by the allocated factor here.
+    #[arg(long, requires = "allocate")]
+    out: Option<PathBuf>,
+    /// Write one CSV row per sampled machine: its statistics, where it is worst, its draws.
+    #[arg(long, requires = "samples")]
+    per_sample: Option<PathBuf>,
+    /// Draw the budget as a bar chart (and the histogram of max |VE| with --samples): .svg or
+    /// .png.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    #[command(flatten)]
+    json: JsonArg,
+    #[command(flatten)]
+    device: DeviceArg,
+}
+
+pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
+    let machine = args.machine.load()?;
+    let file = ToleranceFile::load(&args.tolerances, &machine).flag("--tolerances")?;
+    let grids = sweep_grids(&machine, &args.grid, &args.pose, &args.poses)?;
+    let spec = args.spec.map(check_spec).transpose().flag("--spec")?;
+    let confidence = check_confidence(args.confidence).flag("--confidence")?;
+    let chosen = chosen_terms(&file.tolerances, &args.allocate_terms)?;
+    if let Some(plot) = &args.plot {
+        check_plot_paths(&[plot], "--plot")?;
+    }
+    let (engine, note) = args.device.engine()?;
+    if let Some(note) = note {
+        eprintln!("volmap: {note}");
+    }
+    let tolerances = &file.tolerances;
+
+    let bar = progress(Some(tolerances.len() as u64), "budgeting", "terms");
+    let result = budget(&engine, &machine, tolerances, &grids, |n| {
+        bar.set_position(n as u64)
+    });
+    bar.finish_and_clear();
+    let budget = result?;
+    print_budget(&machine, &args, &grids, &budget);
+    let mut json = json!({
+        "machine": machine.name,
+        "tolerances": args.tolerances.display().to_string(),
+        "grid": args.grid.grid,
+        "poses": grids.iter().map(|g| pose_name(&g.pose, &machine)).collect::<Vec<_>>(),
+        "budget": budget_report::budget_json(&machine, &budget),
+        "total_rss_mm": budget.total_rss_mm,
+    });
+
+    let study = Study {
+        machine: &machine,
+        tolerances,
+        grids: &grids,
+        seed: args.seed,
+    };
+    let mut histogram = None;
+    if let Some(samples) = args.samples {
+        let samples = samples as usize;
+        let bar = progress(Some(samples as u64), "sampling", "machines");
+        let ones = vec![1.0; tolerances.len()];
+        let stats = study.sample_stats(&engine, samples, &ones, |n| bar.set_position(n as u64));
+        bar.finish_and_clear();
+        let stats = stats?;
+        let monte_carlo = MonteCarlo::of(&stats, args.seed, spec);
+        budget_report::print_monte_carlo(&monte_carlo, engine.name());
+        json["monte_carlo"] = budget_report::monte_carlo_json(&monte_carlo);
+        if let Some(path) = &args.per_sample {
+            let text = budget_report::per_sample_csv(&machine, &study, &stats);
+            write_file(path, |out| out.write_all(text.as_bytes())).flag("--per-sample")?;
+            eprintln!("per-sample: {}", path.display());
+        }
+        histogram = Some((stats.iter().map(|s| s.max_ve_mm).collect::<Vec<_>>(), spec));
+        if args.allocate {
+            let target = Target {
+                chosen: &chosen,
+                samples,
+                spec_mm: spec.unwrap_or(0.0),
+                confidence,
+            };
+            let allocation = run_allocation(&engine, &study, &target)?;
+            json["allocation"] = allocation_json(&file, &chosen, &target, &allocation, &args);
+            if let Some(out) = &args.out {
+                let text = format!(
+                    "# Scaled by `volmap budget --allocate`: the widths of {} times {:.6}, for which {:.2}% of {} machines of {} hold max |VE| <= {} mm (seed {}).\n{}",
+                    allocation_json_terms(&file, &chosen).join(", "),
+                    allocation.factor,
+                    100.0 * allocation.within.fraction.fraction,
+                    samples,
+                    machine.name,
+                    target.spec_mm,
+                    args.seed,
+                    file.scaled_text(|t| chosen[t].then_some(allocation.factor))
+                );
+                write_file(out, |w| w.write_all(text.as_bytes())).flag("--out")?;
+                println!("  scaled tolerances written to {}", out.display());
+            }
+        }
+    }
+    if let Some(path) = &args.plot {
+        budget_report::plot(&machine, &budget, histogram.as_ref(), path)?;
+    }
+    if let Some(path) = &args.json.json {
+        write_json(path, &json)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Which tolerances `--allocate-terms` names (all of them when it names none).
+fn chosen_terms(tolerances: &[Tolerance], names: &[String]) -> Result<Vec<bool>, Failure> {
+    if names.is_empty() {
+        return Ok(vec![true; tolerances.len()]);
+    }
+    let mut chosen = vec![false; tolerances.len()];
+    for name in names.iter().map(|n| n.trim()) {
+        let hits: Vec<usize> = tolerances
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| {
+                let key = t.perturbation.target.key();
+                key == name || key.rsplit('.').next() == Some(name)
+            })
+            .map(|(n, _)| n)
+            .collect();
+        if hits.is_empty() {
+            let keys: Vec<String> = tolerances
+                .iter()
+                .map(|t| t.perturbation.target.key())
+                .collect();
+            return Err(Failure::input(format!(
+                "--allocate-terms: `{name}` is not a term of the tolerance file (its terms: {})",
+                keys.join(", ")
+            )));
+        }
+        for n in hits {
+            chosen[n] = true;
+        }
+    }
+    Ok(chosen)
+}
+
+fn print_budget(machine: &Machine, args: &BudgetArgs, grids: &[Grid], budget: &Budget) {
+    let [nx, ny, nz] = args.grid.grid;
+    let over = match grids {
+        [grid] if !machine.rotary_axes().is_empty() => {
+            format!(" at {}", pose_name(&grid.pose, machine))
+        }
+        [_] => String::new(),
+        _ => format!(" over {} poses", grids.len()),
+    };
+    println!(
+        "Error budget of {}: {} toleranced terms of {}, each alone at its limit on the ideal machine, grid {nx}x{ny}x{nz}{over}",
+        machine.name,
+        budget.rows.len(),
+        args.tolerances.display()
+    );
+    println!(
+        "  {:<16} {:>22} {:>12} {:>12} {:>12} {:>16} {:>7}  worst at",
+        "term", "limit", "max |VE| mm", "RMS |VE| mm", "max |OE| rad", "largest axis mm", "share"
+    );
+    for row in &budget.rows {
+        let (axis, largest) = row.stats.largest_axis();
+        println!(
+            "  {:<16} {:>22} {:>12.6} {:>12.6} {:>12.3e} {:>16} {:>6.1}%  {}",
+            row.tolerance.perturbation.target.key(),
+            limit_text(&row.tolerance),
+            row.stats.max_ve_mm,
+            row.stats.rms_ve_mm(),
+            row.stats.max_oe_rad,
+            format!("{} {largest:.6}", ["X", "Y", "Z"][axis]),
+            100.0 * row.share,
+            axis_positions(machine, &row.worst_at)
+                .iter()
+                .map(|(l, v)| format!("{l}={v:.6}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+    }
+    println!(
+        "  total (root sum of squares of max |VE|): {:.6} mm",
+        budget.total_rss_mm
+    );
+}
+
+/// `±h mm (uniform)` or `2σ = v rad (normal)`.
+fn limit_text(tolerance: &Tolerance) -> String {
+    let unit = if tolerance.perturbation.target.is_angular() {
+        "rad"
+    } else {
+        "mm"
+    };
+    match tolerance.distribution {
+        Distribution::Uniform { half_width } => format!("±{half_width:e} {unit} (U)"),
+        Distribution::Normal { sigma } => format!("2σ = {:e} {unit} (N)", 2.0 * sigma),
+    }
+}
+
+fn run_allocation(
+    engine: &volmap::engine::Engine,
+    study: &Study,
+    target: &Target,
+) -> Result<Allocation, Failure> {
+    println!(
+        "Allocation: the largest common factor on {} of the {} tolerances for which {:.1}% of {} machines hold max |VE| ≤ {} mm",
+        target.chosen.iter().filter(|&&c| c).count(),
+        target.chosen.len(),
+        100.0 * target.confidence,
+        target.samples,
+        target.spec_mm
+    );
+    let bar = progress(Some(target.samples as u64), "allocating", "machines");
+    let result = allocate(
+        engine,
+        study,
+        target,
+        |factor, fraction| {
+            bar.suspend(|| {
+                println!(
+                    "  factor {factor:<12.6} {:>6.2}% within the specification",
+                    100.0 * fraction
+                )
+            });
+            bar.set_position(0);
+        },
+        |n| bar.set_position(n as u64),
+    );
+    bar.finish_and_clear();
+    let allocation = result?;
+    let w = allocation.within.fraction;
+    println!(
+        "  largest factor {:.6}: {:.2}% of the machines within (95% CI {:.2}% to {:.2}%), {} Monte Carlo runs on the same draws",
+        allocation.factor,
+        100.0 * w.fraction,
+        100.0 * w.ci95[0],
+        100.0 * w.ci95[1],
+        allocation.tried.len()
+    );
+    Ok(allocation)
+}
+
+fn allocation_json(
+    file: &ToleranceFile,
+    chosen: &[bool],
+    target: &Target,
+    allocation: &Allocation,
+    args: &BudgetArgs,
+) -> Value {
+    let terms = allocation_json_terms(file, chosen);
+    json!({
+        "factor": allocation.factor,
+        "terms": terms,
+        "spec_mm": target.spec_mm,
+        "confidence": target.confidence,
+        "fraction": allocation.within.fraction.fraction,
+        "ci95": allocation.within.fraction.ci95,
+        "tried": allocation.tried.iter().map(|(f, p)| json!({"factor": f, "fraction": p})).collect::<Vec<_>>(),
+        "out": args.out.as_ref().map(|p| p.display().to_string()),
+    })
+}
+
+/// The keys of the tolerances an allocation scales.
+fn allocation_json_terms(file: &ToleranceFile, chosen: &[bool]) -> Vec<String> {
+    file.tolerances
+        .iter()
+        .zip(chosen)
+        .filter(|(_, &c)| c)
+        .map(|(t, _)| t.perturbation.target.key())
+        .collect()
+}

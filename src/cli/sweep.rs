@@ -1,0 +1,97 @@
+//! Five-axis maps over the rotary axes: `volmap map --poses` maps every pose of a sweep into one
+//! multi-part field, and its summary (printed by `map` and by `volmap info`) gives the worst pose
+//! and the largest |VE| of each.
+
+use std::path::Path;
+
+use volmap::engine::map::{FieldStats, MapOptions};
+use volmap::engine::sweep::{self, SweepSummary};
+use volmap::engine::Engine;
+use volmap::io::field::FieldInfo;
+use volmap::model::grid::Grid;
+use volmap::model::Machine;
+
+use super::output::progress;
+
+/// Maps `machine` at every pose of the sweep (`grids`, one per pose) into `out`, with a progress
+/// bar over the whole sweep.
+pub fn map_sweep(
+    machine: &Machine,
+    grids: &[Grid],
+    engine: &Engine,
+    out: &Path,
+    options: &MapOptions,
+) -> Result<SweepSummary, volmap::engine::EngineError> {
+    let points: u64 = grids.iter().map(Grid::points).sum();
+    let bar = progress(Some(points), "mapping", "points");
+    let summary = sweep::map_sweep_to_file(machine, grids, engine, out, options, |done| {
+        bar.set_position(done)
+    });
+    bar.finish_and_clear();
+    summary
+}
+
+/// The closing summary of a sweep, from a map or a multi-part field file: the machine, the grid
+/// and the number of poses, the worst pose (the largest max |VE|) and where its largest error is,
+/// the RMS and the largest orientation error over every pose, then one row per pose.
+/// `worst` is the header of the worst pose's field (`total.max_ve_pose`).
+pub fn print_sweep_summary(
+    worst: &FieldInfo,
+    names: &[String],
+    stats: &[FieldStats],
+    total: &FieldStats,
+) {
+    let grid = worst.grid();
+    let ijk = grid.indices(total.max_ve_point);
+    let command = grid.command(ijk);
+    let at: Vec<String> = (0..3)
+        .map(|d| format!("{}={:.3}", ["X", "Y", "Z"][d], command[d]))
+        .collect();
+    let worst_name = names.get(total.max_ve_pose).map_or("", String::as_str);
+    let per_pose = stats.first().map_or(0, |s| s.points);
+    println!(
+        "volmap: {} ({}), grid {}x{}x{} = {} points at each of {} poses, {} points",
+        worst.machine_name,
+        worst.chain,
+        worst.dims[0],
+        worst.dims[1],
+        worst.dims[2],
+        per_pose,
+        names.len(),
+        total.points
+    );
+    println!("  device      {}", worst.device);
+    println!(
+        "  max |VE|    {:.6} mm at pose {worst_name}, point ({}, {}, {}): {} mm",
+        total.max_ve_mm,
+        ijk[0],
+        ijk[1],
+        ijk[2],
+        at.join(" ")
+    );
+    println!("  worst pose  {worst_name}");
+    println!("  RMS |VE|    {:.6} mm over every pose", total.rms_ve_mm());
+    println!("  max |OE|    {:.3e} rad", total.max_oe_rad);
+    let width = names.iter().map(|n| n.len()).max().unwrap_or(0).max(4);
+    println!(
+        "  {:<width$}  {:>12}  {:>12}  {:>12}",
+        "pose", "max |VE| mm", "RMS |VE| mm", "max |OE| rad"
+    );
+    for (name, s) in names.iter().zip(stats) {
+        println!(
+            "  {name:<width$}  {:>12.6}  {:>12.6}  {:>12.3e}",
+            s.max_ve_mm,
+            s.rms_ve_mm(),
+            s.max_oe_rad
+        );
+    }
+}
+
+/// Prints a sweep's summary after `map --poses`.
+pub fn print_map_summary(machine: &Machine, grids: &[Grid], summary: &SweepSummary) {
+    let worst = summary.stats.max_ve_pose;
+    let info = volmap::engine::map::field_info(machine, &grids[worst], &summary.device);
+    let names: Vec<String> = summary.poses.iter().map(|p| p.name.clone()).collect();
+    let stats: Vec<FieldStats> = summary.poses.iter().map(|p| p.stats.clone()).collect();
+    print_sweep_summary(&info, &names, &stats, &summary.stats);
+}

@@ -1,0 +1,111 @@
+//! The probability that a part conforms: every feature of the part evaluated on every sampled
+//! machine. The cutter positions of a part do not depend on the machine, so they are found once
+//! (an evaluation that records where it asks for the error); the engine then gives VE and OE at
+//! all of them for a batch of samples at once (the GPU's positions pass), and each sample's
+//! features are evaluated from its values, replayed in the order they were asked for.
+
+use rayon::prelude::*;
+
+use super::draws::amplitude_rows;
+use super::monte_carlo::Study;
+use super::summary::{percentile, Fraction};
+use super::DesignError;
+use crate::engine::variants::Variants;
+use crate::engine::Engine;
+use crate::part::{self, FeatureResult, PartFile};
+
+/// Values held at once per batch of samples (samples × cutter positions): bounds memory.
+const VALUES_PER_BATCH: usize = 1 << 22;
+
+/// One feature over the samples.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct FeatureConformance {
+    pub name: String,
+    pub kind: String,
+    pub tolerance_mm: f64,
+    /// The error on the nominal machine (the machine file as it is).
+    pub error_mm: f64,
+    pub error_p50_mm: f64,
+    pub error_p95_mm: f64,
+    /// The fraction of sampled machines on which the feature is within its tolerance.
+    pub conforming_fraction: f64,
+    pub conforming_ci95: [f64; 2],
+    /// `fit` where the fraction reaches the confidence, `unfit` where it does not.
+    pub verdict: part::Verdict,
+}
+
+/// Evaluates `part` on `samples` machines of `study` (its grids are not used: the part says
+/// where the cutter goes). `on_progress(samples done)` is called as batches finish.
+pub fn conformance(
+    engine: &Engine,
+    study: &Study,
+    part: &PartFile,
+    file: &str,
+    samples: usize,
+    confidence: f64,
+    on_progress: impl Fn(usize) + Sync,
+) -> Result<Vec<FeatureConformance>, DesignError> {
+    if samples == 0 {
+        return Err(DesignError::NoSamples);
+    }
+    let nominal = part::evaluate(part, part::ErrorSource::Exact(study.machine), file)?;
+    let tips = part::cutter_positions(part, file)?;
+    let pose = part.pose();
+    let commands: Vec<[f64; 6]> = tips
+        .positions
+        .iter()
+        .map(|t| {
+            let mut c = pose;
+            c[..3].copy_from_slice(t);
+            c
+        })
+        .collect();
+    let perturbations = study.perturbations();
+    let variants = Variants {
+        base: study.machine,
+        perturbations: &perturbations,
+    };
+    let scale = vec![1.0; study.tolerances.len()];
+    let batch = (VALUES_PER_BATCH / commands.len().max(1)).clamp(1, 4096);
+    // errors[f][b]: feature f's error on sample b.
+    let mut errors: Vec<Vec<f64>> = vec![Vec::with_capacity(samples); nominal.len()];
+    for first in (0..samples).step_by(batch) {
+        let count = batch.min(samples - first);
+        let rows = amplitude_rows(study.tolerances, &scale, study.seed, first as u64, count);
+        let values = engine.variant_values(&variants, &rows, &commands, |_| {})?;
+        let results: Vec<Vec<FeatureResult>> = values
+            .par_iter()
+            .map(|v| part::evaluate_at(part, file, &tips, v))
+            .collect::<Result<_, _>>()?;
+        for rows in results {
+            for (f, r) in rows.iter().enumerate() {
+                errors[f].push(r.error_mm);
+            }
+        }
+        on_progress(first + count);
+    }
+    Ok(nominal
+        .into_iter()
+        .zip(errors)
+        .map(|(n, mut e)| {
+            let hits = e.iter().filter(|&&v| v <= n.tolerance_mm).count();
+            let fraction = Fraction::of(hits, e.len());
+            e.sort_by(f64::total_cmp);
+            FeatureConformance {
+                name: n.name,
+                kind: n.kind,
+                tolerance_mm: n.tolerance_mm,
+                error_mm: n.error_mm,
+                error_p50_mm: percentile(&e, 50.0),
+                error_p95_mm: percentile(&e, 95.0),
+                conforming_fraction: fraction.fraction,
+                conforming_ci95: fraction.ci95,
+                verdict: if fraction.fraction >= confidence {
+                    part::Verdict::Fit
+                } else {
+                    part::Verdict::Unfit
+                },
+            }
+        })
+        .collect())
+}

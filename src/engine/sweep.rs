@@ -1,0 +1,112 @@
+//! A five-axis map over the rotary axes: the linear grid mapped at every pose of a sweep, into one
+//! multi-part field file, one part per pose named by the pose (`B=-90,C=0`), each part the field
+//! a map at that pose alone writes.
+//!
+//! The poses are computed one after the other, each streamed chunk by chunk into its part (the
+//! headers and offset tables of every part are written first, see
+//! [`PartsWriter`](crate::io::field::PartsWriter)): memory holds one chunk, whatever the sweep.
+
+use std::path::Path;
+use std::time::Instant;
+
+use super::map::{capture, check_against_reference, field_info, sample_points};
+use super::map::{CheckResult, MapOptions};
+use super::{Engine, EngineError};
+use crate::io::field::PartsWriter;
+use crate::model::grid::Grid;
+use crate::model::poses::pose_name;
+use crate::model::statistics::FieldStats;
+use crate::model::Machine;
+
+/// One pose of a sweep and its field's statistics.
+#[derive(Debug, Clone)]
+pub struct PoseSummary {
+    /// The pose's name, which is its part's (`B=-90,C=0`).
+    pub name: String,
+    pub stats: FieldStats,
+}
+
+/// What a sweep reports at the end.
+#[derive(Debug, Clone)]
+pub struct SweepSummary {
+    /// Every pose, in the order of the sweep (and of the parts).
+    pub poses: Vec<PoseSummary>,
+    /// Over every pose: `max_ve_pose` is the index of the worst pose (the largest max |VE|).
+    pub stats: FieldStats,
+    pub seconds: f64,
+    pub device: String,
+    /// The spot check: `check_points` points of every pose, the largest differences over all.
+    pub check: Option<CheckResult>,
+}
+
+/// Maps `machine` over every grid of `grids` (one per pose, the same linear grid) into the
+/// multi-part field file `out`. `on_progress(points_done)` is called after each chunk, counting
+/// the points of every pose so far.
+pub fn map_sweep_to_file(
+    machine: &Machine,
+    grids: &[Grid],
+    engine: &Engine,
+    out: &Path,
+    options: &MapOptions,
+    mut on_progress: impl FnMut(u64),
+) -> Result<SweepSummary, EngineError> {
+    let device = engine.name();
+    let mut writer = PartsWriter::create(out, grids.len(), |p| {
+        (
+            pose_name(&grids[p].pose, machine),
+            field_info(machine, &grids[p], &device),
+        )
+    })?;
+    let start = Instant::now();
+    let mut poses = Vec::with_capacity(grids.len());
+    let mut total = FieldStats::default();
+    let mut check: Option<CheckResult> = None;
+    let mut points_before = 0u64;
+    let mut check_seconds = 0.0;
+    for (p, grid) in grids.iter().enumerate() {
+        let nx = grid.dims[0];
+        let mut stats = FieldStats::default();
+        let checked = sample_points(grid.points(), options.check_points);
+        let mut captured: Vec<[f32; 6]> = Vec::with_capacity(checked.len());
+        engine.run(
+            machine,
+            grid,
+            options.chunk_points,
+            |first_line, lines, data| -> Result<(), EngineError> {
+                writer.write_lines(p, first_line, lines, data)?;
+                stats.add_chunk(first_line, lines, nx, data);
+                let end_point = capture(&checked, &mut captured, first_line, lines, nx, data);
+                on_progress(points_before + end_point);
+                Ok(())
+            },
+        )?;
+        points_before += grid.points();
+        if !checked.is_empty() {
+            let checking = Instant::now();
+            let pose_check = check_against_reference(machine, grid, &checked, &captured);
+            let merged = check.get_or_insert(CheckResult {
+                points: 0,
+                max_ve_diff_mm: 0.0,
+                max_oe_diff_rad: 0.0,
+            });
+            merged.points += pose_check.points;
+            merged.max_ve_diff_mm = merged.max_ve_diff_mm.max(pose_check.max_ve_diff_mm);
+            merged.max_oe_diff_rad = merged.max_oe_diff_rad.max(pose_check.max_oe_diff_rad);
+            // The time of the map, as for one pose, leaves the spot check out.
+            check_seconds += checking.elapsed().as_secs_f64();
+        }
+        total.merge(&stats, p);
+        poses.push(PoseSummary {
+            name: pose_name(&grid.pose, machine),
+            stats,
+        });
+    }
+    writer.finish()?;
+    Ok(SweepSummary {
+        poses,
+        stats: total,
+        seconds: start.elapsed().as_secs_f64() - check_seconds,
+        device,
+        check,
+    })
+}
