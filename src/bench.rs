@@ -8,6 +8,8 @@ use std::time::Instant;
 
 use serde::Serialize;
 
+use crate::design::monte_carlo::Study;
+use crate::design::DesignError;
 use crate::engine::map::{self, MapOptions};
 use crate::engine::{reference, Engine, EngineError};
 use crate::error::{Classify, ErrorKind};
@@ -15,6 +17,7 @@ use crate::gpu::{GpuError, GpuMapper, KernelChoice, Tiling, TimedKernel};
 use crate::io::field::{FieldError, FieldWriter};
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
+use crate::model::perturbation::{Distribution, ErrorTarget, Perturbation, Shape, Tolerance};
 use crate::model::Machine;
 use crate::reference::Twin;
 
@@ -65,6 +68,8 @@ pub enum BenchError {
     Engine(#[from] EngineError),
     #[error(transparent)]
     Field(#[from] FieldError),
+    #[error(transparent)]
+    Design(#[from] DesignError),
 }
 
 impl Classify for BenchError {
@@ -113,6 +118,7 @@ pub fn bench_machine(
         let _ = std::fs::remove_file(&path);
         rows.push(("map to EXR, GPU".into(), grid.points(), summary?.seconds));
     }
+    rows.extend(bench_monte_carlo(machine, grid, engine, &mut on_step)?);
     let ceiling = gpu.as_ref().map(|g| g.ceiling);
     let reference_rate = rows[0].1 as f64 / rows[0].2;
     let paths = rows
@@ -291,6 +297,101 @@ fn bench_cpu_paths(
     Ok(rows)
 }
 
+/// Monte Carlo takes at least this long on each engine, so that its rate is not its overhead.
+const MONTE_CARLO_SECONDS: f64 = 0.5;
+
+/// Monte Carlo over sampled machines on the GPU (statistics reduced on the device) and on the CPU
+/// engine, in machine-points per second: every error value of the machine toleranced (20 µm,
+/// 20 µrad uniform, the shapes in turn), the number of machines grown until a run takes
+/// [`MONTE_CARLO_SECONDS`].
+fn bench_monte_carlo(
+    machine: &Machine,
+    grid: &Grid,
+    engine: &Engine,
+    on_step: &mut impl FnMut(&str),
+) -> Result<Vec<Row>, BenchError> {
+    let tolerances = every_error_toleranced(machine);
+    let grids = [grid.clone()];
+    let study = Study {
+        machine,
+        tolerances: &tolerances,
+        grids: &grids,
+        seed: 0,
+    };
+    let ones = vec![1.0; tolerances.len()];
+    let cpu = Engine::Cpu;
+    let mut engines = vec![(&cpu, "CPU engine Monte Carlo")];
+    if let Engine::Gpu(_) = engine {
+        engines.insert(0, (engine, "GPU Monte Carlo"));
+    }
+    let mut rows = Vec::new();
+    for (engine, name) in engines {
+        on_step(name);
+        let mut samples = 2usize;
+        loop {
+            let (stats, seconds) = timed(|| study.sample_stats(engine, samples, &ones, |_| {}));
+            std::hint::black_box(stats?);
+            if seconds >= MONTE_CARLO_SECONDS || samples >= 1 << 20 {
+                rows.push((
+                    format!("{name}, {samples} machines"),
+                    samples as u64 * grid.points(),
+                    seconds,
+                ));
+                break;
+            }
+            let grow = (MONTE_CARLO_SECONDS / seconds.max(1e-6) * 1.2).clamp(2.0, 16.0);
+            samples = (samples as f64 * grow) as usize;
+        }
+    }
+    Ok(rows)
+}
+
+/// Every component and location error of every axis, and the spindle's, toleranced uniformly.
+fn every_error_toleranced(machine: &Machine) -> Vec<Tolerance> {
+    let width = |index: usize| if index < 3 { 0.02 } else { 2e-5 };
+    let mut out = Vec::new();
+    for (k, axis) in machine.axes.iter().enumerate() {
+        for index in 0..6 {
+            out.push(Tolerance {
+                perturbation: Perturbation {
+                    target: ErrorTarget::Component {
+                        axis: axis.letter,
+                        index,
+                    },
+                    shape: [Shape::Constant, Shape::Line, Shape::Bow][(index + k) % 3],
+                },
+                distribution: Distribution::Uniform {
+                    half_width: width(index),
+                },
+            });
+            out.push(Tolerance {
+                perturbation: Perturbation {
+                    target: ErrorTarget::Location {
+                        axis: axis.letter,
+                        index,
+                    },
+                    shape: Shape::Constant,
+                },
+                distribution: Distribution::Uniform {
+                    half_width: width(index),
+                },
+            });
+        }
+    }
+    for index in 0..5 {
+        out.push(Tolerance {
+            perturbation: Perturbation {
+                target: ErrorTarget::Spindle { index },
+                shape: Shape::Constant,
+            },
+            distribution: Distribution::Uniform {
+                half_width: width(index),
+            },
+        });
+    }
+    out
+}
+
 /// A tiling in words: "64 points × 4 lines per invocation".
 pub fn describe_tiling(tiling: Tiling) -> String {
     format!(
@@ -337,6 +438,11 @@ pub fn table(report: &BenchReport) -> String {
                 "  {:<40} {:>10.2} {:>11.1} {:>12}\n",
                 p.path, p.mpts_per_s, p.ratio_to_reference, fraction
             ));
+        }
+        if m.paths.iter().any(|p| p.path.contains("Monte Carlo")) {
+            out.push_str(
+                "  Monte Carlo rows count machine-points (machines × grid points), each machine's statistics reduced where it is computed\n",
+            );
         }
         if let (Some(kernel), Some(ceiling)) = (&m.kernel_tiling, &m.ceiling_tiling) {
             out.push_str(&format!(

@@ -1,5 +1,5 @@
 //! `volmap build`: a machine file from component errors measured at sparse positions along each
-//! axis (Dobariya et al., seed 004: 1-D elements between the measured nodes, linear or
+//! axis (Dobariya, Patel and Jani 2015: 1-D elements between the measured nodes, linear or
 //! quadratic per axis; natural cubic splines as a third choice).
 //!
 //! Per axis one CSV, the way interferometer software exports a run: a header row naming the

@@ -8,12 +8,17 @@ use volmap::io::field::{FieldError, FieldFile, LoadedField};
 use volmap::model::{poses, AxisLetter};
 use volmap::part::{self, ErrorSource, PartFile, Verdict};
 
-use super::args::{load_machine, JsonArg, OptionalMachineArg};
+use volmap::design::conformance::conformance;
+use volmap::design::monte_carlo::{check_confidence, Study};
+use volmap::io::tolerance_file::ToleranceFile;
+
+use super::args::{load_machine, DeviceArg, JsonArg, OptionalMachineArg};
 use super::failure::{Failure, FlagContext};
-use super::output::write_json;
+use super::output::{progress, write_json};
 
 #[derive(clap::Args)]
 #[command(mut_arg("machine", |a| a.conflicts_with("field")))]
+#[command(mut_arg("device", |a| a.requires("tolerances")))]
 pub struct FeaturesArgs {
     /// The part file (TOML): placement, cutter and features with their tolerances.
     #[arg(long)]
@@ -24,6 +29,31 @@ pub struct FeaturesArgs {
     field: Option<PathBuf>,
     #[command(flatten)]
     machine: OptionalMachineArg,
+    /// The probability that the part conforms: draw machines built to these tolerances (a
+    /// tolerance file) around --machine and evaluate every feature on each.
+    #[arg(
+        long,
+        requires = "machine",
+        requires = "samples",
+        conflicts_with = "field"
+    )]
+    tolerances: Option<PathBuf>,
+    /// The number of machines drawn (with --tolerances).
+    #[arg(long, requires = "tolerances", value_parser = clap::value_parser!(u64).range(1..))]
+    samples: Option<u64>,
+    /// A feature is `fit` where at least this fraction of the machines make it conform.
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        requires = "tolerances",
+        allow_negative_numbers = true
+    )]
+    confidence: f64,
+    /// The seed of the draws: the same seed gives the same machines on every device.
+    #[arg(long, default_value_t = 0, requires = "tolerances")]
+    seed: u64,
+    #[command(flatten)]
+    device: DeviceArg,
     #[command(flatten)]
     json: JsonArg,
 }
@@ -55,6 +85,9 @@ fn open_field(path: &Path, part: &PartFile) -> Result<LoadedField, FieldError> {
 pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
     let part_name = args.part.display().to_string();
     let part = PartFile::read(&args.part).flag("--part")?;
+    if let (Some(tolerances), Some(name)) = (&args.tolerances, &args.machine.machine) {
+        return run_conformance(&args, &part, &part_name, tolerances, name);
+    }
     let field;
     let machine;
     let source = match (&args.field, &args.machine.machine) {
@@ -99,6 +132,79 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             r.worst_point[0],
             r.worst_point[1],
             r.worst_point[2]
+        );
+    }
+    if let Some(path) = &args.json.json {
+        write_json(path, &rows)?;
+    }
+    if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
+        return Ok(ExitCode::from(3));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Every feature on machines built to the tolerances: the fraction on which it conforms.
+fn run_conformance(
+    args: &FeaturesArgs,
+    part: &PartFile,
+    part_name: &str,
+    tolerances: &Path,
+    machine_name: &str,
+) -> Result<ExitCode, Failure> {
+    let machine = load_machine(machine_name)?;
+    let file = ToleranceFile::load(tolerances, &machine).flag("--tolerances")?;
+    let confidence = check_confidence(args.confidence).flag("--confidence")?;
+    let samples = args.samples.unwrap_or(1) as usize;
+    let (engine, note) = args.device.engine()?;
+    if let Some(note) = note {
+        eprintln!("volmap: {note}");
+    }
+    let study = Study {
+        machine: &machine,
+        tolerances: &file.tolerances,
+        grids: &[],
+        seed: args.seed,
+    };
+    let bar = progress(Some(samples as u64), "evaluating", "machines");
+    let rows = conformance(&engine, &study, part, part_name, samples, confidence, |n| {
+        bar.set_position(n as u64)
+    });
+    bar.finish_and_clear();
+    let rows = rows?;
+    println!(
+        "{} ({} features) on {samples} machines built to {} around {} (seed {}), VE and OE on the {}; fit where at least {:.1}% conform",
+        part.name,
+        rows.len(),
+        tolerances.display(),
+        machine.name,
+        args.seed,
+        engine.name(),
+        100.0 * confidence
+    );
+    println!(
+        "  {:<24} {:<18} {:>12} {:>12} {:>12} {:>12} {:>11} {:>17}  verdict",
+        "feature", "kind", "tolerance mm", "nominal mm", "P50 mm", "P95 mm", "conforming", "95% CI"
+    );
+    for r in &rows {
+        println!(
+            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>10.2}% {:>17}  {}",
+            r.name,
+            r.kind,
+            r.tolerance_mm,
+            r.error_mm,
+            r.error_p50_mm,
+            r.error_p95_mm,
+            100.0 * r.conforming_fraction,
+            format!(
+                "{:.2}%-{:.2}%",
+                100.0 * r.conforming_ci95[0],
+                100.0 * r.conforming_ci95[1]
+            ),
+            if r.verdict == Verdict::Fit {
+                "fit"
+            } else {
+                "unfit"
+            }
         );
     }
     if let Some(path) = &args.json.json {

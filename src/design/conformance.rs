@@ -23,13 +23,17 @@ pub struct FeatureConformance {
     pub name: String,
     pub kind: String,
     pub tolerance_mm: f64,
-    /// The error on the nominal machine (the machine file as it is).
+    /// The error on the nominal machine (the machine file as it is), its safety (tolerance over
+    /// error) and the cutter position of its worst point.
     pub error_mm: f64,
+    pub safety: Option<f64>,
+    pub worst_point: [f64; 3],
     pub error_p50_mm: f64,
     pub error_p95_mm: f64,
     /// The fraction of sampled machines on which the feature is within its tolerance.
     pub conforming_fraction: f64,
     pub conforming_ci95: [f64; 2],
+    pub samples: usize,
     /// `fit` where the fraction reaches the confidence, `unfit` where it does not.
     pub verdict: part::Verdict,
 }
@@ -96,6 +100,9 @@ pub fn conformance(
                 kind: n.kind,
                 tolerance_mm: n.tolerance_mm,
                 error_mm: n.error_mm,
+                safety: n.safety,
+                worst_point: n.worst_point,
+                samples,
                 error_p50_mm: percentile(&e, 50.0),
                 error_p95_mm: percentile(&e, 95.0),
                 conforming_fraction: fraction.fraction,

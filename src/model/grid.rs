@@ -5,6 +5,7 @@
 //! `Z = origin_z + k·spacing_z`. Points are numbered `p = i + nx·(j + ny·k)`; a *line* is the
 //! `nx` points of one `(j, k)`, numbered `line = j + ny·k` (the EXR scanline of that line).
 
+use super::poses;
 use crate::error::input_errors;
 use crate::model::{AxisLetter, Command, Machine};
 
@@ -162,28 +163,15 @@ pub fn parse_dims(text: &str) -> Result<[usize; 3], GridError> {
 /// Rotary axes not named stay at 0.
 pub fn parse_pose(text: &str, machine: &Machine) -> Result<Command, GridError> {
     let mut pose = [0.0; 6];
-    for pair in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (name, value) = pair
-            .split_once('=')
-            .ok_or_else(|| GridError::PoseSyntax(text.to_string()))?;
-        let name = name.trim();
-        let axis_err = |what: String| GridError::PoseAxis {
-            axis: name.to_string(),
-            what,
-        };
-        let letter = super::poses::rotary_letter(name, machine)?;
+    for (name, value) in poses::named_values(text, || GridError::PoseSyntax(text.to_string()))? {
+        let letter = poses::rotary_letter(name, machine)?;
         let range = machine.axis(letter).map_or([0.0, 0.0], |a| a.range);
-        let degrees: f64 = value
-            .trim()
-            .parse()
-            .ok()
-            .filter(|v: &f64| v.is_finite())
-            .ok_or_else(|| axis_err(format!("`{}`, not a number of degrees", value.trim())))?;
+        let degrees = poses::degrees(value).map_err(|what| poses::axis_error(name, what))?;
         if degrees < range[0] || degrees > range[1] {
-            return Err(axis_err(format!(
-                "{degrees}°, outside its range [{}, {}]",
-                range[0], range[1]
-            )));
+            return Err(poses::axis_error(
+                name,
+                format!("{degrees}°, outside its range [{}, {}]", range[0], range[1]),
+            ));
         }
         pose[letter.index()] = degrees;
     }

@@ -17,15 +17,8 @@ pub const MIN_STEP_DEG: f64 = 1e-6;
 /// Parses a sweep against the machine's rotary axes and their ranges.
 pub fn parse_sweep(text: &str, machine: &Machine) -> Result<Vec<Command>, GridError> {
     let mut axes: Vec<(AxisLetter, Vec<f64>)> = Vec::new();
-    for pair in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (name, values) = pair
-            .split_once('=')
-            .ok_or_else(|| GridError::SweepSyntax(text.to_string()))?;
-        let name = name.trim();
-        let axis_err = |what: String| GridError::PoseAxis {
-            axis: name.to_string(),
-            what,
-        };
+    for (name, values) in named_values(text, || GridError::SweepSyntax(text.to_string()))? {
+        let axis_err = |what: String| axis_error(name, what);
         let letter = rotary_letter(name, machine)?;
         if axes.iter().any(|(l, _)| *l == letter) {
             return Err(axis_err("named twice".into()));
@@ -64,40 +57,73 @@ pub fn parse_sweep(text: &str, machine: &Machine) -> Result<Vec<Command>, GridEr
     Ok(poses)
 }
 
-/// The rotary axis of `machine` a sweep or pose names.
-pub(super) fn rotary_letter(name: &str, machine: &Machine) -> Result<AxisLetter, GridError> {
-    let axis_err = |what: String| GridError::PoseAxis {
+/// The `NAME=VALUE` pairs of a comma-separated list, each trimmed; `syntax` is the error for a
+/// pair without `=`.
+pub(super) fn named_values(
+    text: &str,
+    syntax: impl Fn() -> GridError,
+) -> Result<Vec<(&str, &str)>, GridError> {
+    text.split(',')
+        .map(str::trim)
+        .filter(|p| !p.is_empty())
+        .map(|pair| {
+            let (name, value) = pair.split_once('=').ok_or_else(&syntax)?;
+            Ok((name.trim(), value.trim()))
+        })
+        .collect()
+}
+
+/// The error of axis `name`.
+pub(super) fn axis_error(name: &str, what: impl Into<String>) -> GridError {
+    GridError::PoseAxis {
         axis: name.to_string(),
-        what,
-    };
+        what: what.into(),
+    }
+}
+
+/// The rotary axis `name` names (A, B or C), whatever the machine.
+fn rotary_letter_of(name: &str) -> Result<AxisLetter, GridError> {
     let letter = match name.chars().collect::<Vec<_>>()[..] {
         [c] => AxisLetter::from_char(c),
         _ => None,
     }
-    .ok_or_else(|| axis_err("not an axis letter (A, B or C)".into()))?;
+    .ok_or_else(|| axis_error(name, "not an axis letter (A, B or C)"))?;
     if letter.is_linear() {
-        return Err(axis_err(
-            "a linear axis: the map covers X, Y and Z over their travels".into(),
+        return Err(axis_error(
+            name,
+            "a linear axis: a pose names the rotary axes (a map covers X, Y and Z over their travels)",
         ));
-    }
-    if machine.axis(letter).is_none() {
-        return Err(axis_err(format!(
-            "not an axis of this machine (chain {})",
-            machine.chain.hwang_notation()
-        )));
     }
     Ok(letter)
 }
 
+/// The rotary axis of `machine` a sweep or pose names.
+pub(super) fn rotary_letter(name: &str, machine: &Machine) -> Result<AxisLetter, GridError> {
+    let letter = rotary_letter_of(name)?;
+    if machine.axis(letter).is_none() {
+        return Err(axis_error(
+            name,
+            format!(
+                "not an axis of this machine (chain {})",
+                machine.chain.hwang_notation()
+            ),
+        ));
+    }
+    Ok(letter)
+}
+
+/// A number of degrees.
+pub(super) fn degrees(text: &str) -> Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("`{}`, not a number of degrees", text.trim()))
+}
+
 /// `V` or `START:STOP:STEP` in degrees: START, START + STEP, … up to STOP inclusive.
 fn sweep_values(text: &str) -> Result<Vec<f64>, String> {
-    let number = |s: &str| -> Result<f64, String> {
-        s.trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("`{}`, not a number of degrees", s.trim()))
-    };
+    let number = degrees;
     let parts: Vec<&str> = text.split(':').collect();
     match parts[..] {
         [v] => Ok(vec![round_degrees(number(v)?)]),
@@ -164,42 +190,19 @@ pub fn name_of(degrees: [f64; 3], axes: &[AxisLetter]) -> String {
 /// Parses a pose `A=..,B=..,C=..` (degrees) where no machine is at hand (a pose asked of a field
 /// file, whose parts say which poses exist): the positions of A, B and C, those not named at 0.
 pub fn parse_pose_degrees(text: &str) -> Result<[f64; 3], GridError> {
-    let mut degrees = [0.0; 3];
+    let mut pose = [0.0; 3];
     let mut named = [false; 3];
-    for pair in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (name, value) = pair
-            .split_once('=')
-            .ok_or_else(|| GridError::PoseSyntax(text.to_string()))?;
-        let name = name.trim();
-        let axis_err = |what: String| GridError::PoseAxis {
-            axis: name.to_string(),
-            what,
-        };
-        let letter = match name.chars().collect::<Vec<_>>()[..] {
-            [c] => AxisLetter::from_char(c),
-            _ => None,
-        }
-        .ok_or_else(|| axis_err("not an axis letter (A, B or C)".into()))?;
-        if letter.is_linear() {
-            return Err(axis_err(
-                "a linear axis: a pose names the rotary axes A, B and C".into(),
-            ));
-        }
-        let n = letter.index() - 3;
+    for (name, value) in named_values(text, || GridError::PoseSyntax(text.to_string()))? {
+        let n = rotary_letter_of(name)?.index() - 3;
         if std::mem::replace(&mut named[n], true) {
-            return Err(axis_err("named twice".into()));
+            return Err(axis_error(name, "named twice"));
         }
-        degrees[n] = value
-            .trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite())
-            .ok_or_else(|| axis_err(format!("`{}`, not a number of degrees", value.trim())))?;
+        pose[n] = degrees(value).map_err(|what| axis_error(name, what))?;
     }
     if text.trim().is_empty() {
         return Err(GridError::PoseSyntax(text.to_string()));
     }
-    Ok(degrees)
+    Ok(pose)
 }
 
 #[cfg(test)]

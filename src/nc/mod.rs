@@ -1,4 +1,4 @@
-//! Offline NC program compensation (Dobariya et al., seed 004): the coordinates of an ISO 6983 /
+//! Offline NC program compensation (Dobariya, Patel and Jani 2015): the coordinates of an ISO 6983 /
 //! Fanuc-style part program are rewritten so that the real tool tip lands where the program
 //! wants it.
 //!

@@ -1,4 +1,4 @@
-//! Feature errors and machine capability (Li et al., seed 000): the machine's error moves and
+//! Feature errors and machine capability (Li, Li and Wang 2015): the machine's error moves and
 //! tilts the cutter, the cutter's deviation swept over a feature becomes the feature's GD&T error,
 //! and the ratio of tolerance to that error rates the machine (below 1 unfit, 1 to 4 fit with
 //! inspection, 4 or more fit).

@@ -1,6 +1,6 @@
 //! Standard accuracy tests predicted from a machine model, and compared with measured results:
 //! ISO 230-2 positioning of one axis, ISO 230-6 body and face diagonals, ISO 230-4 circular
-//! tests (ballbar) and the R-test of a rotary axis (Hwang et al., seed 001, Figs. 14–15).
+//! tests (ballbar) and the R-test of a rotary axis (Hwang et al. 2014, Figs. 14–15).
 //!
 //! Every test commands positions, asks the model for `VE` there (the f64 reference of MODEL.md,
 //! workpiece frame), and turns it into what the test's instrument reads:

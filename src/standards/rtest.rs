@@ -1,4 +1,4 @@
-//! The R-test of a rotary axis (Hwang et al., seed 001, Figs. 14–15).
+//! The R-test of a rotary axis (Hwang et al. 2014, Figs. 14–15).
 
 use std::path::PathBuf;
 

@@ -228,8 +228,18 @@ fn bench_prints_a_table_and_writes_json() {
             .filter(|p| p["path"].as_str().unwrap().starts_with("GPU"))
             .count();
         // With an adapter the GPU paths are there, each with its fraction of the ceiling.
+        // Monte Carlo is measured on the CPU engine always, on the GPU where there is one.
+        let monte_carlo: Vec<&str> = paths
+            .iter()
+            .map(|p| p["path"].as_str().unwrap())
+            .filter(|p| p.contains("Monte Carlo"))
+            .collect();
+        assert!(monte_carlo
+            .iter()
+            .any(|p| p.starts_with("CPU engine Monte Carlo")));
         if report["adapter"].is_string() {
-            assert_eq!(gpu_paths, 3);
+            assert_eq!(gpu_paths, 4);
+            assert!(monte_carlo.iter().any(|p| p.starts_with("GPU Monte Carlo")));
             assert!(paths
                 .iter()
                 .filter(|p| p["path"].as_str().unwrap().starts_with("GPU"))

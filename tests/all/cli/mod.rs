@@ -1,7 +1,7 @@
 //! The `volmap` binary as a user runs it, command by command.
 
-mod budget;
 mod compensate;
+mod design;
 mod map;
 mod plot;
 mod query;

@@ -1,5 +1,5 @@
-//! `volmap budget`: the error budget, Monte Carlo, allocation; every bad tolerance file refused
-//! with the file and the key named.
+//! `volmap budget` and `features --tolerances`: the error budget, Monte Carlo, allocation, the
+//! probability that a part conforms; every bad tolerance file refused with the file and the key named.
 
 use std::path::{Path, PathBuf};
 
@@ -455,4 +455,126 @@ fn bad_budget_values_name_their_flag() {
     run(&["--plot", "b.gif"], "--plot");
     run(&["--poses", "C=0:90:30"], "--poses");
     run(&["--pose", "B=10", "--poses", "B=0"], "--pose");
+}
+
+#[test]
+fn features_on_sampled_machines_give_each_features_conforming_fraction() {
+    let dir = tempfile::tempdir().unwrap();
+    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let mut outputs = Vec::new();
+    let devices: &[&str] = if gpu().is_some() {
+        &["cpu", "gpu"]
+    } else {
+        &["cpu"]
+    };
+    for device in devices {
+        let json = dir.path().join(format!("{device}.json"));
+        volmap()
+            .args([
+                "features",
+                "--machine",
+                "vmc-li2015",
+                "--samples",
+                "40",
+                "--seed",
+                "4",
+            ])
+            .args(["--device", device, "--part"])
+            .arg(examples.join("li2015-part.toml"))
+            .arg("--tolerances")
+            .arg(example("vmc-li2015"))
+            .arg("--json")
+            .arg(&json)
+            .assert()
+            .success()
+            .stdout(
+                predicate::str::contains("40 machines").and(predicate::str::contains("conforming")),
+            );
+        outputs.push(read_json(&json));
+    }
+    let rows = outputs[0].as_array().unwrap();
+    assert_eq!(rows.len(), 5);
+    for row in rows {
+        let fraction = row["conforming_fraction"].as_f64().unwrap();
+        assert!((0.0..=1.0).contains(&fraction));
+        assert!(row["error_p95_mm"].as_f64().unwrap() >= row["error_p50_mm"].as_f64().unwrap());
+        assert_eq!(
+            row["verdict"],
+            if fraction >= 0.95 { "fit" } else { "unfit" }
+        );
+    }
+    if let [cpu, gpu] = &outputs[..] {
+        for (c, g) in cpu.as_array().unwrap().iter().zip(gpu.as_array().unwrap()) {
+            assert_eq!(c["conforming_fraction"], g["conforming_fraction"]);
+            let (a, b) = (
+                c["error_p95_mm"].as_f64().unwrap(),
+                g["error_p95_mm"].as_f64().unwrap(),
+            );
+            assert!((a - b).abs() < 1e-6, "{a} vs {b}");
+        }
+    }
+    // A tolerance no machine can hold: exit code 3, the feature unfit.
+    let part = dir.path().join("part.toml");
+    std::fs::write(
+        &part,
+        std::fs::read_to_string(examples.join("li2015-part.toml"))
+            .unwrap()
+            .replace("tolerance_mm = 0.05", "tolerance_mm = 0.0056"),
+    )
+    .unwrap();
+    volmap()
+        .args([
+            "features",
+            "--machine",
+            "vmc-li2015",
+            "--samples",
+            "30",
+            "--device",
+            "cpu",
+        ])
+        .arg("--part")
+        .arg(&part)
+        .arg("--tolerances")
+        .arg(example("vmc-li2015"))
+        .assert()
+        .code(3)
+        .stdout(predicate::str::contains("unfit"));
+    // Bad input: exit code 2 naming the flag.
+    std::fs::write(
+        dir.path().join("bad.toml"),
+        "[axes.Q]\nEXQ = { uniform = 1 }",
+    )
+    .unwrap();
+    volmap()
+        .args([
+            "features",
+            "--machine",
+            "vmc-li2015",
+            "--samples",
+            "3",
+            "--device",
+            "cpu",
+        ])
+        .arg("--part")
+        .arg(examples.join("li2015-part.toml"))
+        .arg("--tolerances")
+        .arg(dir.path().join("bad.toml"))
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--tolerances").and(predicate::str::contains("axes.Q")));
+    volmap()
+        .args([
+            "features",
+            "--machine",
+            "vmc-li2015",
+            "--device",
+            "cpu",
+            "--part",
+        ])
+        .arg(examples.join("li2015-part.toml"))
+        .arg("--tolerances")
+        .arg(example("vmc-li2015"))
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--samples"));
 }
