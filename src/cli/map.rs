@@ -91,7 +91,10 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
 /// A failure of the map, said to have happened while mapping the machine into the file, with
 /// the way round a machine the GPU refuses.
 pub fn map_failure(error: EngineError, machine: &Machine, out: &std::path::Path) -> Failure {
-    let angles = matches!(error, EngineError::Gpu(GpuError::ErrorAngles { .. }));
+    let angles = matches!(
+        error,
+        EngineError::Gpu(GpuError::ErrorAngles { .. } | GpuError::CrossAxis { .. })
+    );
     let failure =
         Failure::from(error).context(format!("mapping {} into {}", machine.name, out.display()));
     if angles {

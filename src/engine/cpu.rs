@@ -125,6 +125,11 @@ pub fn run<E>(
     chunk_points: Option<u64>,
     on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
 ) -> Result<(), E> {
+    // The plan evaluates each axis once per grid value of its own; errors of other axes'
+    // positions are evaluated point by point.
+    if machine.has_cross_axis_errors() {
+        return super::reference::run(machine, grid, chunk_points, on_chunk);
+    }
     let plan = CpuPlan::new(machine, grid);
     super::run_in_chunks(
         grid,

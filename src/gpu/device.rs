@@ -28,6 +28,10 @@ pub enum GpuError {
         total_rad: f64,
         limit_rad: f64,
     },
+    /// An error value of the machine reads the position of another axis (`of`, `table2d`),
+    /// which the GPU kernels do not evaluate yet; the CPU engine does.
+    #[error("{machine}: {key} depends on the position of another axis (`of` or `table2d`), which the GPU kernels do not evaluate yet; the CPU engine does")]
+    CrossAxis { machine: String, key: String },
 }
 
 impl crate::error::Classify for GpuError {

@@ -1,9 +1,14 @@
-//! Error values as functions of their own axis position (MODEL.md, "Error values").
+//! Error values as functions of commanded positions (MODEL.md, "Error values"): of their own
+//! axis's position, of another axis's (`of`), of two axes at once (`table2d`), and sums of these.
 //!
-//! [`ErrorFunction::eval`] is the f64 definition used by the CPU reference; it reads the nodes
+//! [`ErrorFunction::eval_at`] is the f64 definition used by the CPU reference; it reads the nodes
 //! directly (linear interpolation, Lagrange quadratics over node triples, the natural cubic
-//! spline). [`ErrorFunction::pieces`] re-expresses the same function as piecewise polynomials in a
-//! local coordinate, the form the GPU evaluates; both are tested to agree.
+//! spline). [`ErrorFunction::pieces`] re-expresses a function of the own axis as piecewise
+//! polynomials in a local coordinate, the form the GPU evaluates; both are tested to agree.
+
+use super::spline::{natural_spline_second_derivatives, periodic_spline_second_derivatives};
+use super::table2d::Table2d;
+use super::{AxisLetter, Command};
 
 /// How a table interpolates between its nodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -129,6 +134,15 @@ impl Table {
         self.interp
     }
 
+    /// The table with every value times `k` (a spline's second derivatives scale with them).
+    pub fn scaled(&self, k: f64) -> Table {
+        Table {
+            v: self.v.iter().map(|v| v * k).collect(),
+            second_derivatives: self.second_derivatives.iter().map(|m| m * k).collect(),
+            ..self.clone()
+        }
+    }
+
     pub fn is_periodic(&self) -> bool {
         self.periodic
     }
@@ -221,122 +235,6 @@ impl Table {
     }
 }
 
-/// Second derivatives of the natural cubic spline (zero at both ends): the tridiagonal system
-/// `h_{i-1} M_{i-1} + 2 (h_{i-1} + h_i) M_i + h_i M_{i+1} = 6 (d_i − d_{i-1})`, Thomas algorithm.
-fn natural_spline_second_derivatives(q: &[f64], v: &[f64]) -> Vec<f64> {
-    let n = q.len();
-    let mut m = vec![0.0; n];
-    if n < 3 {
-        return m;
-    }
-    let h: Vec<f64> = q.windows(2).map(|w| w[1] - w[0]).collect();
-    let slope: Vec<f64> = (0..n - 1).map(|i| (v[i + 1] - v[i]) / h[i]).collect();
-    // Interior unknowns M_1 … M_{n-2}.
-    let k = n - 2;
-    let mut diag: Vec<f64> = (0..k).map(|j| 2.0 * (h[j] + h[j + 1])).collect();
-    let mut rhs: Vec<f64> = (0..k).map(|j| 6.0 * (slope[j + 1] - slope[j])).collect();
-    for j in 1..k {
-        let w = h[j] / diag[j - 1];
-        diag[j] -= w * h[j];
-        rhs[j] -= w * rhs[j - 1];
-    }
-    m[k] = rhs[k - 1] / diag[k - 1];
-    for j in (0..k - 1).rev() {
-        m[j + 1] = (rhs[j] - h[j + 1] * m[j + 2]) / diag[j];
-    }
-    m
-}
-
-/// Second derivatives of the periodic cubic spline over closed nodes (`q_n = q_0 + 360°`,
-/// `v_n = v_0`): a cyclic tridiagonal system in `M_0 … M_{n-1}`, solved densely for small `n`
-/// and by Sherman–Morrison otherwise.
-fn periodic_spline_second_derivatives(q: &[f64], v: &[f64]) -> Vec<f64> {
-    let n = q.len() - 1; // intervals = unknowns
-    let h: Vec<f64> = q.windows(2).map(|w| w[1] - w[0]).collect();
-    let slope: Vec<f64> = (0..n).map(|i| (v[i + 1] - v[i]) / h[i]).collect();
-    let prev = |i: usize| (i + n - 1) % n;
-    let rhs: Vec<f64> = (0..n).map(|i| 6.0 * (slope[i] - slope[prev(i)])).collect();
-    let mut m = if n < 3 {
-        let mut a = vec![vec![0.0; n]; n];
-        for i in 0..n {
-            a[i][prev(i)] += h[prev(i)];
-            a[i][i] += 2.0 * (h[prev(i)] + h[i]);
-            a[i][(i + 1) % n] += h[i];
-        }
-        solve_dense(a, rhs.clone())
-    } else {
-        let sub: Vec<f64> = (0..n).map(|i| h[prev(i)]).collect();
-        let diag: Vec<f64> = (0..n).map(|i| 2.0 * (h[prev(i)] + h[i])).collect();
-        let sup: Vec<f64> = h.clone();
-        solve_cyclic(&sub, &diag, &sup, &rhs)
-    };
-    m.push(m[0]);
-    m
-}
-
-fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
-    let n = b.len();
-    for col in 0..n {
-        let pivot = (col..n)
-            .max_by(|&r, &s| a[r][col].abs().total_cmp(&a[s][col].abs()))
-            .unwrap_or(col);
-        a.swap(col, pivot);
-        b.swap(col, pivot);
-        let pivot_row = a[col].clone();
-        for row in col + 1..n {
-            let f = a[row][col] / pivot_row[col];
-            for (x, p) in a[row][col..].iter_mut().zip(&pivot_row[col..]) {
-                *x -= f * p;
-            }
-            b[row] -= f * b[col];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for row in (0..n).rev() {
-        let s: f64 = (row + 1..n).map(|k| a[row][k] * x[k]).sum();
-        x[row] = (b[row] - s) / a[row][row];
-    }
-    x
-}
-
-fn solve_tridiagonal(sub: &[f64], diag: &[f64], sup: &[f64], rhs: &[f64]) -> Vec<f64> {
-    let n = diag.len();
-    let mut c = vec![0.0; n];
-    let mut d = vec![0.0; n];
-    c[0] = sup[0] / diag[0];
-    d[0] = rhs[0] / diag[0];
-    for i in 1..n {
-        let denom = diag[i] - sub[i] * c[i - 1];
-        c[i] = sup[i] / denom;
-        d[i] = (rhs[i] - sub[i] * d[i - 1]) / denom;
-    }
-    let mut x = vec![0.0; n];
-    x[n - 1] = d[n - 1];
-    for i in (0..n - 1).rev() {
-        x[i] = d[i] - c[i] * x[i + 1];
-    }
-    x
-}
-
-/// Cyclic tridiagonal system (`sub[0]` couples row 0 to the last unknown, `sup[n-1]` the last row
-/// to the first), Sherman–Morrison on top of the Thomas algorithm.
-fn solve_cyclic(sub: &[f64], diag: &[f64], sup: &[f64], rhs: &[f64]) -> Vec<f64> {
-    let n = diag.len();
-    let alpha = sup[n - 1];
-    let beta = sub[0];
-    let gamma = -diag[0];
-    let mut modified = diag.to_vec();
-    modified[0] -= gamma;
-    modified[n - 1] -= alpha * beta / gamma;
-    let x = solve_tridiagonal(sub, &modified, sup, rhs);
-    let mut u = vec![0.0; n];
-    u[0] = gamma;
-    u[n - 1] = alpha;
-    let z = solve_tridiagonal(sub, &modified, sup, &u);
-    let factor = (x[0] + beta * x[n - 1] / gamma) / (1.0 + z[0] + beta * z[n - 1] / gamma);
-    x.iter().zip(&z).map(|(xi, zi)| xi - factor * zi).collect()
-}
-
 /// A polynomial `Σ c_k s^k` in the local coordinate `s = q − start`, valid from `start` to the
 /// next piece's start.
 #[derive(Debug, Clone, PartialEq)]
@@ -386,17 +284,63 @@ pub enum ErrorFunction {
     /// `c0 + c1·q + c2·q² + …`, `q` in mm (degrees for rotary axes).
     Poly(Vec<f64>),
     Table(Table),
-    /// The sum of its terms (a machine with a tolerance's deviation added to an error value).
+    /// The sum of its terms.
     Sum(Vec<ErrorFunction>),
+    /// A polynomial or table whose argument is the commanded position of another axis (`of`).
+    Of {
+        axis: AxisLetter,
+        form: Box<ErrorFunction>,
+    },
+    /// Bilinear in the commanded positions of two axes.
+    Table2d(Table2d),
 }
 
 impl ErrorFunction {
+    /// The value at own position `q` with every other axis at 0; for a function of its own axis
+    /// only (see [`ErrorFunction::eval_at`]).
     pub fn eval(&self, q: f64) -> f64 {
+        self.eval_at(q, &[0.0; 6])
+    }
+
+    /// The value at own position `q` with the commanded positions `command` of every axis.
+    pub fn eval_at(&self, q: f64, command: &Command) -> f64 {
         match self {
             ErrorFunction::Constant(c) => *c,
             ErrorFunction::Poly(c) => c.iter().rev().fold(0.0, |acc, ck| acc * q + ck),
             ErrorFunction::Table(t) => t.eval(q),
-            ErrorFunction::Sum(terms) => terms.iter().map(|f| f.eval(q)).sum(),
+            ErrorFunction::Sum(terms) => terms.iter().map(|f| f.eval_at(q, command)).sum(),
+            ErrorFunction::Of { axis, form } => {
+                let at = command[axis.index()];
+                form.eval_at(at, command)
+            }
+            ErrorFunction::Table2d(t) => t.eval(command),
+        }
+    }
+
+    /// The function times `k`.
+    pub fn scaled(&self, k: f64) -> ErrorFunction {
+        match self {
+            ErrorFunction::Constant(c) => ErrorFunction::Constant(c * k),
+            ErrorFunction::Poly(c) => ErrorFunction::Poly(c.iter().map(|c| c * k).collect()),
+            ErrorFunction::Table(t) => ErrorFunction::Table(t.scaled(k)),
+            ErrorFunction::Sum(terms) => {
+                ErrorFunction::Sum(terms.iter().map(|f| f.scaled(k)).collect())
+            }
+            ErrorFunction::Of { axis, form } => ErrorFunction::Of {
+                axis: *axis,
+                form: Box::new(form.scaled(k)),
+            },
+            ErrorFunction::Table2d(t) => ErrorFunction::Table2d(t.scaled(k)),
+        }
+    }
+
+    /// The axes other than its own the function reads the position of.
+    pub fn other_axes(&self) -> Vec<AxisLetter> {
+        match self {
+            ErrorFunction::Sum(terms) => terms.iter().flat_map(|f| f.other_axes()).collect(),
+            ErrorFunction::Of { axis, .. } => vec![*axis],
+            ErrorFunction::Table2d(t) => t.axes.to_vec(),
+            _ => Vec::new(),
         }
     }
 
@@ -408,8 +352,9 @@ impl ErrorFunction {
         }
     }
 
-    /// The piecewise-polynomial form of a term; `None` for a sum, whose terms the GPU evaluates
-    /// one by one (see [`ErrorFunction::terms`]).
+    /// The piecewise-polynomial form of a term of the own axis; `None` for a sum, whose terms the
+    /// GPU evaluates one by one (see [`ErrorFunction::terms`]), and for a function of other
+    /// axes.
     pub fn pieces(&self) -> Option<Pieces> {
         match self {
             ErrorFunction::Constant(c) => Some(Pieces {
@@ -436,7 +381,7 @@ impl ErrorFunction {
                 periodic: t.periodic,
                 pieces: t.pieces(),
             }),
-            ErrorFunction::Sum(_) => None,
+            ErrorFunction::Sum(_) | ErrorFunction::Of { .. } | ErrorFunction::Table2d(_) => None,
         }
     }
 
@@ -447,6 +392,8 @@ impl ErrorFunction {
             ErrorFunction::Poly(c) => c.iter().all(|&x| x == 0.0),
             ErrorFunction::Table(t) => t.v.iter().all(|&x| x == 0.0),
             ErrorFunction::Sum(terms) => terms.iter().all(ErrorFunction::is_zero),
+            ErrorFunction::Of { form, .. } => form.is_zero(),
+            ErrorFunction::Table2d(t) => t.values.iter().flatten().all(|&x| x == 0.0),
         }
     }
 }

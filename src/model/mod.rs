@@ -7,9 +7,12 @@ pub mod chain;
 pub mod channels;
 pub mod errorfn;
 pub mod grid;
+pub mod inputs;
 pub mod perturbation;
 pub mod poses;
+mod spline;
 pub mod statistics;
+pub mod table2d;
 
 pub use chain::{AxisLetter, Chain, ChainError};
 pub use errorfn::{ErrorFunction, Interp, Pieces, Table};
@@ -56,9 +59,19 @@ impl Axis {
         u
     }
 
-    /// The six component errors at position `q` (mm or degrees).
+    /// The six component errors at position `q` (mm or degrees), every other axis at 0: for an
+    /// axis whose errors depend on its own position only.
     pub fn component_values(&self, q: f64) -> [f64; 6] {
-        std::array::from_fn(|n| self.components[n].as_ref().map_or(0.0, |f| f.eval(q)))
+        self.component_values_at(q, &[0.0; 6])
+    }
+
+    /// The six component errors at position `q` with every axis at `command`.
+    pub fn component_values_at(&self, q: f64, command: &Command) -> [f64; 6] {
+        std::array::from_fn(|n| {
+            self.components[n]
+                .as_ref()
+                .map_or(0.0, |f| f.eval_at(q, command))
+        })
     }
 
     pub fn component_key(&self, n: usize) -> String {
@@ -91,6 +104,11 @@ pub struct Machine {
     pub tool_offset_mm: [f64; 3],
     /// Spindle errors `EXS EYS EZS` (mm), `EAS EBS` (rad).
     pub spindle: [f64; 5],
+    /// `[thermal]`, where the machine declares temperature inputs.
+    pub thermal: Option<inputs::Thermal>,
+    /// The error values that depend on the evaluation inputs (see [`Machine::at`]); the values
+    /// above are those at the default inputs.
+    pub dependent: Vec<inputs::Dependent>,
     pub source: MachineSource,
 }
 
@@ -135,6 +153,8 @@ impl Machine {
             chain,
             tool_offset_mm: [0.0; 3],
             spindle: [0.0; 5],
+            thermal: None,
+            dependent: Vec::new(),
             source: MachineSource::default(),
         })
     }

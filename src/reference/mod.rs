@@ -52,11 +52,16 @@ pub fn location_at(offset_mm: [f64; 3], location: [f64; 6]) -> Transform {
     trans(o + Vector3::new(ex, ey, ez)) * rot(ea, eb, ec)
 }
 
-/// The relative transform `A_k(q)` of one axis:
+/// The relative transform `A_k(q)` of one axis whose errors depend on its own position only:
 /// linear `L_k · Trans(q·u_k) · E_k(q)`, rotary `L_k · E_k(q) · Rot_u(q)` (q in degrees).
 pub fn axis_transform(axis: &Axis, q: f64) -> Transform {
+    axis_transform_at(axis, q, &[0.0; 6])
+}
+
+/// [`axis_transform`] with every axis at `command` (for errors of other axes' positions).
+pub fn axis_transform_at(axis: &Axis, q: f64, command: &Command) -> Transform {
     let u = Vector3::from(axis.unit_vector());
-    let errors = error_transform(axis.component_values(q));
+    let errors = error_transform(axis.component_values_at(q, command));
     if axis.letter.is_linear() {
         location(axis) * trans(q * u) * errors
     } else {
@@ -96,7 +101,7 @@ pub fn relative_transform(machine: &Machine, command: &Command) -> Transform {
         .axes_in_product_order()
         .into_iter()
         .fold(Transform::identity(), |acc, axis| {
-            acc * axis_transform(axis, command[axis.letter.index()])
+            acc * axis_transform_at(axis, command[axis.letter.index()], command)
         });
     chain * spindle_error(machine) * tool_translation(machine)
 }

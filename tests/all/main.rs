@@ -10,6 +10,7 @@ mod features;
 mod field;
 mod golden;
 mod gpu;
+mod inputs;
 mod machine_file;
 mod mesh;
 mod nc;

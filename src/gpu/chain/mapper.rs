@@ -242,6 +242,7 @@ impl GpuMapper {
         tilings: &[Tiling],
     ) -> Result<Prepared, GpuError> {
         check_error_angles(machine, grid)?;
+        super::check_own_axis_errors(machine)?;
         let packed = pack(machine, grid);
         let nx = grid.dims[0] as u64;
         let limit =

@@ -128,3 +128,19 @@ pub struct TimedKernel {
     pub choice: KernelChoice,
     pub tiling: Tiling,
 }
+
+/// Refuses a machine with an error value of another axis's position: the kernels evaluate each
+/// axis's errors from its own position.
+pub(crate) fn check_own_axis_errors(machine: &Machine) -> Result<(), GpuError> {
+    for axis in &machine.axes {
+        for (n, f) in axis.components.iter().enumerate() {
+            if f.as_ref().is_some_and(|f| !f.other_axes().is_empty()) {
+                return Err(GpuError::CrossAxis {
+                    machine: machine.name.clone(),
+                    key: format!("axes.{}.{}", axis.letter, axis.component_key(n)),
+                });
+            }
+        }
+    }
+    Ok(())
+}

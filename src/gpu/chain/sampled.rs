@@ -328,6 +328,7 @@ impl GpuMapper {
         grid: &Grid,
         mut on_batch: impl FnMut(usize),
     ) -> Result<Vec<FieldStats>, GpuError> {
+        super::check_own_axis_errors(machine)?;
         let base = Base::new(machine, perturbations, grid);
         let nx = grid.dims[0] as u64;
         let max_groups = self.gpu.max_workgroups_per_dimension() as u64;
@@ -507,6 +508,7 @@ impl GpuMapper {
             spacing_mm: [0.0; 3],
             pose,
         };
+        super::check_own_axis_errors(machine)?;
         let base = Base::new(machine, perturbations, &grid);
         let terms = perturbations.len().max(1);
         let positions: Vec<[f32; 4]> = commands

@@ -14,8 +14,14 @@ use super::{read_text, FileError};
 use crate::error::input_errors;
 
 use crate::model::chain::{AxisLetter, Chain, ChainError};
-use crate::model::errorfn::{ErrorFunction, Interp, Table, TableError};
+use crate::model::errorfn::TableError;
+use crate::model::inputs::{Dependent, Thermal};
+use crate::model::perturbation::{ErrorTarget, SPINDLE_NAMES};
 use crate::model::{Axis, Machine, MachineSource, COMPONENT_NAMES};
+
+mod values;
+
+use values::{ValueKind, ValueSpec};
 
 /// What is wrong with a machine file. Each message names the file and the key.
 #[derive(Debug, thiserror::Error)]
@@ -85,7 +91,9 @@ struct RawMachine {
     #[serde(default)]
     tool: Option<RawTool>,
     #[serde(default)]
-    spindle: Option<RawSpindle>,
+    spindle: Option<toml::Table>,
+    #[serde(default)]
+    thermal: Option<RawThermal>,
     #[serde(default)]
     axes: BTreeMap<String, toml::Table>,
 }
@@ -97,16 +105,18 @@ struct RawTool {
     offset: [f64; 3],
 }
 
-/// `[spindle]`: the constant spindle error `S = E(EXS, EYS, EZS, EAS, EBS, 0)`.
-#[allow(non_snake_case)]
-#[derive(Debug, Default, Deserialize)]
+/// `[thermal]`: the declared temperature inputs.
+#[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawSpindle {
-    EXS: Option<f64>,
-    EYS: Option<f64>,
-    EZS: Option<f64>,
-    EAS: Option<f64>,
-    EBS: Option<f64>,
+struct RawThermal {
+    #[serde(rename = "reference_C", default = "default_reference_c")]
+    reference_c: f64,
+    inputs: Vec<String>,
+}
+
+/// The temperature of the geometric model where `[thermal]` does not say, °C (ISO 1).
+fn default_reference_c() -> f64 {
+    20.0
 }
 
 impl Machine {
@@ -133,10 +143,19 @@ impl Machine {
             file: file.to_string(),
             source,
         })?;
+        let thermal = match raw.thermal {
+            Some(t) => Some(thermal(file, t)?),
+            None => None,
+        };
         let mut reader = Reader {
             file: file.to_string(),
             csv_base: csv_base.map(Path::to_path_buf),
             csv_files: Vec::new(),
+            chain: chain.clone(),
+            thermal_inputs: thermal
+                .as_ref()
+                .map_or(Vec::new(), |t: &Thermal| t.inputs.clone()),
+            dependent: Vec::new(),
         };
 
         for section in raw.axes.keys() {
@@ -168,10 +187,21 @@ impl Machine {
 
         let tool_offset_mm = raw.tool.map_or([0.0; 3], |t| t.offset);
         reader.check_finite_all("tool.offset", &tool_offset_mm)?;
-        let s = raw.spindle.unwrap_or_default();
-        let spindle = [s.EXS, s.EYS, s.EZS, s.EAS, s.EBS].map(|v| v.unwrap_or(0.0));
-        for (n, name) in ["EXS", "EYS", "EZS", "EAS", "EBS"].iter().enumerate() {
-            reader.check_finite(&format!("spindle.{name}"), spindle[n])?;
+        let mut spindle = [0.0; 5];
+        for (key, value) in raw.spindle.iter().flatten() {
+            let path = format!("spindle.{key}");
+            let index = SPINDLE_NAMES.iter().position(|n| n == key).ok_or_else(|| {
+                reader.key_error(
+                    &path,
+                    format!(
+                        "unknown key `{key}` (the spindle's errors are {})",
+                        SPINDLE_NAMES.join(", ")
+                    ),
+                )
+            })?;
+            let spec = reader.error_value(None, key, &path, value, ValueKind::Constant)?;
+            spindle[index] = spec.value.eval(0.0);
+            reader.keep(ErrorTarget::Spindle { index }, spec);
         }
 
         Ok(Machine {
@@ -181,6 +211,8 @@ impl Machine {
             axes,
             tool_offset_mm,
             spindle,
+            thermal,
+            dependent: reader.dependent,
             source: MachineSource {
                 toml: text.to_string(),
                 csv_files: reader.csv_files,
@@ -189,23 +221,60 @@ impl Machine {
     }
 }
 
-/// The keys of an error value given as a table, before they are checked against each other.
-struct ErrorSpec {
-    poly: Option<Vec<f64>>,
-    nodes: Option<Vec<(f64, f64)>>,
-    csv: Option<String>,
-    column: Option<String>,
-    interp: Interp,
-    periodic: bool,
-}
-
 struct Reader {
     file: String,
     csv_base: Option<PathBuf>,
     csv_files: Vec<(String, String)>,
+    chain: Chain,
+    /// `[thermal].inputs`, the names `per_kelvin` may use.
+    thermal_inputs: Vec<String>,
+    /// The error values read so far that depend on the evaluation inputs.
+    dependent: Vec<Dependent>,
+}
+
+/// `[thermal]` checked: inputs named once each.
+fn thermal(file: &str, raw: RawThermal) -> Result<Thermal, MachineError> {
+    let error = |message: String| MachineError::Key {
+        file: file.to_string(),
+        key: "thermal.inputs".into(),
+        message,
+    };
+    if !raw.reference_c.is_finite() {
+        return Err(MachineError::Key {
+            file: file.to_string(),
+            key: "thermal.reference_C".into(),
+            message: format!("{} is not a finite temperature", raw.reference_c),
+        });
+    }
+    for (n, input) in raw.inputs.iter().enumerate() {
+        if input.trim().is_empty() || input.contains([',', '=']) {
+            return Err(error(format!(
+                "`{input}` is not a name (no commas, no `=`)"
+            )));
+        }
+        if raw.inputs[..n].contains(input) {
+            return Err(error(format!("`{input}` is declared twice")));
+        }
+    }
+    Ok(Thermal {
+        reference_c: raw.reference_c,
+        inputs: raw.inputs,
+    })
 }
 
 impl Reader {
+    /// Keeps an error value that depends on the evaluation inputs.
+    fn keep(&mut self, target: ErrorTarget, spec: ValueSpec) {
+        if spec.reverse.is_some() || !spec.per_kelvin.is_empty() {
+            self.dependent.push(Dependent {
+                target,
+                value: spec.value,
+                reverse: spec.reverse,
+                per_kelvin: spec.per_kelvin,
+            });
+        }
+    }
+
     fn key_error(&self, key: &str, message: impl Into<String>) -> MachineError {
         MachineError::Key {
             file: self.file.clone(),
@@ -331,160 +400,29 @@ impl Reader {
             .iter()
             .position(|&c| c == chars[1])
             .unwrap_or(0);
+        let letter = axis.letter;
         if chars.len() == 4 {
-            axis.location[n] = self.number(path, value).map_err(|_| {
-                self.key_error(path, "a location error is a constant: give a finite number")
-            })?;
+            let spec = self.error_value(Some(letter), key, path, value, ValueKind::Constant)?;
+            axis.location[n] = spec.value.eval(0.0);
+            self.keep(
+                ErrorTarget::Location {
+                    axis: letter,
+                    index: n,
+                },
+                spec,
+            );
         } else {
-            axis.components[n] = Some(self.error_function(axis.letter, key, path, value)?);
+            let spec = self.error_value(Some(letter), key, path, value, ValueKind::Component)?;
+            axis.components[n] = Some(spec.value.clone());
+            self.keep(
+                ErrorTarget::Component {
+                    axis: letter,
+                    index: n,
+                },
+                spec,
+            );
         }
         Ok(())
-    }
-
-    fn error_function(
-        &mut self,
-        letter: AxisLetter,
-        column_default: &str,
-        path: &str,
-        value: &toml::Value,
-    ) -> Result<ErrorFunction, MachineError> {
-        let table = match value {
-            toml::Value::Table(t) => t,
-            _ => return Ok(ErrorFunction::Constant(self.number(path, value)?)),
-        };
-        let spec = self.error_spec(letter, path, table)?;
-        let sources = [
-            spec.poly.is_some(),
-            spec.nodes.is_some(),
-            spec.csv.is_some(),
-        ]
-        .iter()
-        .filter(|&&b| b)
-        .count();
-        if sources != 1 {
-            return Err(self.key_error(path, "give exactly one of `poly`, `table` or `csv`"));
-        }
-        if spec.column.is_some() && spec.csv.is_none() {
-            return Err(self.key_error(&format!("{path}.column"), "`column` goes with `csv`"));
-        }
-        if let Some(coefficients) = spec.poly {
-            if table.contains_key("interp") || table.contains_key("periodic") {
-                return Err(self.key_error(
-                    path,
-                    "`interp` and `periodic` apply to tables, not to `poly`",
-                ));
-            }
-            return Ok(ErrorFunction::Poly(coefficients));
-        }
-        let nodes = match (spec.nodes, spec.csv) {
-            (Some(nodes), _) => nodes,
-            (None, Some(csv)) => {
-                let column = spec.column.unwrap_or_else(|| column_default.to_string());
-                self.csv_column(path, &csv, &column)?
-            }
-            (None, None) => unreachable!("one source is present"),
-        };
-        Table::new(nodes, spec.interp, spec.periodic)
-            .map(ErrorFunction::Table)
-            .map_err(|source| MachineError::Table {
-                file: self.file.clone(),
-                key: path.to_string(),
-                source,
-            })
-    }
-
-    /// The keys of an error value's table, each checked on its own.
-    fn error_spec(
-        &self,
-        letter: AxisLetter,
-        path: &str,
-        table: &toml::Table,
-    ) -> Result<ErrorSpec, MachineError> {
-        let mut spec = ErrorSpec {
-            poly: None,
-            nodes: None,
-            csv: None,
-            column: None,
-            interp: Interp::Linear,
-            periodic: false,
-        };
-        for (key, v) in table {
-            let sub = format!("{path}.{key}");
-            let text = |what: &str| {
-                v.as_str()
-                    .map(str::to_string)
-                    .ok_or_else(|| self.key_error(&sub, format!("expected a {what}")))
-            };
-            match key.as_str() {
-                "poly" => {
-                    let array = v
-                        .as_array()
-                        .filter(|a| !a.is_empty())
-                        .ok_or_else(|| self.key_error(&sub, "expected a non-empty array of coefficients [c0, c1, …]"))?;
-                    spec.poly = Some(array.iter().map(|c| self.number(&sub, c)).collect::<Result<Vec<_>, _>>()?);
-                }
-                "table" => {
-                    let rows = v
-                        .as_array()
-                        .ok_or_else(|| self.key_error(&sub, "expected an array of [position, value] rows"))?;
-                    let mut parsed = Vec::with_capacity(rows.len());
-                    for (r, row) in rows.iter().enumerate() {
-                        let [q, e] = self.numbers::<2>(&format!("{sub}[{r}]"), row)?;
-                        parsed.push((q, e));
-                    }
-                    spec.nodes = Some(parsed);
-                }
-                "csv" => spec.csv = Some(text("file name")?),
-                "column" => spec.column = Some(text("column name")?),
-                "interp" => {
-                    let name = v.as_str().unwrap_or("");
-                    spec.interp = Interp::parse(name).ok_or_else(|| {
-                        self.key_error(&sub, format!("unknown interpolation `{v}`: use \"linear\", \"quadratic\" or \"cubic\""))
-                    })?;
-                }
-                "periodic" => {
-                    spec.periodic = v.as_bool().ok_or_else(|| self.key_error(&sub, "expected true or false"))?;
-                    if spec.periodic && letter.is_linear() {
-                        return Err(self.key_error(&sub, "only rotary axes (A, B, C) have periodic tables"));
-                    }
-                }
-                other => {
-                    return Err(self.key_error(
-                        &sub,
-                        format!("unknown key `{other}` (an error value takes poly, table, csv, column, interp, periodic)"),
-                    ))
-                }
-            }
-        }
-        Ok(spec)
-    }
-
-    /// Reads `(position, value)` rows from a CSV file: one header row, first column the position.
-    fn csv_column(
-        &mut self,
-        key: &str,
-        csv: &str,
-        column: &str,
-    ) -> Result<Vec<(f64, f64)>, MachineError> {
-        let Some(base) = &self.csv_base else {
-            return Err(self.key_error(key, "CSV tables need a machine file on disk (embedded machines carry their tables inline)"));
-        };
-        let path = base.join(csv);
-        let text = read_text(&path).map_err(|source| MachineError::CsvFile {
-            file: self.file.clone(),
-            key: key.to_string(),
-            source,
-        })?;
-        let csv_name = path.display().to_string();
-        let rows = read_column(&text, &csv_name, column).map_err(|source| MachineError::Csv {
-            file: self.file.clone(),
-            key: key.to_string(),
-            source,
-        })?;
-        if !self.csv_files.iter().any(|(name, _)| name == csv) {
-            self.csv_files.push((csv.to_string(), text));
-        }
-        Ok(rows)
     }
 }
 

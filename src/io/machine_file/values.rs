@@ -1,0 +1,457 @@
+//! Error values in a machine file (MODEL.md, "Error values"): the forms (a number, `poly`,
+//! `table` or `csv`, each with an optional `of`; `table2d`; `sum`), the general form `{ value,
+//! reverse, per_kelvin }` and its shorthand beside a `poly` or `table`, and the constant values of
+//! location and spindle errors with their `per_kelvin` terms.
+
+use super::{read_column, MachineError, Reader};
+use crate::io::read_text;
+use crate::model::errorfn::{ErrorFunction, Interp, Table};
+use crate::model::table2d::Table2d;
+use crate::model::AxisLetter;
+
+/// What an error value says: its value at the default inputs, its reverse form and its
+/// per-kelvin forms (by input index).
+pub(super) struct ValueSpec {
+    pub value: ErrorFunction,
+    pub reverse: Option<ErrorFunction>,
+    pub per_kelvin: Vec<(usize, ErrorFunction)>,
+}
+
+/// Whether an error value is a component error (a function, with a reverse form) or a location
+/// or spindle error (a constant, without one).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum ValueKind {
+    Component,
+    Constant,
+}
+
+/// The keys of a `poly`, `table` or `csv` form, before they are checked against each other.
+struct FormSpec {
+    poly: Option<Vec<f64>>,
+    nodes: Option<Vec<(f64, f64)>>,
+    csv: Option<String>,
+    column: Option<String>,
+    interp: Interp,
+    periodic: bool,
+    of: Option<AxisLetter>,
+}
+
+impl Reader {
+    /// An error value of axis `letter` (or of the spindle, `letter` `None`), `key` its name
+    /// (the CSV column it defaults to).
+    pub(super) fn error_value(
+        &mut self,
+        letter: Option<AxisLetter>,
+        key: &str,
+        path: &str,
+        value: &toml::Value,
+        kind: ValueKind,
+    ) -> Result<ValueSpec, MachineError> {
+        let plain = |value| ValueSpec {
+            value,
+            reverse: None,
+            per_kelvin: Vec::new(),
+        };
+        let Some(table) = value.as_table() else {
+            return Ok(plain(ErrorFunction::Constant(self.number(path, value)?)));
+        };
+        let general = table.contains_key("value");
+        if !general && !table.contains_key("reverse") && !table.contains_key("per_kelvin") {
+            if kind == ValueKind::Constant {
+                return Err(self.constant_error(path));
+            }
+            return Ok(plain(self.form(letter, key, path, value)?));
+        }
+        // The general form, or its shorthand beside a poly or table's own keys.
+        let mut own = table.clone();
+        let reverse = own.remove("reverse");
+        let per_kelvin = own.remove("per_kelvin");
+        let value = if general {
+            if let Some(other) = own.keys().find(|k| *k != "value") {
+                return Err(self.key_error(
+                    &format!("{path}.{other}"),
+                    "unknown key (the general form takes value, reverse and per_kelvin)",
+                ));
+            }
+            let at = format!("{path}.value");
+            self.form(letter, key, &at, &own["value"])?
+        } else {
+            if !own.contains_key("poly") && !own.contains_key("table") && !own.contains_key("csv") {
+                return Err(self.key_error(
+                    path,
+                    "`reverse` and `per_kelvin` go beside a poly or table, or in the general form { value = …, reverse = …, per_kelvin = { … } }",
+                ));
+            }
+            self.form(letter, key, path, &toml::Value::Table(own))?
+        };
+        if kind == ValueKind::Constant && !matches!(value, ErrorFunction::Constant(_)) {
+            return Err(self.constant_error(&format!("{path}.value")));
+        }
+        let reverse = match reverse {
+            None => None,
+            Some(_) if kind == ValueKind::Constant => {
+                return Err(self.key_error(
+                    &format!("{path}.reverse"),
+                    "`reverse` is for component errors: location and spindle errors have no approach direction",
+                ))
+            }
+            Some(r) => Some(self.form(letter, key, &format!("{path}.reverse"), &r)?),
+        };
+        let per_kelvin = match per_kelvin {
+            None => Vec::new(),
+            Some(p) => self.per_kelvin(letter, key, &format!("{path}.per_kelvin"), &p, kind)?,
+        };
+        Ok(ValueSpec {
+            value,
+            reverse,
+            per_kelvin,
+        })
+    }
+
+    fn constant_error(&self, path: &str) -> MachineError {
+        self.key_error(
+            path,
+            "a location or spindle error is a number, or { value = number, per_kelvin = { input = number, … } }",
+        )
+    }
+
+    /// `per_kelvin = { input = form, … }`: each input declared in `[thermal]`.
+    fn per_kelvin(
+        &mut self,
+        letter: Option<AxisLetter>,
+        key: &str,
+        path: &str,
+        value: &toml::Value,
+        kind: ValueKind,
+    ) -> Result<Vec<(usize, ErrorFunction)>, MachineError> {
+        let table = value.as_table().ok_or_else(|| {
+            self.key_error(
+                path,
+                "expected a table { input = form, … } of per-kelvin terms",
+            )
+        })?;
+        let mut out = Vec::new();
+        for (input, form) in table {
+            let at = format!("{path}.{input}");
+            let index = self
+                .thermal_inputs
+                .iter()
+                .position(|i| i == input)
+                .ok_or_else(|| {
+                    self.key_error(
+                        &at,
+                        if self.thermal_inputs.is_empty() {
+                            format!("`{input}` is not a declared thermal input: the file has no [thermal] section with inputs = [\"{input}\", …]")
+                        } else {
+                            format!(
+                                "`{input}` is not a declared thermal input ([thermal] inputs: {})",
+                                self.thermal_inputs.join(", ")
+                            )
+                        },
+                    )
+                })?;
+            let f = match kind {
+                ValueKind::Constant => ErrorFunction::Constant(self.number(&at, form)?),
+                ValueKind::Component => self.form(letter, key, &at, form)?,
+            };
+            out.push((index, f));
+        }
+        Ok(out)
+    }
+
+    /// A form: a number, `poly`/`table`/`csv` (with `of`), `table2d` or `sum`. A form carries no
+    /// `reverse` or `per_kelvin` of its own.
+    fn form(
+        &mut self,
+        letter: Option<AxisLetter>,
+        key: &str,
+        path: &str,
+        value: &toml::Value,
+    ) -> Result<ErrorFunction, MachineError> {
+        let Some(table) = value.as_table() else {
+            return Ok(ErrorFunction::Constant(self.number(path, value)?));
+        };
+        for own in ["value", "reverse", "per_kelvin"] {
+            if table.contains_key(own) {
+                return Err(self.key_error(
+                    &format!("{path}.{own}"),
+                    "a form inside an error value carries no value, reverse or per_kelvin of its own",
+                ));
+            }
+        }
+        if let Some(terms) = table.get("sum") {
+            self.alone(path, table, "sum")?;
+            let terms = terms.as_array().filter(|a| !a.is_empty()).ok_or_else(|| {
+                self.key_error(
+                    &format!("{path}.sum"),
+                    "expected a non-empty array of forms",
+                )
+            })?;
+            let forms = terms
+                .iter()
+                .enumerate()
+                .map(|(n, f)| self.form(letter, key, &format!("{path}.sum[{n}]"), f))
+                .collect::<Result<Vec<_>, _>>()?;
+            return Ok(ErrorFunction::Sum(forms));
+        }
+        if let Some(t) = table.get("table2d") {
+            self.alone(path, table, "table2d")?;
+            return self.table2d(&format!("{path}.table2d"), t);
+        }
+        self.one_axis_form(letter, key, path, table)
+    }
+
+    /// Checks that `name` is the only key of a form's table.
+    fn alone(&self, path: &str, table: &toml::Table, name: &str) -> Result<(), MachineError> {
+        match table.keys().find(|k| *k != name) {
+            Some(other) => Err(self.key_error(
+                &format!("{path}.{other}"),
+                format!("`{name}` stands alone in its form"),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// The axis `of` names: an axis of the chain.
+    fn axis_of(&self, path: &str, value: &toml::Value) -> Result<AxisLetter, MachineError> {
+        let name = value.as_str().unwrap_or("");
+        match name.chars().collect::<Vec<_>>()[..] {
+            [c] => AxisLetter::from_char(c),
+            _ => None,
+        }
+        .filter(|&l| self.chain.contains(l))
+        .ok_or_else(|| {
+            self.key_error(
+                path,
+                format!(
+                    "`{}` is not an axis of the chain `{}`",
+                    value
+                        .as_str()
+                        .map_or_else(|| value.to_string(), str::to_string),
+                    self.chain.hwang_notation()
+                ),
+            )
+        })
+    }
+
+    /// `table2d = { of = ["X", "Z"], x = […], y = […], values = [[…], …] }`.
+    fn table2d(&self, path: &str, value: &toml::Value) -> Result<ErrorFunction, MachineError> {
+        let table = value.as_table().ok_or_else(|| {
+            self.key_error(
+                path,
+                "expected { of = [A, B], x = […], y = […], values = [[…], …] }",
+            )
+        })?;
+        let get = |name: &str| {
+            table
+                .get(name)
+                .ok_or_else(|| self.key_error(&format!("{path}.{name}"), "missing"))
+        };
+        if let Some(other) = table
+            .keys()
+            .find(|k| !["of", "x", "y", "values"].contains(&k.as_str()))
+        {
+            return Err(self.key_error(
+                &format!("{path}.{other}"),
+                "unknown key (table2d takes of, x, y and values)",
+            ));
+        }
+        let of = get("of")?
+            .as_array()
+            .filter(|a| a.len() == 2)
+            .ok_or_else(|| {
+                self.key_error(
+                    &format!("{path}.of"),
+                    "expected two axes, e.g. [\"X\", \"Z\"]",
+                )
+            })?;
+        let axes = [
+            self.axis_of(&format!("{path}.of"), &of[0])?,
+            self.axis_of(&format!("{path}.of"), &of[1])?,
+        ];
+        let list = |name: &str, v: &toml::Value| -> Result<Vec<f64>, MachineError> {
+            let at = format!("{path}.{name}");
+            v.as_array()
+                .ok_or_else(|| self.key_error(&at, "expected an array of numbers"))?
+                .iter()
+                .map(|n| self.number(&at, n))
+                .collect()
+        };
+        let x = list("x", get("x")?)?;
+        let y = list("y", get("y")?)?;
+        let values = get("values")?
+            .as_array()
+            .ok_or_else(|| self.key_error(&format!("{path}.values"), "expected an array of rows"))?
+            .iter()
+            .enumerate()
+            .map(|(i, row)| list(&format!("values[{i}]"), row))
+            .collect::<Result<Vec<_>, _>>()?;
+        Table2d::new(axes, x, y, values)
+            .map(ErrorFunction::Table2d)
+            .map_err(|e| self.key_error(path, e.to_string()))
+    }
+
+    /// `poly`, `table` or `csv`, with `interp`, `periodic`, `column` and `of`.
+    fn one_axis_form(
+        &mut self,
+        letter: Option<AxisLetter>,
+        key: &str,
+        path: &str,
+        table: &toml::Table,
+    ) -> Result<ErrorFunction, MachineError> {
+        let spec = self.form_spec(path, table)?;
+        let sources = [
+            spec.poly.is_some(),
+            spec.nodes.is_some(),
+            spec.csv.is_some(),
+        ]
+        .iter()
+        .filter(|&&b| b)
+        .count();
+        if sources != 1 {
+            return Err(self.key_error(
+                path,
+                "give exactly one of `poly`, `table`, `csv`, `table2d`, `sum`, or `value` (the general form)",
+            ));
+        }
+        if spec.column.is_some() && spec.csv.is_none() {
+            return Err(self.key_error(&format!("{path}.column"), "`column` goes with `csv`"));
+        }
+        let argument = spec.of.or(letter);
+        if spec.periodic && argument.is_none_or(|l| l.is_linear()) {
+            return Err(self.key_error(
+                &format!("{path}.periodic"),
+                "only tables of a rotary axis's position (A, B, C) are periodic",
+            ));
+        }
+        let form = if let Some(coefficients) = spec.poly {
+            if table.contains_key("interp") || table.contains_key("periodic") {
+                return Err(self.key_error(
+                    path,
+                    "`interp` and `periodic` apply to tables, not to `poly`",
+                ));
+            }
+            ErrorFunction::Poly(coefficients)
+        } else {
+            let nodes = match (spec.nodes, spec.csv) {
+                (Some(nodes), _) => nodes,
+                (None, Some(csv)) => {
+                    let column = spec.column.unwrap_or_else(|| key.to_string());
+                    self.csv_column(path, &csv, &column)?
+                }
+                (None, None) => return Err(self.key_error(path, "give a table")),
+            };
+            Table::new(nodes, spec.interp, spec.periodic)
+                .map(ErrorFunction::Table)
+                .map_err(|source| MachineError::Table {
+                    file: self.file.clone(),
+                    key: path.to_string(),
+                    source,
+                })?
+        };
+        Ok(match spec.of {
+            Some(axis) if Some(axis) != letter => ErrorFunction::Of {
+                axis,
+                form: Box::new(form),
+            },
+            _ => form,
+        })
+    }
+
+    /// The keys of a `poly`, `table` or `csv` form, each checked on its own.
+    fn form_spec(&self, path: &str, table: &toml::Table) -> Result<FormSpec, MachineError> {
+        let mut spec = FormSpec {
+            poly: None,
+            nodes: None,
+            csv: None,
+            column: None,
+            interp: Interp::Linear,
+            periodic: false,
+            of: None,
+        };
+        for (key, v) in table {
+            let sub = format!("{path}.{key}");
+            let text = |what: &str| {
+                v.as_str()
+                    .map(str::to_string)
+                    .ok_or_else(|| self.key_error(&sub, format!("expected a {what}")))
+            };
+            match key.as_str() {
+                "poly" => {
+                    let array = v.as_array().filter(|a| !a.is_empty()).ok_or_else(|| {
+                        self.key_error(&sub, "expected a non-empty array of coefficients [c0, c1, …]")
+                    })?;
+                    spec.poly = Some(
+                        array
+                            .iter()
+                            .map(|c| self.number(&sub, c))
+                            .collect::<Result<Vec<_>, _>>()?,
+                    );
+                }
+                "table" => {
+                    let rows = v.as_array().ok_or_else(|| {
+                        self.key_error(&sub, "expected an array of [position, value] rows")
+                    })?;
+                    let mut parsed = Vec::with_capacity(rows.len());
+                    for (r, row) in rows.iter().enumerate() {
+                        let [q, e] = self.numbers::<2>(&format!("{sub}[{r}]"), row)?;
+                        parsed.push((q, e));
+                    }
+                    spec.nodes = Some(parsed);
+                }
+                "csv" => spec.csv = Some(text("file name")?),
+                "column" => spec.column = Some(text("column name")?),
+                "of" => spec.of = Some(self.axis_of(&sub, v)?),
+                "interp" => {
+                    let name = v.as_str().unwrap_or("");
+                    spec.interp = Interp::parse(name).ok_or_else(|| {
+                        self.key_error(
+                            &sub,
+                            format!("unknown interpolation `{v}`: use \"linear\", \"quadratic\" or \"cubic\""),
+                        )
+                    })?;
+                }
+                "periodic" => {
+                    spec.periodic = v
+                        .as_bool()
+                        .ok_or_else(|| self.key_error(&sub, "expected true or false"))?;
+                }
+                other => {
+                    return Err(self.key_error(
+                        &sub,
+                        format!("unknown key `{other}` (an error value takes poly, table, csv, column, interp, periodic, of; table2d; sum; or value, reverse, per_kelvin)"),
+                    ))
+                }
+            }
+        }
+        Ok(spec)
+    }
+
+    /// Reads `(position, value)` rows from a CSV file: one header row, first column the position.
+    fn csv_column(
+        &mut self,
+        key: &str,
+        csv: &str,
+        column: &str,
+    ) -> Result<Vec<(f64, f64)>, MachineError> {
+        let Some(base) = &self.csv_base else {
+            return Err(self.key_error(key, "CSV tables need a machine file on disk (embedded machines carry their tables inline)"));
+        };
+        let path = base.join(csv);
+        let text = read_text(&path).map_err(|source| MachineError::CsvFile {
+            file: self.file.clone(),
+            key: key.to_string(),
+            source,
+        })?;
+        let csv_name = path.display().to_string();
+        let rows = read_column(&text, &csv_name, column).map_err(|source| MachineError::Csv {
+            file: self.file.clone(),
+            key: key.to_string(),
+            source,
+        })?;
+        if !self.csv_files.iter().any(|(name, _)| name == csv) {
+            self.csv_files.push((csv.to_string(), text));
+        }
+        Ok(rows)
+    }
+}
