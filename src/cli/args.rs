@@ -9,6 +9,7 @@ use volmap::engine::{DeviceChoice, Engine, EngineError};
 use volmap::gpu::GpuSampler;
 use volmap::io::embedded;
 use volmap::model::grid::{self, Grid};
+use volmap::model::inputs::Inputs;
 use volmap::model::{Command, Machine};
 use volmap::query::{self, QueryError};
 
@@ -158,5 +159,35 @@ pub fn sweep_grids(
             .map(|pose| Grid::full_travel(machine, grid.grid, pose).flag("--grid"))
             .collect(),
         None => Ok(vec![full_travel(machine, grid, pose)?]),
+    }
+}
+
+/// `--temperatures` and `--approach`: the evaluation inputs (MODEL.md, "Evaluation inputs").
+#[derive(clap::Args)]
+pub struct InputsArg {
+    /// Temperatures of the machine's thermal inputs in °C, e.g. `x_scale=24.5,spindle=31`;
+    /// inputs not named are at the machine's reference_C.
+    #[arg(long, default_value = "", allow_hyphen_values = true)]
+    pub temperatures: String,
+    /// Approach directions of the axes, e.g. `X=-,Y=+`; axes not named approach `+`.
+    #[arg(long, default_value = "", allow_hyphen_values = true)]
+    pub approach: String,
+}
+
+impl InputsArg {
+    /// The inputs on `machine`, each error naming its flag.
+    pub fn on(&self, machine: &Machine) -> Result<Inputs, Failure> {
+        let temperatures = Inputs::parse(&self.temperatures, "", machine).flag("--temperatures")?;
+        let approach = Inputs::parse("", &self.approach, machine).flag("--approach")?;
+        Ok(Inputs {
+            approach: approach.approach,
+            temperatures_c: temperatures.temperatures_c,
+        })
+    }
+
+    /// The machine at these inputs, and the inputs.
+    pub fn machine_at(&self, machine: &Machine) -> Result<(Machine, Inputs), Failure> {
+        let inputs = self.on(machine)?;
+        Ok((machine.at(&inputs), inputs))
     }
 }

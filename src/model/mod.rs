@@ -168,6 +168,7 @@ impl Machine {
             axis.components = Default::default();
         }
         ideal.spindle = [0.0; 5];
+        ideal.dependent.clear();
         ideal
     }
 }
