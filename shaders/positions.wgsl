@@ -20,14 +20,14 @@ fn positions_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let position = positions[p];
+    let command = Command(position.xyz, pose_of_rotary_axes());
     var t = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
     for (var n = 0u; n < params.grid.w; n = n + 1u) {
         let a = axes[n];
-        var q = a.fixed_q.x;
-        if a.info.y != SOURCE_FIXED {
-            q = position[a.info.y];
-        }
-        t = compose(t, sampled_axis_transform(a, n, sample, q));
+        let q = position_q(a, position);
+        let location = locations[sample * params.grid.w + n];
+        let errors = sampled_errors_at(a, n, sample, q, command);
+        t = compose(t, axis_transform_with(a, location, errors, q));
     }
     t = compose(t, dev_of(constants[sample * CONSTANTS_PER_SAMPLE + CONSTANT_TAIL]));
     let oe = rotation_vector_of_half_skew(0.5 * skew(t.m));
@@ -40,4 +40,64 @@ fn positions_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         position_values[base + 4u] = t.d.y;
         position_values[base + 5u] = t.d.z;
     }
+}
+
+// The positions A B C of the rotary axes (0 for those the machine lacks).
+fn pose_of_rotary_axes() -> vec3<f32> {
+    var pose = vec3<f32>(0.0);
+    for (var n = 0u; n < params.grid.w; n = n + 1u) {
+        let a = axes[n];
+        if a.info.y == SOURCE_FIXED && a.functions_b.z >= 3u {
+            pose[min(a.functions_b.z, 5u) - 3u] = a.fixed_q.x;
+        }
+    }
+    return pose;
+}
+
+// The commanded position of axis `a` at `position`: its X, Y or Z, or its pose.
+fn position_q(a: AxisData, position: vec4<f32>) -> f32 {
+    if a.info.y == SOURCE_FIXED {
+        return a.fixed_q.x;
+    }
+    return position[a.info.y];
+}
+
+// The map of a machine whose error values read other axes' positions (`of`, `table2d`): every
+// point of the chunk composes every axis itself, each axis's errors evaluated at the point's
+// commanded positions, and stores its six channels in the chunk layout of the point pass.
+// Invocation (x, y) is point x + y · (workgroups along x) · WORKGROUP_SIZE of the chunk.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn grid_points_main(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let nx = params.grid.x;
+    let local = gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+    if local >= params.chunk.y * nx {
+        return;
+    }
+    let line = params.chunk.x + local / nx;
+    let ijk = vec3<u32>(local % nx, line % params.grid.y, line / params.grid.y);
+    let command = Command(
+        params.origin.xyz + vec3<f32>(ijk) * params.spacing.xyz,
+        pose_of_rotary_axes(),
+    );
+    var t = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
+    for (var n = 0u; n < params.grid.w; n = n + 1u) {
+        let a = axes[n];
+        let q = grid_q(a, ijk);
+        let location = Location(a.location_delta, a.location_m);
+        t = compose(t, axis_transform_with(a, location, component_errors_at(a, q, command), q));
+    }
+    t = compose(t, dev_of(constants[CONSTANT_TAIL]));
+    let oe = rotation_vector_of_half_skew(0.5 * skew(t.m));
+    store((local / nx) * 6u * nx + ijk.x, nx, oe, t.d);
+}
+
+// The commanded position of axis `a` at grid point `ijk`: its grid value, or its pose.
+fn grid_q(a: AxisData, ijk: vec3<u32>) -> f32 {
+    if a.info.y == SOURCE_FIXED {
+        return a.fixed_q.x;
+    }
+    return params.origin[a.info.y] + f32(ijk[a.info.y]) * params.spacing[a.info.y];
 }

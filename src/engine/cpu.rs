@@ -38,6 +38,9 @@ pub struct CpuPlan {
     x_position: usize,
     tail_real: Transform,
     tail_ideal: Transform,
+    /// A machine with errors of other axes' positions, whose axes cannot be tabulated per grid
+    /// value of their own: evaluated point by point with the reference.
+    per_point: Option<Box<Twin>>,
 }
 
 impl CpuPlan {
@@ -77,11 +80,17 @@ impl CpuPlan {
             axes,
             tail_real: reference::spindle_and_tool(machine),
             tail_ideal: reference::spindle_and_tool(twin.ideal()),
+            per_point: machine
+                .has_cross_axis_errors()
+                .then(|| Box::new(twin.clone())),
         }
     }
 
     /// Computes lines `first_line .. first_line + lines` into `out` (`lines · 6 · nx` values).
     pub fn compute_lines(&self, first_line: u64, lines: u64, out: &mut [f32]) {
+        if let Some(twin) = &self.per_point {
+            return super::reference::reference_lines(twin, &self.grid, first_line, lines, out);
+        }
         let nx = self.grid.dims[0];
         super::par_lines(&self.grid, first_line, lines, out, |[j, k], line_out| {
             let ijk = [0, j, k];
@@ -125,11 +134,6 @@ pub fn run<E>(
     chunk_points: Option<u64>,
     on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
 ) -> Result<(), E> {
-    // The plan evaluates each axis once per grid value of its own; errors of other axes'
-    // positions are evaluated point by point.
-    if machine.has_cross_axis_errors() {
-        return super::reference::run(machine, grid, chunk_points, on_chunk);
-    }
     let plan = CpuPlan::new(machine, grid);
     super::run_in_chunks(
         grid,

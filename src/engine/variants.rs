@@ -88,7 +88,7 @@ impl Engine {
             Ok(())
         };
         let result = match self {
-            _ if matches!(self, Engine::Reference) || machine.has_cross_axis_errors() => {
+            Engine::Reference => {
                 let twin = Twin::of(machine);
                 run_in_chunks(
                     grid,

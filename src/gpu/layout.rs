@@ -37,6 +37,12 @@ pub const SAMPLE_VALUES: u32 = 6;
 pub const SHAPE_CONSTANT: u32 = 0;
 pub const SHAPE_LINE: u32 = 1;
 pub const SHAPE_BOW: u32 = 2;
+/// Flags of a [`Function`] (`pieces[2]`): periodic, a two-axis table, and where the argument
+/// axes stand (4 bits each: 0 the error's own axis, else the commanded axis's index + 1).
+pub const FUNCTION_PERIODIC: u32 = 1;
+pub const FUNCTION_TABLE2D: u32 = 2;
+pub const FUNCTION_ARG_SHIFT: u32 = 4;
+pub const FUNCTION_ARG2_SHIFT: u32 = 8;
 /// [`Term::info`]`[0]` of a term that deviates no component error (a location or the spindle).
 pub const TERM_NO_AXIS: u32 = u32::MAX;
 /// The constant factors of each machine in the `constants` buffer: X's location, S·Trans(tool).
@@ -52,7 +58,7 @@ pub enum Shared {
 }
 
 /// Every constant the shaders share with this file, by its WGSL name.
-pub const SHARED_CONSTANTS: [(&str, Shared); 21] = [
+pub const SHARED_CONSTANTS: [(&str, Shared); 25] = [
     ("WORKGROUP_SIZE", Shared::U32(WORKGROUP_SIZE)),
     ("NO_FUNCTION", Shared::U32(NO_FUNCTION)),
     ("KIND_LINEAR", Shared::U32(KIND_LINEAR)),
@@ -71,6 +77,10 @@ pub const SHARED_CONSTANTS: [(&str, Shared); 21] = [
     ("SHAPE_LINE", Shared::U32(SHAPE_LINE)),
     ("SHAPE_BOW", Shared::U32(SHAPE_BOW)),
     ("TERM_NO_AXIS", Shared::U32(TERM_NO_AXIS)),
+    ("FUNCTION_PERIODIC", Shared::U32(FUNCTION_PERIODIC)),
+    ("FUNCTION_TABLE2D", Shared::U32(FUNCTION_TABLE2D)),
+    ("FUNCTION_ARG_SHIFT", Shared::U32(FUNCTION_ARG_SHIFT)),
+    ("FUNCTION_ARG2_SHIFT", Shared::U32(FUNCTION_ARG2_SHIFT)),
     ("CONSTANT_X_LOCATION", Shared::U32(CONSTANT_X_LOCATION)),
     ("CONSTANT_TAIL", Shared::U32(CONSTANT_TAIL)),
     ("CONSTANTS_PER_SAMPLE", Shared::U32(CONSTANTS_PER_SAMPLE)),
@@ -143,7 +153,7 @@ pub struct AxisData {
     pub fixed_q: [f32; 4],
     /// Function indices of `EXk EYk EZk EAk`.
     pub functions_a: [u32; 4],
-    /// Function indices of `EBk ECk`, unused, unused.
+    /// Function indices of `EBk ECk`, the axis's letter index (X Y Z A B C: 0..5), unused.
     pub functions_b: [u32; 4],
 }
 const _: () = assert!(std::mem::size_of::<AxisData>() == 176);
@@ -169,8 +179,9 @@ impl AxisData {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct Function {
-    /// First piece, number of pieces, periodic (0/1), the next function of a sum
-    /// (`NO_FUNCTION`: none).
+    /// First piece, number of pieces, flags (`FUNCTION_*`), the next function of a sum
+    /// (`NO_FUNCTION`: none); a two-axis table: its first coefficient, `nx | ny << 16`, flags,
+    /// next.
     pub pieces: [u32; 4],
     /// Domain `lo`, `hi` (positions clamp into it), unused, unused.
     pub domain: [f32; 4],

@@ -184,77 +184,120 @@ fn the_general_form_combines_reverse_and_thermal_terms_of_other_axes() {
     );
 }
 
-#[test]
-fn the_gpu_evaluates_reverse_and_thermal_terms_and_refuses_errors_of_other_axes() {
-    if gpu().is_none() {
-        return;
-    }
-    let (engine, _) = Engine::select(DeviceChoice::Gpu).unwrap();
-    let m = gantry(
-        "X: EXX = { value = { table = [[0, 0.0], [1000, 0.006], [2000, 0.004]], interp = \"cubic\" }, reverse = { poly = [0.003, 2.0e-6] }, per_kelvin = { x_scale = { poly = [0.0, 11.5e-6] } } }\nY: EC0Y = { value = 1.0e-5, per_kelvin = { hall = 2.0e-6 } }\nS: EZS = { value = 0.001, per_kelvin = { spindle = -0.0015 } }",
-    );
-    for (temperatures, approach) in [
-        ("", ""),
-        ("x_scale=27,hall=15", "X=-"),
-        ("spindle=35", "Y=-,X=+"),
-    ] {
-        let machine = m.at(&inputs(&m, temperatures, approach));
-        let grid = Grid::full_travel(&machine, [9, 7, 5], [0.0; 6]).unwrap();
-        let twin = Twin::of(&machine);
-        let mut worst = [0.0f64; 2];
-        engine
-            .run(
-                &machine,
-                &grid,
-                None,
-                |first, lines, data| -> Result<(), volmap::gpu::GpuError> {
-                    let nx = grid.dims[0];
-                    for l in 0..lines as usize {
-                        for i in 0..nx {
-                            let line = first as usize + l;
-                            let ijk = [i, line % grid.dims[1], line / grid.dims[1]];
-                            let d = twin.deviation(&grid.command(ijk));
-                            let at = |c: usize| data[l * 6 * nx + c * nx + i] as f64;
-                            for c in 0..3 {
-                                worst[0] = worst[0].max((at(3 + c) - d.volumetric_mm[c]).abs());
-                                worst[1] = worst[1].max((at(c) - d.orientation_rad[c]).abs());
-                            }
+/// The largest |ΔVE| and |ΔOE| between an engine's map and the reference at every point.
+fn worst_against_reference(engine: &Engine, machine: &Machine, grid: &Grid) -> [f64; 2] {
+    let twin = Twin::of(machine);
+    let mut worst = [0.0f64; 2];
+    engine
+        .run(
+            machine,
+            grid,
+            Some(97),
+            |first, lines, data| -> Result<(), volmap::gpu::GpuError> {
+                let nx = grid.dims[0];
+                for l in 0..lines as usize {
+                    for i in 0..nx {
+                        let line = first as usize + l;
+                        let ijk = [i, line % grid.dims[1], line / grid.dims[1]];
+                        let d = twin.deviation(&grid.command(ijk));
+                        let at = |c: usize| data[l * 6 * nx + c * nx + i] as f64;
+                        for c in 0..3 {
+                            worst[0] = worst[0].max((at(3 + c) - d.volumetric_mm[c]).abs());
+                            worst[1] = worst[1].max((at(c) - d.orientation_rad[c]).abs());
                         }
                     }
-                    Ok(())
-                },
-            )
-            .unwrap();
-        assert!(
-            worst[0] < 1e-6 && worst[1] < 1e-9,
-            "{temperatures} {approach}: {worst:?}"
-        );
-    }
-    let sag = gantry("X: EZX = { poly = [0.0, 0.0, -2.0e-8], of = \"Z\" }");
-    let grid = Grid::full_travel(&sag, [3, 3, 3], [0.0; 6]).unwrap();
-    let error = engine
-        .run(
-            &sag,
-            &grid,
-            None,
-            |_, _, _| -> Result<(), volmap::gpu::GpuError> { Ok(()) },
-        )
-        .unwrap_err();
-    assert!(error.to_string().contains("axes.X.EZX"), "{error}");
-    // The CPU engine maps it, point by point.
-    let mut max_z = 0.0f64;
-    Engine::Cpu
-        .run(
-            &sag,
-            &grid,
-            None,
-            |_, _, data| -> Result<(), volmap::gpu::GpuError> {
-                max_z = data.iter().fold(max_z, |m, v| m.max(v.abs() as f64));
+                }
                 Ok(())
             },
         )
         .unwrap();
-    assert!((max_z - 2.0e-8 * 800.0 * 800.0).abs() < 1e-9, "{max_z}");
+    worst
+}
+
+/// Every new form at once on a 2 m gantry: a sag of X with Z, a two-axis table, a sum, thermal
+/// terms (some of other axes' positions), a backlash.
+const EVERY_FORM: &str = "X: EXX = { value = { table = [[0, 0.0], [1000, 0.006], [2000, 0.004]], interp = \"cubic\" }, reverse = { poly = [0.003, 2.0e-6] }, per_kelvin = { x_scale = { poly = [0.0, 11.5e-6] } } }
+X: EZX = { sum = [{ poly = [0.0, 0.0, -2.0e-8], of = \"Z\" }, { table = [[0, 0.0], [1000, -0.01], [2000, 0.0]], interp = \"quadratic\" }] }
+X: EBX = { poly = [1.0e-6, 1.0e-8], of = \"Y\" }
+Y: EZY = { table2d = { of = [\"X\", \"Y\"], x = [0.0, 1000.0, 2000.0], y = [0.0, 700.0, 1500.0], values = [[0.0, 0.002, 0.001], [0.004, 0.010, 0.003], [0.0, 0.006, -0.002]] } }
+Y: EC0Y = { value = 1.0e-5, per_kelvin = { hall = 2.0e-6 } }
+Y: EAY = { value = { poly = [2.0e-6, 1.0e-9] }, per_kelvin = { hall = { poly = [0.0, 1.0e-9], of = \"Z\" } } }
+Z: EXZ = { table = [[0, 0.0], [400, 0.003], [800, 0.001]], of = \"X\", interp = \"linear\" }
+S: EZS = { value = 0.001, per_kelvin = { spindle = -0.0015 } }";
+
+#[test]
+fn the_engines_evaluate_every_form_within_the_tolerances_of_the_reference() {
+    let m = gantry(EVERY_FORM);
+    let mut engines = vec![Engine::Cpu];
+    if gpu().is_some() {
+        engines.push(Engine::select(DeviceChoice::Gpu).unwrap().0);
+    }
+    for engine in &engines {
+        for (temperatures, approach) in [
+            ("", ""),
+            ("x_scale=27,hall=15", "X=-"),
+            ("spindle=35,hall=28", "Y=-,X=+,Z=-"),
+        ] {
+            let machine = m.at(&inputs(&m, temperatures, approach));
+            assert!(machine.has_cross_axis_errors());
+            let grid = Grid::full_travel(&machine, [13, 9, 7], [0.0; 6]).unwrap();
+            let worst = worst_against_reference(engine, &machine, &grid);
+            assert!(
+                worst[0] < 1e-6 && worst[1] < 1e-9,
+                "{} at {temperatures} {approach}: {worst:?}",
+                engine.name()
+            );
+        }
+    }
+    // Without the cross-axis forms the folded kernel maps the thermal and reversal terms.
+    let plain = gantry(
+        "X: EXX = { value = { table = [[0, 0.0], [1000, 0.006], [2000, 0.004]], interp = \"cubic\" }, reverse = { poly = [0.003, 2.0e-6] }, per_kelvin = { x_scale = { poly = [0.0, 11.5e-6] } } }\nY: EC0Y = { value = 1.0e-5, per_kelvin = { hall = 2.0e-6 } }\nS: EZS = { value = 0.001, per_kelvin = { spindle = -0.0015 } }",
+    );
+    for engine in &engines {
+        let machine = plain.at(&inputs(&plain, "x_scale=27,hall=15", "X=-"));
+        assert!(!machine.has_cross_axis_errors());
+        let grid = Grid::full_travel(&machine, [9, 7, 5], [0.0; 6]).unwrap();
+        let worst = worst_against_reference(engine, &machine, &grid);
+        assert!(
+            worst[0] < 1e-6 && worst[1] < 1e-9,
+            "{}: {worst:?}",
+            engine.name()
+        );
+    }
+}
+
+#[test]
+fn sampled_machines_with_every_form_at_positions_match_the_reference() {
+    let Some(gpu) = gpu() else { return };
+    let m = gantry(EVERY_FORM);
+    let machine = m.at(&inputs(&m, "hall=26", "Z=-"));
+    let commands: Vec<[f64; 6]> = (0..25)
+        .map(|n| {
+            let f = n as f64 / 24.0;
+            [
+                2000.0 * f,
+                1500.0 * (1.0 - f),
+                800.0 * (f * 7.0).fract(),
+                0.0,
+                0.0,
+                0.0,
+            ]
+        })
+        .collect();
+    let values = gpu
+        .variant_values(&machine, &[], &[vec![]], &commands, |_| {})
+        .unwrap();
+    let twin = Twin::of(&machine);
+    for (c, v) in commands.iter().zip(&values[0]) {
+        let d = twin.deviation(c);
+        for k in 0..3 {
+            assert!((v[k] - d.volumetric_mm[k]).abs() < 1e-6, "{c:?}: {v:?}");
+            assert!(
+                (v[3 + k] - d.orientation_rad[k]).abs() < 1e-9,
+                "{c:?}: {v:?}"
+            );
+        }
+    }
 }
 
 fn error_of(errors: &str) -> String {

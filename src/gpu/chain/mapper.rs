@@ -78,6 +78,8 @@ pub(super) enum SampledKernel {
     AxisValues,
     Groups,
     Positions,
+    /// The per-point map of a machine with errors of other axes' positions.
+    GridPoints,
     /// The reduce pass of a shape of machine and a tiling.
     Reduce(PointVariant),
 }
@@ -460,6 +462,9 @@ impl GpuMapper {
         chunk_points: Option<u64>,
         mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
     ) -> Result<(), E> {
+        if machine.has_cross_axis_errors() {
+            return self.run_per_point(machine, grid, chunk_points, on_chunk);
+        }
         let prepared = self.prepare(machine, grid, chunk_points, &[self.tiling])?;
         let mut pending: Option<(device::Submission, usize)> = None;
         for n in 0..prepared.chunks.len() {

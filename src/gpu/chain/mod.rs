@@ -8,6 +8,7 @@
 
 mod mapper;
 pub mod pack;
+mod per_point;
 mod sampled;
 
 pub use mapper::GpuMapper;

@@ -10,8 +10,9 @@ use nalgebra::Matrix3;
 
 use crate::gpu::layout::{
     AxisData, DevData, Factor, Function, Group, Mat4, Params, Piece, CONSTANTS_PER_SAMPLE,
-    CONSTANT_TAIL, CONSTANT_X_LOCATION, GROUP_TABLES, INDEX_J, INDEX_K, INDEX_ONE, KIND_LINEAR,
-    KIND_ROTARY, NO_FUNCTION, SOURCE_FIXED, TABLE_ABSENT, UNBOUNDED,
+    CONSTANT_TAIL, CONSTANT_X_LOCATION, FUNCTION_ARG2_SHIFT, FUNCTION_ARG_SHIFT, FUNCTION_PERIODIC,
+    FUNCTION_TABLE2D, GROUP_TABLES, INDEX_J, INDEX_K, INDEX_ONE, KIND_LINEAR, KIND_ROTARY,
+    NO_FUNCTION, SOURCE_FIXED, TABLE_ABSENT, UNBOUNDED,
 };
 use crate::model::grid::Grid;
 use crate::model::{Axis, AxisLetter, ErrorFunction, Machine};
@@ -252,39 +253,74 @@ impl FunctionTables {
                 f.terms().into_iter().filter(|t| !t.is_zero()).collect();
             indices[n] = self.functions.len() as u32;
             for (k, term) in terms.iter().enumerate() {
-                let form = term.pieces().expect("the terms of a sum are not sums");
                 let next = if k + 1 < terms.len() {
                     self.functions.len() as u32 + 1
                 } else {
                     NO_FUNCTION
                 };
-                self.functions.push(Function {
-                    pieces: [
-                        self.pieces.len() as u32,
-                        form.pieces.len() as u32,
-                        form.periodic as u32,
-                        next,
-                    ],
-                    domain: [
-                        finite_or_unbounded(form.lo),
-                        finite_or_unbounded(form.hi),
-                        0.0,
-                        0.0,
-                    ],
-                });
-                for piece in &form.pieces {
-                    self.pieces.push(Piece {
-                        start: piece.start as f32,
-                        degree: piece.coefficients.len() as u32 - 1,
-                        coefficient: self.coefficients.len() as u32,
-                        _pad: 0,
-                    });
-                    self.coefficients
-                        .extend(piece.coefficients.iter().map(|&c| c as f32));
-                }
+                self.add_term(term, next);
             }
         }
         indices
+    }
+
+    /// Adds one term of an error value (not a sum) as a function whose successor is `next`.
+    fn add_term(&mut self, term: &ErrorFunction, next: u32) {
+        let (form, argument) = match term {
+            ErrorFunction::Of { axis, form } => (form.as_ref(), axis.index() as u32 + 1),
+            ErrorFunction::Table2d(t) => {
+                let first = self.coefficients.len() as u32;
+                self.coefficients.extend(t.x.iter().map(|&v| v as f32));
+                self.coefficients.extend(t.y.iter().map(|&v| v as f32));
+                for row in &t.values {
+                    self.coefficients.extend(row.iter().map(|&v| v as f32));
+                }
+                let [a, b] = t.axes.map(|l| l.index() as u32 + 1);
+                self.functions.push(Function {
+                    pieces: [
+                        first,
+                        t.x.len() as u32 | (t.y.len() as u32) << 16,
+                        FUNCTION_TABLE2D | a << FUNCTION_ARG_SHIFT | b << FUNCTION_ARG2_SHIFT,
+                        next,
+                    ],
+                    domain: [0.0; 4],
+                });
+                return;
+            }
+            other => (other, 0),
+        };
+        let Some(form) = form.pieces() else {
+            // Parsed forms put a polynomial or table inside `of`; anything else is zero here.
+            self.functions.push(Function {
+                pieces: [self.pieces.len() as u32, 0, 0, next],
+                domain: [0.0; 4],
+            });
+            return;
+        };
+        self.functions.push(Function {
+            pieces: [
+                self.pieces.len() as u32,
+                form.pieces.len() as u32,
+                form.periodic as u32 * FUNCTION_PERIODIC | argument << FUNCTION_ARG_SHIFT,
+                next,
+            ],
+            domain: [
+                finite_or_unbounded(form.lo),
+                finite_or_unbounded(form.hi),
+                0.0,
+                0.0,
+            ],
+        });
+        for piece in &form.pieces {
+            self.pieces.push(Piece {
+                start: piece.start as f32,
+                degree: piece.coefficients.len() as u32 - 1,
+                coefficient: self.coefficients.len() as u32,
+                _pad: 0,
+            });
+            self.coefficients
+                .extend(piece.coefficients.iter().map(|&c| c as f32));
+        }
     }
 
     /// The coefficients padded to whole vec4s.
@@ -314,7 +350,7 @@ fn axis_data(axis: &Axis, grid: &Grid, first_entry: u32, functions: [u32; 6]) ->
         info: [kind, driver, letter.direction_index() as u32, first_entry],
         fixed_q: [fixed, 0.0, 0.0, 0.0],
         functions_a: [functions[0], functions[1], functions[2], functions[3]],
-        functions_b: [functions[4], functions[5], NO_FUNCTION, NO_FUNCTION],
+        functions_b: [functions[4], functions[5], letter.index() as u32, 0],
     }
 }
 

@@ -123,7 +123,7 @@ struct BatchData {
 }
 
 impl GpuMapper {
-    fn sampled_kernel(
+    pub(super) fn sampled_kernel(
         &self,
         kernel: SampledKernel,
     ) -> Result<Arc<crate::gpu::device::Kernel>, GpuError> {
@@ -131,6 +131,7 @@ impl GpuMapper {
             SampledKernel::AxisValues => ("axis_values_sampled_main", Vec::new()),
             SampledKernel::Groups => ("groups_sampled_main", Vec::new()),
             SampledKernel::Positions => ("positions_main", Vec::new()),
+            SampledKernel::GridPoints => ("grid_points_main", Vec::new()),
             SampledKernel::Reduce(variant) => ("points_reduce_main", variant.constants().to_vec()),
         };
         self.pipeline(&self.sampled, kernel, entry, &constants)
@@ -508,7 +509,6 @@ impl GpuMapper {
             spacing_mm: [0.0; 3],
             pose,
         };
-        super::check_own_axis_errors(machine)?;
         let base = Base::new(machine, perturbations, &grid);
         let terms = perturbations.len().max(1);
         let positions: Vec<[f32; 4]> = commands

@@ -1,0 +1,88 @@
+//! The map of a machine whose error values read other axes' positions (`of`, `table2d`): the
+//! per-map tables of the chain kernel hold each axis at the grid values of its own dimension
+//! only, so such a machine is mapped by `grid_points_main` instead, every point composing every
+//! axis with its errors evaluated at the point's commanded positions. Slower than the folded
+//! chain, exact to the same tolerance; chunk after chunk, each read back before the next.
+
+use super::mapper::{GpuMapper, SampledKernel};
+use super::pack::pack;
+use super::{check_error_angles, BYTES_PER_POINT};
+use crate::gpu::device::{Pass, Readback};
+use crate::gpu::layout::WORKGROUP_SIZE;
+use crate::gpu::GpuError;
+use crate::model::grid::Grid;
+use crate::model::Machine;
+
+impl GpuMapper {
+    /// [`GpuMapper::run`] for a machine with errors of other axes' positions.
+    pub(super) fn run_per_point<E: From<GpuError>>(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        chunk_points: Option<u64>,
+        mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        check_error_angles(machine, grid)?;
+        let packed = pack(machine, grid);
+        let nx = grid.dims[0] as u64;
+        let limit =
+            chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
+        if nx > limit {
+            return Err(self
+                .error(format!(
+                    "a line of {nx} points does not fit in one chunk of at most {limit} points"
+                ))
+                .into());
+        }
+        let chunks = grid.chunks((limit / nx).max(1) * nx);
+        let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
+        let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
+        let gpu = &self.gpu;
+        let kernel = self.sampled_kernel(SampledKernel::GridPoints)?;
+        let params = gpu.uniform("per-point params", bytemuck::bytes_of(&packed.params));
+        let axes = gpu.storage("axes", &packed.axes);
+        let functions = gpu.storage("functions", &packed.functions);
+        let pieces = gpu.storage("pieces", &packed.pieces);
+        let coefficients = gpu.storage("coefficients", &packed.coefficients);
+        let constants = gpu.storage("constants", &packed.constants);
+        let output = gpu.output("per-point output", chunk_bytes);
+        let staging = gpu.staging("per-point staging", chunk_bytes);
+        let bindings = gpu.bind(
+            &kernel,
+            &[
+                (0, &params),
+                (1, &axes),
+                (2, &functions),
+                (3, &pieces),
+                (4, &coefficients),
+                (7, &output),
+                (11, &constants),
+            ],
+        );
+        let max_groups = gpu.max_workgroups_per_dimension() as u64;
+        for (first_line, lines) in chunks {
+            let mut chunk_params = packed.params;
+            chunk_params.chunk = [first_line as u32, lines as u32, 0, 0];
+            gpu.write(&params, bytemuck::bytes_of(&chunk_params));
+            let groups = (lines * nx).div_ceil(WORKGROUP_SIZE as u64);
+            let rows = groups.div_ceil(max_groups);
+            let bytes = lines * nx * BYTES_PER_POINT;
+            let submission = gpu.submit(
+                &[Pass {
+                    kernel: &kernel,
+                    bindings: &bindings,
+                    workgroups: [groups.div_ceil(rows) as u32, rows as u32, 1],
+                }],
+                Some(Readback {
+                    from: &output,
+                    to: &staging,
+                    bytes,
+                }),
+            );
+            gpu.read(submission, &staging, bytes, |data| {
+                on_chunk(first_line, lines, bytemuck::cast_slice(data))
+            })??;
+        }
+        Ok(())
+    }
+}
