@@ -65,14 +65,11 @@ fn position_q(a: AxisData, position: vec4<f32>) -> f32 {
 // The map of a machine whose error values read other axes' positions (`of`, `table2d`): every
 // point of the chunk composes every axis itself, each axis's errors evaluated at the point's
 // commanded positions, and stores its six channels in the chunk layout of the point pass.
-// Invocation (x, y) is point x + y · (workgroups along x) · WORKGROUP_SIZE of the chunk.
+// Invocation (x, y) is point x + y · chunk.z of the chunk (chunk.z: invocations per row).
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn grid_points_main(
-    @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-) {
+fn grid_points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let nx = params.grid.x;
-    let local = gid.x + gid.y * groups.x * WORKGROUP_SIZE;
+    let local = gid.x + gid.y * params.chunk.z;
     if local >= params.chunk.y * nx {
         return;
     }

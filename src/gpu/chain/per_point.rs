@@ -61,17 +61,24 @@ impl GpuMapper {
         );
         let max_groups = gpu.max_workgroups_per_dimension() as u64;
         for (first_line, lines) in chunks {
-            let mut chunk_params = packed.params;
-            chunk_params.chunk = [first_line as u32, lines as u32, 0, 0];
-            gpu.write(&params, bytemuck::bytes_of(&chunk_params));
             let groups = (lines * nx).div_ceil(WORKGROUP_SIZE as u64);
             let rows = groups.div_ceil(max_groups);
+            let row_groups = groups.div_ceil(rows);
+            // chunk.z: the invocations in one row of workgroups.
+            let mut chunk_params = packed.params;
+            chunk_params.chunk = [
+                first_line as u32,
+                lines as u32,
+                (row_groups * WORKGROUP_SIZE as u64) as u32,
+                0,
+            ];
+            gpu.write(&params, bytemuck::bytes_of(&chunk_params));
             let bytes = lines * nx * BYTES_PER_POINT;
             let submission = gpu.submit(
                 &[Pass {
                     kernel: &kernel,
                     bindings: &bindings,
-                    workgroups: [groups.div_ceil(rows) as u32, rows as u32, 1],
+                    workgroups: [row_groups as u32, rows as u32, 1],
                 }],
                 Some(Readback {
                     from: &output,
