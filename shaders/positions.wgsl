@@ -62,10 +62,12 @@ fn position_q(a: AxisData, position: vec4<f32>) -> f32 {
     return position[a.info.y];
 }
 
-// The map of a machine whose error values read other axes' positions (`of`, `table2d`): every
-// point of the chunk composes every axis itself, each axis's errors evaluated at the point's
-// commanded positions, and stores its six channels in the chunk layout of the point pass.
-// Invocation (x, y) is point x + y · chunk.z of the chunk (chunk.z: invocations per row).
+// The map of a machine whose error values read other axes' positions (`of`, `table2d`), which
+// cannot be tabulated per grid value of the axis's own dimension: every point of the chunk
+// composes every axis itself, each axis's errors evaluated at the point's commanded positions,
+// and stores its six channels in the chunk layout of the point pass. Invocation (x, y) is point
+// x + y · chunk.z of the chunk (chunk.z: invocations per row). For machines whose every axis
+// varies along X; `grid_runs_main` shares the others.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn grid_points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let nx = params.grid.x;
@@ -81,14 +83,66 @@ fn grid_points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     );
     var t = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
     for (var n = 0u; n < params.grid.w; n = n + 1u) {
-        let a = axes[n];
-        let q = grid_q(a, ijk);
-        let location = Location(a.location_delta, a.location_m);
-        t = compose(t, axis_transform_with(a, location, component_errors_at(a, q, command), q));
+        t = compose(t, grid_axis_transform(axes[n], ijk, command));
     }
     t = compose(t, dev_of(constants[CONSTANT_TAIL]));
     let oe = rotation_vector_of_half_skew(0.5 * skew(t.m));
     store((local / nx) * 6u * nx + ijk.x, nx, oe, t.d);
+}
+
+// `grid_points_main` for a machine with axes that do not vary along X: each invocation takes a
+// run of up to GRID_RUN points along one line. The axes before the first and after the last axis
+// that depends on X (X itself, or an axis with an error of X's position; chunk.w holds the range
+// as first | last << 8) are composed once for the run with their errors at the line's commanded
+// positions; the axes of that range at every point. Invocation (x, y) is run x + y · chunk.z.
+const GRID_RUN: u32 = 64u;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn grid_runs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let nx = params.grid.x;
+    let runs = (nx + GRID_RUN - 1u) / GRID_RUN;
+    let local = gid.x + gid.y * params.chunk.z;
+    if local >= params.chunk.y * runs {
+        return;
+    }
+    let line = params.chunk.x + local / runs;
+    let first_i = (local % runs) * GRID_RUN;
+    let first_x = params.chunk.w & 255u;
+    let last_x = params.chunk.w >> 8u;
+    var ijk = vec3<u32>(first_i, line % params.grid.y, line / params.grid.y);
+    var command = Command(
+        params.origin.xyz + vec3<f32>(ijk) * params.spacing.xyz,
+        pose_of_rotary_axes(),
+    );
+    var pre = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
+    var post = pre;
+    for (var n = 0u; n < params.grid.w; n = n + 1u) {
+        if n < first_x {
+            pre = compose(pre, grid_axis_transform(axes[n], ijk, command));
+        } else if n > last_x {
+            post = compose(post, grid_axis_transform(axes[n], ijk, command));
+        }
+    }
+    post = compose(post, dev_of(constants[CONSTANT_TAIL]));
+    let last_i = min(first_i + GRID_RUN, nx);
+    for (var i = first_i; i < last_i; i = i + 1u) {
+        ijk.x = i;
+        command.linear.x = params.origin.x + f32(i) * params.spacing.x;
+        var t = pre;
+        for (var n = first_x; n <= last_x && n < params.grid.w; n = n + 1u) {
+            t = compose(t, grid_axis_transform(axes[n], ijk, command));
+        }
+        t = compose(t, post);
+        let oe = rotation_vector_of_half_skew(0.5 * skew(t.m));
+        store((line - params.chunk.x) * 6u * nx + i, nx, oe, t.d);
+    }
+}
+
+// A_k of axis `a` at grid point `ijk` with every axis at `command`.
+fn grid_axis_transform(a: AxisData, ijk: vec3<u32>, command: Command) -> Dev {
+    let q = grid_q(a, ijk);
+    let location = Location(a.location_delta, a.location_m);
+    return axis_transform_with(a, location, component_errors_at(a, q, command), q);
 }
 
 // The commanded position of axis `a` at grid point `ijk`: its grid value, or its pose.

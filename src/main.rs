@@ -25,8 +25,8 @@ enum Command {
     /// Map a machine's volumetric and orientation error over its linear travels into an
     /// OpenEXR field.
     Map(cli::map::MapArgs),
-    /// List the embedded machines.
-    Machines,
+    /// List the embedded machines, or print one's machine file (`--show NAME`).
+    Machines(cli::machines::MachinesArgs),
     /// Print the summary of a field file written by `volmap map`.
     Info(cli::info::InfoArgs),
     /// VE and OE at arbitrary commanded positions (CSV in, CSV out): interpolated from a field
@@ -61,7 +61,7 @@ enum Command {
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Map(args) => cli::map::run(args),
-        Command::Machines => cli::machines::run(),
+        Command::Machines(args) => cli::machines::run(args),
         Command::Info(args) => cli::info::run(args),
         Command::Sample(args) => cli::sample::run(args),
         Command::Features(args) => cli::features::run(args),

@@ -1,24 +1,26 @@
-//! `volmap fit`: location errors of a machine estimated from standard-test measurements by
-//! least squares.
+//! `volmap fit`: location and spindle errors of a machine, and their thermal coefficients,
+//! estimated from standard-test measurements by least squares.
 //!
 //! The unknowns are location errors `E?0k` (the squareness errors `EC0Y EB0Z EA0Z` of a 3-axis
-//! machine; `EX0C EY0C EA0C EB0C` of a rotary axis from R-tests, …); everything else in the
-//! machine file stays as it is. The residuals are measured minus predicted, point by point, over
-//! every curve of every test, with what the instruments cannot know taken out: each curve's mean
-//! (a laser's or a probe's zero) and, for circular tests, the least-squares circle (the ballbar's
+//! machine; `EX0C EY0C EA0C EB0C` of a rotary axis from R-tests, …), spindle errors `E?S`, and
+//! the coefficient per kelvin of either for one declared thermal input (`EC0Y.per_kelvin.hall`,
+//! see [`Unknown`]); everything else in the machine file stays as it is. Each test of the fit file
+//! may give the temperatures it was measured at (`temperatures = { hall = 26.0 }`) and is
+//! predicted at them. The residuals are measured minus predicted, point by point, over every
+//! curve of every test, with what the instruments cannot know taken out: each curve's mean (a
+//! laser's or a probe's zero) and, for circular tests, the least-squares circle (the ballbar's
 //! length and its centring). Gauss-Newton with central-difference derivatives of the f64
 //! reference; the uncertainty of each estimate is the square root of the diagonal of
 //! `σ²·(JᵀJ)⁻¹`, with `σ²` the residual sum of squares over the degrees of freedom (points
 //! minus unknowns minus the removed zeros and circles).
 
-use std::path::{Path, PathBuf};
-
 use nalgebra::{DMatrix, DVector};
-use serde::Deserialize;
 
+pub use super::fit_file::{Entry, FitFile};
+pub use super::unknowns::Unknown;
 use super::CalibrateError;
-use crate::io::read_text;
-use crate::model::{AxisLetter, Machine, COMPONENT_NAMES};
+use crate::model::inputs::Inputs;
+use crate::model::Machine;
 use crate::standards::iso230_2::{positioning_with, PositioningData};
 use crate::standards::iso230_4::{circular_with, read_circular};
 use crate::standards::iso230_6::{diagonal_with, read_diagonal};
@@ -28,111 +30,6 @@ use crate::standards::{
     least_squares_circle, read_positioning, CircularSpec, DiagonalSpec, PositioningSpec, RTestSpec,
     Setup, StandardsError, TestResult,
 };
-
-/// The measurements file (TOML): what to estimate and the tests with their measured results.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FitFile {
-    /// Location errors to estimate, e.g. `["EC0Y", "EB0Z", "EA0Z"]`.
-    pub estimate: Vec<String>,
-    #[serde(default)]
-    pub positioning: Vec<PositioningSpec>,
-    #[serde(default)]
-    pub diagonal: Vec<DiagonalSpec>,
-    #[serde(default)]
-    pub circular: Vec<CircularSpec>,
-    #[serde(default)]
-    pub rtest: Vec<RTestSpec>,
-}
-
-impl FitFile {
-    /// Reads the file; CSV paths are relative to its folder.
-    pub fn read(path: &Path) -> Result<FitFile, CalibrateError> {
-        let name = path.display().to_string();
-        let text = read_text(path)?;
-        let mut file: FitFile =
-            toml::from_str(&text).map_err(|e| CalibrateError::Parameter(format!("{name}: {e}")))?;
-        let folder = path.parent().unwrap_or(Path::new(""));
-        let resolve = |csv: &mut Option<PathBuf>| {
-            if let Some(p) = csv {
-                *p = folder.join(&*p);
-            }
-        };
-        file.positioning
-            .iter_mut()
-            .for_each(|s| resolve(&mut s.csv));
-        file.diagonal.iter_mut().for_each(|s| resolve(&mut s.csv));
-        file.circular.iter_mut().for_each(|s| resolve(&mut s.csv));
-        file.rtest.iter_mut().for_each(|s| resolve(&mut s.csv));
-        Ok(file)
-    }
-}
-
-/// A location error: its axis and its index among `EX0k EY0k EZ0k EA0k EB0k EC0k`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct LocationError {
-    pub axis: AxisLetter,
-    pub index: usize,
-}
-
-impl LocationError {
-    pub fn parse(name: &str, machine: &Machine) -> Result<LocationError, CalibrateError> {
-        let c: Vec<char> = name.trim().chars().collect();
-        let parsed = match c.as_slice() {
-            ['E', component, '0', axis] => COMPONENT_NAMES
-                .iter()
-                .position(|n| n == component)
-                .zip(AxisLetter::from_char(*axis)),
-            _ => None,
-        };
-        let (index, axis) = parsed.ok_or_else(|| {
-            CalibrateError::Parameter(format!(
-                "`{name}` is not a location error (E, then X Y Z A B C, then 0, then the axis: EC0Y, EX0C)"
-            ))
-        })?;
-        if machine.axis(axis).is_none() {
-            return Err(CalibrateError::Parameter(format!(
-                "`{name}`: the machine (chain {}) has no {axis} axis",
-                machine.chain.hwang_notation()
-            )));
-        }
-        Ok(LocationError { axis, index })
-    }
-
-    pub fn name(&self) -> String {
-        format!("E{}0{}", COMPONENT_NAMES[self.index], self.axis)
-    }
-
-    /// mm for positions, rad for orientations.
-    pub fn unit(&self) -> &'static str {
-        if self.index < 3 {
-            "mm"
-        } else {
-            "rad"
-        }
-    }
-
-    fn get(&self, machine: &Machine) -> f64 {
-        machine
-            .axis(self.axis)
-            .map_or(0.0, |a| a.location[self.index])
-    }
-
-    fn set(&self, machine: &mut Machine, value: f64) {
-        if let Some(a) = machine.axis_mut(self.axis) {
-            a.location[self.index] = value;
-        }
-    }
-
-    /// The step of the central differences.
-    fn step(&self) -> f64 {
-        if self.index < 3 {
-            1e-4
-        } else {
-            1e-7
-        }
-    }
-}
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Estimate {
@@ -159,8 +56,13 @@ pub struct FitReport {
 }
 
 /// One test of the file with its measured results, read once, ready to run on any version of
-/// the machine.
-enum Test<'a> {
+/// the machine at the inputs it was measured at.
+struct Test<'a> {
+    kind: Kind<'a>,
+    inputs: Inputs,
+}
+
+enum Kind<'a> {
     Positioning(&'a PositioningSpec, PositioningData),
     Diagonal(&'a DiagonalSpec, Measured),
     Circular(&'a CircularSpec, Measured),
@@ -169,25 +71,25 @@ enum Test<'a> {
 
 impl Test<'_> {
     fn run(&self, machine: &Machine) -> Result<TestResult, StandardsError> {
-        let pose = match self {
-            Test::Positioning(s, _) => &s.pose,
-            Test::Diagonal(s, _) => &s.pose,
-            Test::Circular(s, _) => &s.pose,
-            Test::Rotary(s, _) => &s.pose,
+        let pose = match &self.kind {
+            Kind::Positioning(s, _) => &s.pose,
+            Kind::Diagonal(s, _) => &s.pose,
+            Kind::Circular(s, _) => &s.pose,
+            Kind::Rotary(s, _) => &s.pose,
         };
-        let setup = Setup::new(machine, pose)?;
-        match self {
-            Test::Positioning(s, m) => positioning_with(&setup, s, Some(m)),
-            Test::Diagonal(s, m) => diagonal_with(&setup, s, Some(m)),
-            Test::Circular(s, m) => circular_with(&setup, s, Some(m)),
-            Test::Rotary(s, m) => rtest_with(&setup, s, Some(m)),
+        let setup = Setup::with_inputs(machine, pose, &self.inputs)?;
+        match &self.kind {
+            Kind::Positioning(s, m) => positioning_with(&setup, s, Some(m)),
+            Kind::Diagonal(s, m) => diagonal_with(&setup, s, Some(m)),
+            Kind::Circular(s, m) => circular_with(&setup, s, Some(m)),
+            Kind::Rotary(s, m) => rtest_with(&setup, s, Some(m)),
         }
     }
 
     /// The nuisance parameters taken out of each curve: 3 for a circle, else 1.
     fn nuisance_per_curve(&self) -> usize {
-        match self {
-            Test::Circular(..) => 3,
+        match self.kind {
+            Kind::Circular(..) => 3,
             _ => 1,
         }
     }
@@ -223,17 +125,8 @@ fn rms(values: &[f64]) -> f64 {
 }
 
 pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateError> {
-    let unknowns: Vec<LocationError> = file
-        .estimate
-        .iter()
-        .map(|n| LocationError::parse(n, machine))
-        .collect::<Result<_, _>>()?;
-    if unknowns.is_empty() {
-        return Err(CalibrateError::Parameter(
-            "`estimate` names no location error".into(),
-        ));
-    }
-    let tests = read_tests(file)?;
+    let unknowns = file.unknowns(machine)?;
+    let tests = read_tests(file, machine)?;
     let (before, nuisance) = residuals(&tests, machine)?;
     let points = before.len();
     let k = unknowns.len();
@@ -242,7 +135,12 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
             "{points} measured points cannot determine {k} unknowns besides {nuisance} zeros and circles"
         ))
     })?;
-    let (current, r, j) = gauss_newton(machine, &tests, &unknowns, before.clone())?;
+    // Each coefficient's step is scaled to the widest temperature difference of its input.
+    let steps: Vec<f64> = unknowns
+        .iter()
+        .map(|u| u.step(temperature_span(u, &tests, machine)))
+        .collect();
+    let (current, r, j) = gauss_newton(machine, &tests, &unknowns, &steps, before.clone())?;
     let sigma2 = r.norm_squared() / dof as f64;
     let normal = j.transpose() * &j;
     let covariance = normal
@@ -270,36 +168,58 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
     })
 }
 
-/// Every test of the file with its measured results, read once.
-fn read_tests(file: &FitFile) -> Result<Vec<Test<'_>>, CalibrateError> {
-    let missing = |kind: &str, n: usize| {
-        CalibrateError::Parameter(format!(
-            "[[{kind}]] number {}: give the measured results (`csv = \"...\"`)",
-            n + 1
-        ))
+/// The largest `|T − reference_C|` of a coefficient's input over the tests, K (0 for a value).
+fn temperature_span(unknown: &Unknown, tests: &[Test], machine: &Machine) -> f64 {
+    let (Some((_, input)), Some(thermal)) = (&unknown.per_kelvin, &machine.thermal) else {
+        return 0.0;
     };
+    tests
+        .iter()
+        .map(|t| (t.inputs.temperature_c(input, thermal.reference_c) - thermal.reference_c).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Every test of the file with its measured results, read once, and its inputs on `machine`.
+fn read_tests<'a>(file: &'a FitFile, machine: &Machine) -> Result<Vec<Test<'a>>, CalibrateError> {
+    let missing = |key: &str| file.key_error(key, "give the measured results (`csv = \"...\"`)");
     let mut tests: Vec<Test> = Vec::new();
-    for (n, s) in file.positioning.iter().enumerate() {
-        let csv = s.csv.as_deref().ok_or_else(|| missing("positioning", n))?;
-        tests.push(Test::Positioning(s, read_positioning(csv)?));
+    for e in &file.positioning {
+        let csv = e.spec.csv.as_deref().ok_or_else(|| missing(&e.key))?;
+        let kind = Kind::Positioning(&e.spec, read_positioning(csv)?);
+        tests.push(Test {
+            kind,
+            inputs: file.inputs_of(e, machine)?,
+        });
     }
-    for (n, s) in file.diagonal.iter().enumerate() {
-        let m = read_diagonal(s)?.ok_or_else(|| missing("diagonal", n))?;
-        tests.push(Test::Diagonal(s, m));
+    for e in &file.diagonal {
+        let m = read_diagonal(&e.spec)?.ok_or_else(|| missing(&e.key))?;
+        let kind = Kind::Diagonal(&e.spec, m);
+        tests.push(Test {
+            kind,
+            inputs: file.inputs_of(e, machine)?,
+        });
     }
-    for (n, s) in file.circular.iter().enumerate() {
-        let m = read_circular(s)?.ok_or_else(|| missing("circular", n))?;
-        tests.push(Test::Circular(s, m));
+    for e in &file.circular {
+        let m = read_circular(&e.spec)?.ok_or_else(|| missing(&e.key))?;
+        let kind = Kind::Circular(&e.spec, m);
+        tests.push(Test {
+            kind,
+            inputs: file.inputs_of(e, machine)?,
+        });
     }
-    for (n, s) in file.rtest.iter().enumerate() {
-        let m = read_rtest(s)?.ok_or_else(|| missing("rtest", n))?;
-        tests.push(Test::Rotary(s, m));
+    for e in &file.rtest {
+        let m = read_rtest(&e.spec)?.ok_or_else(|| missing(&e.key))?;
+        let kind = Kind::Rotary(&e.spec, m);
+        tests.push(Test {
+            kind,
+            inputs: file.inputs_of(e, machine)?,
+        });
     }
     if tests.is_empty() {
-        return Err(CalibrateError::Parameter(
-            "no measurements: add [[diagonal]], [[circular]], [[rtest]] or [[positioning]] tables"
-                .into(),
-        ));
+        return Err(CalibrateError::Parameter(format!(
+            "{}: no measurements: add [[diagonal]], [[circular]], [[rtest]] or [[positioning]] tables",
+            file.file
+        )));
     }
     Ok(tests)
 }
@@ -309,14 +229,15 @@ fn read_tests(file: &FitFile) -> Result<Vec<Test<'_>>, CalibrateError> {
 fn gauss_newton(
     machine: &Machine,
     tests: &[Test],
-    unknowns: &[LocationError],
+    unknowns: &[Unknown],
+    steps: &[f64],
     before: Vec<f64>,
 ) -> Result<(Machine, DVector<f64>, DMatrix<f64>), CalibrateError> {
     let points = before.len();
     let jacobian_at = |m: &Machine| -> Result<DMatrix<f64>, CalibrateError> {
         let mut j = DMatrix::zeros(points, unknowns.len());
         for (c, u) in unknowns.iter().enumerate() {
-            let (value, h) = (u.get(m), u.step());
+            let (value, h) = (u.get(m), steps[c]);
             let mut plus = m.clone();
             u.set(&mut plus, value + h);
             let mut minus = m.clone();
@@ -348,7 +269,7 @@ fn gauss_newton(
         let small = unknowns
             .iter()
             .enumerate()
-            .all(|(c, u)| step[c].abs() <= 1e-6 * u.step());
+            .all(|(c, _)| step[c].abs() <= 1e-6 * steps[c]);
         if small {
             break;
         }
@@ -357,13 +278,19 @@ fn gauss_newton(
 }
 
 /// Every unknown must move the measurements, and no two the same way.
-fn check_observable(j: &DMatrix<f64>, unknowns: &[LocationError]) -> Result<(), CalibrateError> {
+fn check_observable(j: &DMatrix<f64>, unknowns: &[Unknown]) -> Result<(), CalibrateError> {
     let norms: Vec<f64> = (0..j.ncols()).map(|c| j.column(c).norm()).collect();
     let largest = norms.iter().copied().fold(0.0, f64::max);
     for (c, u) in unknowns.iter().enumerate() {
         if norms[c] <= 1e-12 * largest.max(1e-300) || norms[c] == 0.0 {
+            let how = match &u.per_kelvin {
+                Some((_, input)) => {
+                    format!("measure tests at temperatures of {input} away from reference_C")
+                }
+                None => "measure a test that sees it".to_string(),
+            };
             return Err(CalibrateError::Parameter(format!(
-                "{} does not change any of the given measurements: measure a test that sees it, or leave it out",
+                "{} does not change any of the given measurements: {how}, or leave it out",
                 u.name()
             )));
         }
@@ -378,42 +305,44 @@ fn check_observable(j: &DMatrix<f64>, unknowns: &[LocationError]) -> Result<(), 
     if min < 1e-6 * max {
         let v_t = singular.v_t.as_ref().expect("asked for V");
         let row = values.imin();
-        let involved: Vec<String> = unknowns
+        let involved: Vec<&Unknown> = unknowns
             .iter()
             .enumerate()
             .filter(|(c, _)| v_t[(row, *c)].abs() > 0.1)
-            .map(|(_, u)| u.name())
+            .map(|(_, u)| u)
             .collect();
+        let names: Vec<String> = involved.iter().map(|u| u.name()).collect();
+        let how = if involved.iter().any(|u| u.per_kelvin.is_some()) {
+            "add a test that separates them (a thermal coefficient needs tests at two or more temperatures of its input)"
+        } else {
+            "add a test that separates them"
+        };
         return Err(CalibrateError::Parameter(format!(
-            "{} cannot be told apart from these measurements (they move them alike): add a test that separates them",
-            involved.join(" and ")
+            "{} cannot be told apart from these measurements (they move them alike): {how}",
+            names.join(" and ")
         )));
     }
     Ok(())
 }
 
-/// The machine file with the estimates written in: the original file's keys with each
-/// estimated location error set (a comment-free rewrite of the TOML).
+/// The machine file with the estimates written in: the original file, comments and all, with
+/// each estimated error set, as a number or, where it has a thermal coefficient, as `{ value =
+/// …, per_kelvin = { input = … } }`.
 pub fn fitted_machine_toml(
     machine: &Machine,
     estimates: &[Estimate],
 ) -> Result<String, CalibrateError> {
-    let mut table: toml::Table = toml::from_str(&machine.source.toml).map_err(|e| {
+    let mut document: toml_edit::DocumentMut = machine.source.toml.parse().map_err(|e| {
         CalibrateError::Parameter(format!("the machine's own file does not parse again: {e}"))
     })?;
-    for e in estimates {
-        let axis = e.name.chars().last().expect("four letters").to_string();
-        let axes = table
-            .entry("axes")
-            .or_insert_with(|| toml::Value::Table(Default::default()));
-        let section = axes
-            .as_table_mut()
-            .and_then(|t| t.get_mut(&axis))
-            .and_then(|v| v.as_table_mut())
-            .ok_or_else(|| {
-                CalibrateError::Parameter(format!("the machine file has no [axes.{axis}] section"))
-            })?;
-        section.insert(e.name.clone(), toml::Value::Float(e.value));
-    }
-    toml::to_string(&table).map_err(|e| CalibrateError::Parameter(e.to_string()))
+    let values = estimates
+        .iter()
+        .map(|e| {
+            Unknown::parse(&e.name, machine)
+                .map(|u| (u, e.value))
+                .map_err(CalibrateError::Parameter)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    super::unknowns::write_into(&mut document, &values).map_err(CalibrateError::Parameter)?;
+    Ok(document.to_string())
 }

@@ -1,8 +1,11 @@
-//! Machine models from measurements: location errors fitted to standard-test results
+//! Machine models from measurements: location and spindle errors and their thermal
+//! coefficients fitted to standard-test results
 //! ([`fit`]), machine files built from component errors measured at sparse positions ([`build`]).
 
 pub mod build;
 pub mod fit;
+mod fit_file;
+mod unknowns;
 
 use crate::error::input_errors;
 use crate::io::csv::CsvError;
@@ -21,6 +24,13 @@ pub enum CalibrateError {
     Test(#[from] StandardsError),
     #[error("{0}")]
     Parameter(String),
+    /// A key of the fit file that does not fit the machine or is not understood.
+    #[error("{file}: {key}: {message}")]
+    Key {
+        file: String,
+        key: String,
+        message: String,
+    },
 }
 
 input_errors!(CalibrateError);

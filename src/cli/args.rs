@@ -5,9 +5,11 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
+use volmap::design::DesignError;
 use volmap::engine::{DeviceChoice, Engine, EngineError};
-use volmap::gpu::GpuSampler;
+use volmap::gpu::{GpuError, GpuSampler};
 use volmap::io::embedded;
+use volmap::io::field::FieldFile;
 use volmap::model::grid::{self, Grid};
 use volmap::model::inputs::Inputs;
 use volmap::model::{Command, Machine};
@@ -126,6 +128,22 @@ fn no_gpu(failure: Failure, no_adapter: bool) -> Failure {
     }
 }
 
+/// A failure of a design study (budget, Monte Carlo, allocation, conformance), with the way round
+/// a machine whose errors read other axes' positions, which the GPU's sampled-machine kernels
+/// refuse for now.
+pub fn design_failure(error: DesignError) -> Failure {
+    let cross_axis = matches!(
+        error,
+        DesignError::Engine(EngineError::Gpu(GpuError::CrossAxis { .. }))
+    );
+    let failure = Failure::from(error);
+    if cross_axis {
+        failure.hint("--device cpu computes it")
+    } else {
+        failure
+    }
+}
+
 /// `--json`.
 #[derive(clap::Args)]
 pub struct JsonArg {
@@ -189,5 +207,28 @@ impl InputsArg {
     pub fn machine_at(&self, machine: &Machine) -> Result<(Machine, Inputs), Failure> {
         let inputs = self.on(machine)?;
         Ok((machine.at(&inputs), inputs))
+    }
+
+    /// Checks that the field file `--field` names was computed at these inputs: the flags read
+    /// against the axes and thermal inputs the field records (each error naming its flag), then
+    /// every part compared, a field of other inputs refused naming `--field` with the flags that
+    /// ask for what it holds.
+    pub fn check_field(&self, file: &FieldFile) -> Result<(), Failure> {
+        let record = file.inputs(0);
+        let chain = file.info(0).chain;
+        let temperatures =
+            Inputs::parse_for(&self.temperatures, "", record, &chain).flag("--temperatures")?;
+        let approach = Inputs::parse_for("", &self.approach, record, &chain).flag("--approach")?;
+        let inputs = Inputs {
+            approach: approach.approach,
+            temperatures_c: temperatures.temperatures_c,
+        };
+        file.check_inputs(&inputs).flag("--field").map_err(|f| {
+            let mut flags = format!("--approach {}", record.approach_text());
+            if !record.temperatures_c.is_empty() {
+                flags += &format!(" --temperatures {}", record.temperatures_text());
+            }
+            f.hint(format!("{flags} asks for the field's inputs"))
+        })
     }
 }

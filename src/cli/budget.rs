@@ -15,7 +15,10 @@ use volmap::model::perturbation::{Distribution, Tolerance};
 use volmap::model::poses::pose_name;
 use volmap::model::Machine;
 
-use super::args::{sweep_grids, DeviceArg, GridArg, JsonArg, MachineArg, PoseArg, PosesArg};
+use super::args::{
+    design_failure, sweep_grids, DeviceArg, GridArg, InputsArg, JsonArg, MachineArg, PoseArg,
+    PosesArg,
+};
 use super::budget_report::{self, axis_positions};
 use super::failure::{Failure, FlagContext};
 use super::output::{check_plot_paths, progress, write_file, write_json};
@@ -34,6 +37,10 @@ pub struct BudgetArgs {
     pose: PoseArg,
     #[command(flatten)]
     poses: PosesArg,
+    /// The evaluation inputs of the machine the Monte Carlo machines are drawn around (the
+    /// budget's ideal machine has no errors, so no inputs change it).
+    #[command(flatten)]
+    inputs: InputsArg,
     /// Also draw N machines built to the tolerances and give the statistics of their fields.
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     samples: Option<u64>,
@@ -70,8 +77,10 @@ pub struct BudgetArgs {
 }
 
 pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
-    let machine = args.machine.load()?;
-    let file = ToleranceFile::load(&args.tolerances, &machine).flag("--tolerances")?;
+    let loaded = args.machine.load()?;
+    let file = ToleranceFile::load(&args.tolerances, &loaded).flag("--tolerances")?;
+    // Machines are drawn around the machine at the evaluation inputs.
+    let (machine, _) = args.inputs.machine_at(&loaded)?;
     let grids = sweep_grids(&machine, &args.grid, &args.pose, &args.poses)?;
     let spec = args.spec.map(check_spec).transpose().flag("--spec")?;
     let confidence = check_confidence(args.confidence).flag("--confidence")?;
@@ -90,13 +99,17 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         bar.set_position(n as u64)
     });
     bar.finish_and_clear();
-    let budget = result?;
+    let budget = result.map_err(design_failure)?;
     print_budget(&machine, &args, &grids, &budget);
     let mut json = json!({
         "machine": machine.name,
         "tolerances": args.tolerances.display().to_string(),
         "grid": args.grid.grid,
         "poses": grids.iter().map(|g| pose_name(&g.pose, &machine)).collect::<Vec<_>>(),
+        "inputs": {
+            "approach": machine.inputs.record(&machine).approach_text(),
+            "temperatures": machine.inputs.record(&machine).temperatures_text(),
+        },
         "budget": budget_report::budget_json(&machine, &budget),
         "total_rss_mm": budget.total_rss_mm,
     });
@@ -114,9 +127,10 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         let ones = vec![1.0; tolerances.len()];
         let stats = study.sample_stats(&engine, samples, &ones, |n| bar.set_position(n as u64));
         bar.finish_and_clear();
-        let stats = stats?;
+        let stats = stats.map_err(design_failure)?;
         let monte_carlo = MonteCarlo::of(&stats, args.seed, spec);
-        budget_report::print_monte_carlo(&monte_carlo, engine.name());
+        let inputs = machine.inputs.describe(&machine);
+        budget_report::print_monte_carlo(&monte_carlo, engine.name(), &inputs);
         json["monte_carlo"] = budget_report::monte_carlo_json(&monte_carlo);
         if let Some(path) = &args.per_sample {
             let text = budget_report::per_sample_csv(&machine, &study, &stats);
@@ -278,7 +292,7 @@ fn run_allocation(
         |n| bar.set_position(n as u64),
     );
     bar.finish_and_clear();
-    let allocation = result?;
+    let allocation = result.map_err(design_failure)?;
     let w = allocation.within.fraction;
     println!(
         "  largest factor {:.6}: {:.2}% of the machines within (95% CI {:.2}% to {:.2}%), {} Monte Carlo runs on the same draws",

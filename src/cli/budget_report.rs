@@ -65,9 +65,11 @@ fn statistics(mc: &MonteCarlo) -> [(&'static str, &'static str, Summary); 6] {
     ]
 }
 
-pub fn print_monte_carlo(mc: &MonteCarlo, engine: String) {
+/// Prints the Monte Carlo statistics; `inputs` are the evaluation inputs of the machine the
+/// samples are drawn around, in words.
+pub fn print_monte_carlo(mc: &MonteCarlo, engine: String, inputs: &str) {
     println!(
-        "Monte Carlo: {} machines built to the tolerances (seed {}), each field's statistics on the {engine}",
+        "Monte Carlo: {} machines built to the tolerances around the machine at {inputs} (seed {}), each field's statistics on the {engine}",
         mc.samples, mc.seed
     );
     println!(

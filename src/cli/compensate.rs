@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use volmap::nc::{self, NcError, NcOption, Options, ToolLengths};
 
-use super::args::{JsonArg, MachineArg};
+use super::args::{InputsArg, JsonArg, MachineArg};
 use super::failure::{Failure, FlagContext};
 use super::output::{progress, write_file, write_json};
 
@@ -39,12 +39,17 @@ pub struct CompensateArgs {
     /// Pass blocks volmap does not understand through unchanged instead of stopping.
     #[arg(long)]
     pass_unknown: bool,
+    // `--temperatures` hold for the whole program; `--approach` gives the directions of the
+    // axes at its start (each axis then approaches in the direction of its programmed motion).
+    #[command(flatten)]
+    inputs: InputsArg,
     #[command(flatten)]
     json: JsonArg,
 }
 
 pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     let machine = args.machine.load()?;
+    let inputs = args.inputs.on(&machine)?;
     let same_file = std::fs::canonicalize(&args.out)
         .ok()
         .zip(std::fs::canonicalize(&args.program).ok())
@@ -60,6 +65,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
         pass_unknown: args.pass_unknown,
+        inputs,
         ..Options::default()
     };
     if let Some(path) = &args.work_offset_file {
@@ -88,6 +94,10 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     let (text, report) = (compensated.text, compensated.report);
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
     println!("{}: compensated for {}", args.out.display(), machine.name);
+    println!(
+        "  inputs                      {} (at the start; then each axis approaches in the direction it moves)",
+        report.inputs.description
+    );
     println!("  points compensated          {}", report.points);
     println!(
         "  largest correction          {:.4} mm",
@@ -99,6 +109,18 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         "  largest tool-tip error along the feed moves: {:.4} mm before, {:.4} mm after (chord tolerance {} mm)",
         report.largest_error_before_mm, report.largest_error_after_mm, options.chord_tolerance_mm
     );
+    if report.take_ups > 0 {
+        println!(
+            "  take-ups at reversals       {} (an axis with a reversal error turns)",
+            report.take_ups
+        );
+    }
+    if report.against_direction > 0 {
+        eprintln!(
+            "warning: {} compensated pieces run against the programmed direction of an axis with a reversal error: the machine approaches them the other way than they were compensated for",
+            report.against_direction
+        );
+    }
     if let Some(path) = &args.json.json {
         write_json(path, &report)?;
     }

@@ -12,7 +12,9 @@ use volmap::design::conformance::conformance;
 use volmap::design::monte_carlo::{check_confidence, Study};
 use volmap::io::tolerance_file::ToleranceFile;
 
-use super::args::{load_machine, DeviceArg, JsonArg, OptionalMachineArg};
+use super::args::{
+    design_failure, load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg,
+};
 use super::failure::{Failure, FlagContext};
 use super::output::{progress, write_json};
 
@@ -29,6 +31,11 @@ pub struct FeaturesArgs {
     field: Option<PathBuf>,
     #[command(flatten)]
     machine: OptionalMachineArg,
+    /// The evaluation inputs: of the machine (and of the machines drawn around it with
+    /// --tolerances); with --field, those the field must have been computed for (default: every
+    /// axis `+`, every input at its reference).
+    #[command(flatten)]
+    inputs: InputsArg,
     /// The probability that the part conforms: draw machines built to these tolerances (a
     /// tolerance file) around --machine and evaluate every feature on each.
     #[arg(
@@ -60,11 +67,18 @@ pub struct FeaturesArgs {
 
 /// The field the part is evaluated in: a single-pose field file whole, or the part of a
 /// five-axis map (`map --poses`) at the part's pose (`placement.pose_deg`, axes not named at 0),
-/// found as `sample` finds a point's (within 1e-9°).
-fn open_field(path: &Path, part: &PartFile) -> Result<LoadedField, FieldError> {
-    let file = FieldFile::open(path)?;
+/// found as `sample` finds a point's (within 1e-9°). The field must hold the inputs `inputs`
+/// asks for.
+fn open_field(path: &Path, part: &PartFile, inputs: &InputsArg) -> Result<LoadedField, Failure> {
+    let file = FieldFile::open(path).flag("--field")?;
+    inputs.check_field(&file)?;
+    open_part(&file, part).flag("--field")
+}
+
+/// The part of `file` to evaluate `part` in (see [`open_field`]).
+fn open_part(file: &FieldFile, part: &PartFile) -> Result<LoadedField, FieldError> {
     if !file.is_multipart() {
-        return LoadedField::open_part(&file, 0);
+        return LoadedField::open_part(file, 0);
     }
     let pose = part.pose();
     let degrees = [pose[3], pose[4], pose[5]];
@@ -79,7 +93,7 @@ fn open_field(path: &Path, part: &PartFile) -> Result<LoadedField, FieldError> {
         "{} (the part's placement.pose_deg)",
         poses::name_of(degrees, &letters)
     );
-    LoadedField::open_part(&file, file.part_at(degrees, &words)?)
+    LoadedField::open_part(file, file.part_at(degrees, &words)?)
 }
 
 pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
@@ -92,11 +106,11 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
     let machine;
     let source = match (&args.field, &args.machine.machine) {
         (Some(path), _) => {
-            field = open_field(path, &part).flag("--field")?;
+            field = open_field(path, &part, &args.inputs)?;
             ErrorSource::Field(&field)
         }
         (None, Some(name)) => {
-            machine = load_machine(name)?;
+            machine = args.inputs.machine_at(&load_machine(name)?)?.0;
             ErrorSource::Exact(&machine)
         }
         (None, None) => {
@@ -105,8 +119,12 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             ))
         }
     };
+    let at = match &source {
+        ErrorSource::Exact(machine) => inputs_words(machine),
+        ErrorSource::Field(field) => field.info.inputs.describe(),
+    };
     let rows = part::evaluate(&part, source, &part_name)?;
-    println!("{} ({} features)", part.name, rows.len());
+    println!("{} ({} features) at {at}", part.name, rows.len());
     println!(
         "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} worst point (commanded X Y Z, mm)",
         "feature", "kind", "error mm", "tolerance mm", "safety", "verdict"
@@ -151,8 +169,10 @@ fn run_conformance(
     tolerances: &Path,
     machine_name: &str,
 ) -> Result<ExitCode, Failure> {
-    let machine = load_machine(machine_name)?;
-    let file = ToleranceFile::load(tolerances, &machine).flag("--tolerances")?;
+    let loaded = load_machine(machine_name)?;
+    let file = ToleranceFile::load(tolerances, &loaded).flag("--tolerances")?;
+    // The machines are drawn around the machine at the evaluation inputs.
+    let (machine, _) = args.inputs.machine_at(&loaded)?;
     let confidence = check_confidence(args.confidence).flag("--confidence")?;
     let samples = args.samples.unwrap_or(1) as usize;
     let (engine, note) = args.device.engine()?;
@@ -170,13 +190,14 @@ fn run_conformance(
         bar.set_position(n as u64)
     });
     bar.finish_and_clear();
-    let rows = rows?;
+    let rows = rows.map_err(design_failure)?;
     println!(
-        "{} ({} features) on {samples} machines built to {} around {} (seed {}), VE and OE on the {}; fit where at least {:.1}% conform",
+        "{} ({} features) on {samples} machines built to {} around {} at {} (seed {}), VE and OE on the {}; fit where at least {:.1}% conform",
         part.name,
         rows.len(),
         tolerances.display(),
         machine.name,
+        inputs_words(&machine),
         args.seed,
         engine.name(),
         100.0 * confidence
@@ -214,4 +235,9 @@ fn run_conformance(
         return Ok(ExitCode::from(3));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The inputs the machine is evaluated at, in words.
+fn inputs_words(machine: &volmap::model::Machine) -> String {
+    machine.inputs.describe(machine)
 }

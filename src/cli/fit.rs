@@ -1,4 +1,5 @@
-//! `volmap fit`: location errors estimated from standard-test measurements by least squares.
+//! `volmap fit`: location and spindle errors, and their thermal coefficients, estimated from
+//! standard-test measurements by least squares.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -15,7 +16,8 @@ const UM_PER_MM: f64 = 1000.0;
 pub struct FitArgs {
     #[command(flatten)]
     machine: MachineArg,
-    /// The measurements file (TOML): `estimate = [...]` and the tests with their CSV files.
+    /// The measurements file (TOML): `estimate = [...]` and the tests with their CSV files (and
+    /// the temperatures each was measured at).
     #[arg(long)]
     measurements: PathBuf,
     /// Write the machine file with the estimates in.
@@ -30,18 +32,25 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
     let file = fit::FitFile::read(&args.measurements).flag("--measurements")?;
     let report = fit::fit(&machine, &file)?;
     println!(
-        "least-squares fit of {} location error(s) to {} measured points ({} degrees of freedom)",
+        "least-squares fit of {} unknown(s) to {} measured points ({} degrees of freedom)",
         report.estimates.len(),
         report.points,
         report.degrees_of_freedom
     );
+    let width = report
+        .estimates
+        .iter()
+        .map(|e| e.name.chars().count())
+        .max()
+        .unwrap_or(6)
+        .max(6);
     println!(
-        "  {:<6} {:>14} {:>14} {:>14}  unit",
+        "  {:<width$} {:>14} {:>14} {:>14}  unit",
         "error", "as given", "estimate", "uncertainty"
     );
     for e in &report.estimates {
         println!(
-            "  {:<6} {:>14.6e} {:>14.6e} {:>14.3e}  {}",
+            "  {:<width$} {:>14.6e} {:>14.6e} {:>14.3e}  {}",
             e.name, e.initial, e.value, e.uncertainty, e.unit
         );
     }

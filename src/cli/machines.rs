@@ -1,4 +1,4 @@
-//! `volmap machines`: the embedded machines.
+//! `volmap machines`: the embedded machines, and the machine file of one.
 
 use std::process::ExitCode;
 
@@ -6,7 +6,29 @@ use volmap::io::embedded;
 
 use super::failure::Failure;
 
-pub fn run() -> Result<ExitCode, Failure> {
+#[derive(clap::Args)]
+pub struct MachinesArgs {
+    /// Print the machine file of this embedded machine (TOML, with its comments): a starting
+    /// point for a machine file of one's own.
+    #[arg(long, value_name = "NAME")]
+    show: Option<String>,
+}
+
+pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
+    if let Some(name) = &args.show {
+        let (_, text) = embedded::EMBEDDED
+            .iter()
+            .find(|(n, _)| n == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = embedded::EMBEDDED.iter().map(|(n, _)| *n).collect();
+                Failure::input(format!(
+                    "--show: `{name}` is not an embedded machine (they are {})",
+                    names.join(", ")
+                ))
+            })?;
+        print!("{text}");
+        return Ok(ExitCode::SUCCESS);
+    }
     println!("{:<18} {:<9} {:<6} description", "name", "chain", "axes");
     for (name, _) in embedded::EMBEDDED {
         let machine = embedded::load(name)?;

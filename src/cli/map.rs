@@ -10,7 +10,7 @@ use volmap::gpu::GpuError;
 use volmap::io::field::FieldInfo;
 use volmap::model::Machine;
 
-use super::args::{sweep_grids, DeviceArg, GridArg, MachineArg, PoseArg, PosesArg};
+use super::args::{sweep_grids, DeviceArg, GridArg, InputsArg, MachineArg, PoseArg, PosesArg};
 use super::failure::Failure;
 use super::output::progress;
 use super::sweep;
@@ -25,6 +25,8 @@ pub struct MapArgs {
     pose: PoseArg,
     #[command(flatten)]
     poses: PosesArg,
+    #[command(flatten)]
+    inputs: InputsArg,
     /// The field file to write.
     #[arg(long, default_value = "volmap-field.exr")]
     out: PathBuf,
@@ -40,7 +42,9 @@ pub struct MapArgs {
 }
 
 pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
-    let machine = args.machine.load()?;
+    let loaded = args.machine.load()?;
+    // The machine at the evaluation inputs: the field records them.
+    let (machine, _) = args.inputs.machine_at(&loaded)?;
     let sweep = sweep_grids(&machine, &args.grid, &args.pose, &args.poses)?;
     let grid = sweep[0].clone();
     let grids = args.poses.poses.is_some().then_some(sweep);
@@ -163,6 +167,7 @@ pub fn print_summary(info: &FieldInfo, stats: &FieldStats) {
         }
     );
     println!("  device      {}", info.device);
+    println!("  inputs      {}", info.inputs.describe());
     println!(
         "  max |VE|    {:.6} mm at point ({}, {}, {}): {} mm",
         stats.max_ve_mm,

@@ -5,10 +5,11 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use volmap::io::field::FieldFile;
 use volmap::io::points::{self, QueryPoint};
 use volmap::query::{self, SampledField};
 
-use super::args::{load_machine, DeviceArg, OptionalMachineArg, PoseArg};
+use super::args::{load_machine, DeviceArg, InputsArg, OptionalMachineArg, PoseArg};
 use super::failure::{Failure, FlagContext};
 use super::output::write_file;
 
@@ -29,6 +30,10 @@ pub struct SampleArgs {
     machine: OptionalMachineArg,
     #[command(flatten)]
     pose: PoseArg,
+    /// The evaluation inputs: of the machine with --exact; with --field, those the field must
+    /// have been computed for (default: every axis `+`, every input at its reference).
+    #[command(flatten)]
+    inputs: InputsArg,
     /// Where to write the result (CSV); standard output when left out.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -37,11 +42,21 @@ pub struct SampleArgs {
 }
 
 pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
+    // The field's headers first: it must hold the inputs asked for.
+    let file = args
+        .field
+        .as_deref()
+        .map(FieldFile::open)
+        .transpose()
+        .flag("--field")?;
+    if let Some(file) = &file {
+        args.inputs.check_field(file)?;
+    }
     // The points and the field are read side by side: both are mostly parsing.
     // A five-axis map's parts are read later, one by one, as the points ask for them.
     let (points, loaded) = rayon::join(
         || points::read_points(&args.points),
-        || args.field.as_deref().map(SampledField::open).transpose(),
+        || file.map(SampledField::of).transpose(),
     );
     let points = points.flag("--points")?;
     let loaded = loaded.flag("--field")?;
@@ -55,7 +70,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             query::sample_fields(loaded, &points, &path, sampler.as_ref())?
         }
         (None, Some(machine)) if args.exact => {
-            let machine = load_machine(machine)?;
+            let (machine, _) = args.inputs.machine_at(&load_machine(machine)?)?;
             let pose = args.pose.on(&machine)?;
             let points: Vec<QueryPoint> = points
                 .iter()

@@ -61,6 +61,7 @@ pub fn print_sweep_summary(
         total.points
     );
     println!("  device      {}", worst.device);
+    println!("  inputs      {}", worst.inputs.describe());
     println!(
         "  max |VE|    {:.6} mm at pose {worst_name}, point ({}, {}, {}): {} mm",
         total.max_ve_mm,

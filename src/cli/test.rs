@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use volmap::standards::{self, Setup, TestResult};
 
-use super::args::{JsonArg, MachineArg, PoseArg};
+use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
 use super::failure::{Failure, FlagContext};
 use super::output::{check_plot_paths, write_json};
 use super::plot::write_test_plot;
@@ -34,6 +34,11 @@ struct Common {
     machine: MachineArg,
     #[command(flatten)]
     pose: PoseArg,
+    /// The evaluation inputs. The temperatures hold for every point of the test; the axes the
+    /// test moves approach in the direction the path moves them, so `--approach` sets only the
+    /// axes that stand still.
+    #[command(flatten)]
+    inputs: InputsArg,
     /// Measured results to compare with (CSV; the layout of each test is in the README).
     #[arg(long)]
     measured: Option<PathBuf>,
@@ -44,9 +49,18 @@ struct Common {
     json: JsonArg,
 }
 
+/// What `--approach` does in a test, shown under every test's options.
+const DIRECTIONS: &str =
+    "The axes a test moves approach each point in the direction its path moves \
+them there (positioning: + in the ↑ runs, − in the ↓ runs; circular: as each axis moves along the \
+circle, keeping its direction at a turning point; diagonal: from the start to the end; rtest: the \
+rotary axis +, the linear axes as they follow the sphere). --approach sets only the axes the test \
+does not move; --temperatures hold for every point.";
+
 #[derive(clap::Subcommand)]
 enum TestKind {
     /// ISO 230-2 positioning of one linear axis: figures A, B, E, M, R.
+    #[command(after_help = DIRECTIONS)]
     Positioning {
         /// The axis: X, Y or Z.
         #[arg(long)]
@@ -65,6 +79,7 @@ enum TestKind {
     },
     /// ISO 230-6 displacement along a body (PPP NPP PNP PPN) or face (XY-PP, XY-NP, ...)
     /// diagonal.
+    #[command(after_help = DIRECTIONS)]
     Diagonal {
         /// The diagonal's name; it spans the travel box unless --from and --to are given.
         #[arg(long)]
@@ -82,6 +97,7 @@ enum TestKind {
         common: Common,
     },
     /// ISO 230-4 circular test (ballbar): radial deviation around a circle, circular deviation G.
+    #[command(after_help = DIRECTIONS)]
     Circular {
         /// XY, YZ or ZX.
         #[arg(long)]
@@ -106,6 +122,7 @@ enum TestKind {
     },
     /// R-test of a rotary axis: the sphere's displacement in X, Y, Z while the linear axes
     /// follow it.
+    #[command(after_help = DIRECTIONS)]
     Rtest {
         /// The rotary axis: A, B or C.
         #[arg(long)]
@@ -226,14 +243,27 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Runs a test on the machine `common` names, with the rotary axes at its pose.
+/// Runs a test on the machine `common` names, with the rotary axes at its pose, at its inputs.
 fn run_on_machine(
     common: &Common,
     test: impl FnOnce(&Setup) -> Result<TestResult, standards::StandardsError>,
 ) -> Result<TestResult, Failure> {
     let machine = common.machine.load()?;
-    let setup = Setup::new(&machine, &common.pose.pose).flag("--pose")?;
-    Ok(test(&setup)?)
+    let inputs = common.inputs.on(&machine)?;
+    let setup = Setup::with_inputs(&machine, &common.pose.pose, &inputs).flag("--pose")?;
+    let result = test(&setup)?;
+    // An approach given for an axis the test moves is the path's to decide.
+    for named in common.inputs.approach.split(',') {
+        let axis = named.split('=').next().unwrap_or("").trim();
+        if let Some(letter) = axis.chars().next().filter(|_| axis.chars().count() == 1) {
+            if result.moving_axes.contains(&letter) {
+                eprintln!(
+                    "note: --approach {axis}: the test moves {axis}, and its path decides the direction"
+                );
+            }
+        }
+    }
+    Ok(result)
 }
 
 const UM_PER_MM: f64 = 1000.0;
@@ -241,6 +271,7 @@ const UM_PER_MM: f64 = 1000.0;
 /// The point-by-point table (µm) and the figures, predicted and measured side by side.
 fn print_result(result: &TestResult) {
     println!("{}", result.title);
+    println!("  inputs: {}", result.inputs);
     let width = result.position_label.chars().count().max(10);
     let cell = 12;
     let mut header = format!("  {:>width$}", result.position_label);

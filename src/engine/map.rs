@@ -72,7 +72,8 @@ pub fn sample_points(total: u64, n: usize) -> Vec<u64> {
     points
 }
 
-/// The header of the field a map writes.
+/// The header of the field a map writes: of `machine` at its evaluation inputs
+/// ([`Machine::inputs`], set by [`Machine::at`]).
 pub fn field_info(machine: &Machine, grid: &Grid, device: &str) -> FieldInfo {
     FieldInfo {
         dims: grid.dims,
@@ -85,6 +86,7 @@ pub fn field_info(machine: &Machine, grid: &Grid, device: &str) -> FieldInfo {
         machine_toml: machine.source.toml.clone(),
         csv_files: machine.source.csv_files.clone(),
         device: device.to_string(),
+        inputs: machine.inputs.record(machine),
     }
 }
 

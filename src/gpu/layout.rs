@@ -37,6 +37,9 @@ pub const SAMPLE_VALUES: u32 = 6;
 pub const SHAPE_CONSTANT: u32 = 0;
 pub const SHAPE_LINE: u32 = 1;
 pub const SHAPE_BOW: u32 = 2;
+/// The points of a grid line one invocation of `grid_runs_main` (the per-point map sharing
+/// the axes that do not vary along X) takes.
+pub const GRID_RUN: u32 = 64;
 /// Flags of a [`Function`] (`pieces[2]`): periodic, a two-axis table, and where the argument
 /// axes stand (4 bits each: 0 the error's own axis, else the commanded axis's index + 1).
 pub const FUNCTION_PERIODIC: u32 = 1;
@@ -58,7 +61,7 @@ pub enum Shared {
 }
 
 /// Every constant the shaders share with this file, by its WGSL name.
-pub const SHARED_CONSTANTS: [(&str, Shared); 25] = [
+pub const SHARED_CONSTANTS: [(&str, Shared); 26] = [
     ("WORKGROUP_SIZE", Shared::U32(WORKGROUP_SIZE)),
     ("NO_FUNCTION", Shared::U32(NO_FUNCTION)),
     ("KIND_LINEAR", Shared::U32(KIND_LINEAR)),
@@ -77,6 +80,7 @@ pub const SHARED_CONSTANTS: [(&str, Shared); 25] = [
     ("SHAPE_LINE", Shared::U32(SHAPE_LINE)),
     ("SHAPE_BOW", Shared::U32(SHAPE_BOW)),
     ("TERM_NO_AXIS", Shared::U32(TERM_NO_AXIS)),
+    ("GRID_RUN", Shared::U32(GRID_RUN)),
     ("FUNCTION_PERIODIC", Shared::U32(FUNCTION_PERIODIC)),
     ("FUNCTION_TABLE2D", Shared::U32(FUNCTION_TABLE2D)),
     ("FUNCTION_ARG_SHIFT", Shared::U32(FUNCTION_ARG_SHIFT)),

@@ -7,7 +7,7 @@ use super::machine_file::MachineError;
 use crate::model::Machine;
 
 /// `(name, file text)` of every embedded machine; the first is the default.
-pub const EMBEDDED: [(&str, &str); 4] = [
+pub const EMBEDDED: [(&str, &str); 5] = [
     ("vmc-li2015", include_str!("../../machines/vmc-li2015.toml")),
     (
         "vmc-dobariya2015",
@@ -21,6 +21,7 @@ pub const EMBEDDED: [(&str, &str); 4] = [
         "5axis-hwang2014",
         include_str!("../../machines/5axis-hwang2014.toml"),
     ),
+    ("gantry-2m", include_str!("../../machines/gantry-2m.toml")),
 ];
 
 /// The machine `volmap map` uses when none is named.

@@ -72,6 +72,8 @@ pub enum InputsError {
     Direction { axis: String, value: String },
     #[error("`{0}` is given twice")]
     Twice(String),
+    #[error("`{0}`: temperatures without the reference temperature they are relative to")]
+    NoReference(String),
 }
 
 crate::error::input_errors!(InputsError);
@@ -89,6 +91,14 @@ fn pairs(text: &str) -> Result<Vec<(&str, &str)>, InputsError> {
         .collect()
 }
 
+/// What the inputs are checked against: the thermal inputs declared, the axes there are, and
+/// the chain in words for messages.
+struct Against<'a> {
+    declared: &'a [String],
+    axes: &'a [AxisLetter],
+    chain: &'a str,
+}
+
 impl Inputs {
     /// Parses `x_scale=24.5,spindle=31` (°C) and `X=-,Y=+` against the machine: an input it
     /// does not declare, or an axis it lacks, is an error.
@@ -97,8 +107,44 @@ impl Inputs {
         approach: &str,
         machine: &Machine,
     ) -> Result<Inputs, InputsError> {
+        let axes: Vec<AxisLetter> = machine.chain.axes().collect();
+        let against = Against {
+            declared: machine.thermal.as_ref().map_or(&[], |t| &t.inputs),
+            axes: &axes,
+            chain: &machine.chain.hwang_notation(),
+        };
+        Inputs::parse_against(temperatures, approach, &against)
+    }
+
+    /// Parses the inputs as [`Inputs::parse`] does, against what an output recorded: its axes
+    /// and its thermal inputs (`chain` names the machine's chain in messages).
+    pub fn parse_for(
+        temperatures: &str,
+        approach: &str,
+        record: &InputsRecord,
+        chain: &str,
+    ) -> Result<Inputs, InputsError> {
+        let axes: Vec<AxisLetter> = record.approach.iter().map(|(l, _)| *l).collect();
+        let declared: Vec<String> = record
+            .temperatures_c
+            .iter()
+            .map(|(n, _)| n.clone())
+            .collect();
+        let against = Against {
+            declared: &declared,
+            axes: &axes,
+            chain,
+        };
+        Inputs::parse_against(temperatures, approach, &against)
+    }
+
+    fn parse_against(
+        temperatures: &str,
+        approach: &str,
+        against: &Against,
+    ) -> Result<Inputs, InputsError> {
         let mut inputs = Inputs::default();
-        let declared: &[String] = machine.thermal.as_ref().map_or(&[], |t| &t.inputs);
+        let declared = against.declared;
         for (name, value) in pairs(temperatures)? {
             if !declared.iter().any(|d| d == name) {
                 return Err(InputsError::UnknownInput {
@@ -113,14 +159,7 @@ impl Inputs {
             if inputs.temperatures_c.iter().any(|(n, _)| n == name) {
                 return Err(InputsError::Twice(name.to_string()));
             }
-            let t = value
-                .parse::<f64>()
-                .ok()
-                .filter(|t| t.is_finite())
-                .ok_or_else(|| InputsError::Temperature {
-                    name: name.to_string(),
-                    value: value.to_string(),
-                })?;
+            let t = temperature(name, value)?;
             inputs.temperatures_c.push((name.to_string(), t));
         }
         let mut named = [false; 6];
@@ -129,24 +168,15 @@ impl Inputs {
                 [c] => AxisLetter::from_char(c),
                 _ => None,
             }
-            .filter(|&l| machine.axis(l).is_some())
+            .filter(|l| against.axes.contains(l))
             .ok_or_else(|| InputsError::UnknownAxis {
                 axis: axis.to_string(),
-                chain: machine.chain.hwang_notation(),
+                chain: against.chain.to_string(),
             })?;
             if std::mem::replace(&mut named[letter.index()], true) {
                 return Err(InputsError::Twice(axis.to_string()));
             }
-            inputs.approach[letter.index()] = match value {
-                "+" => Approach::Positive,
-                "-" | "−" => Approach::Negative,
-                _ => {
-                    return Err(InputsError::Direction {
-                        axis: axis.to_string(),
-                        value: value.to_string(),
-                    })
-                }
-            };
+            inputs.approach[letter.index()] = direction(axis, value)?;
         }
         Ok(inputs)
     }
@@ -169,22 +199,166 @@ impl Inputs {
     /// The inputs in words, as a field file records them and `info` prints them:
     /// `approach X+ Y- Z+; temperatures x_scale=24.5 °C, spindle=20 °C (reference 20 °C)`.
     pub fn describe(&self, machine: &Machine) -> String {
-        let approach: Vec<String> = machine
-            .chain
-            .axes()
-            .map(|l| format!("{l}{}", self.approach[l.index()].sign()))
+        self.record(machine).describe()
+    }
+
+    /// These inputs spelled out for every axis of `machine` and every input it declares.
+    pub fn record(&self, machine: &Machine) -> InputsRecord {
+        InputsRecord::defaults(machine.chain.axes(), machine.thermal.as_ref()).with(self)
+    }
+}
+
+/// A temperature of input `name` in °C: a finite number.
+fn temperature(name: &str, value: &str) -> Result<f64, InputsError> {
+    value
+        .parse::<f64>()
+        .ok()
+        .filter(|t| t.is_finite())
+        .ok_or_else(|| InputsError::Temperature {
+            name: name.to_string(),
+            value: value.to_string(),
+        })
+}
+
+/// An approach direction: `+` or `-` (or `−`).
+fn direction(axis: &str, value: &str) -> Result<Approach, InputsError> {
+    match value {
+        "+" => Ok(Approach::Positive),
+        "-" | "−" => Ok(Approach::Negative),
+        _ => Err(InputsError::Direction {
+            axis: axis.to_string(),
+            value: value.to_string(),
+        }),
+    }
+}
+
+/// The inputs of an evaluation spelled out for every axis of a machine and every thermal input
+/// it declares, without the machine: what an output records (a field's header) and what is
+/// compared with the inputs asked of it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct InputsRecord {
+    /// Every axis of the chain, in the chain's order, with its approach direction.
+    pub approach: Vec<(AxisLetter, Approach)>,
+    /// Every declared thermal input, in the order `[thermal]` declares them, with its
+    /// temperature in °C.
+    pub temperatures_c: Vec<(String, f64)>,
+    /// `[thermal].reference_C`; `None` where the machine declares no thermal input.
+    pub reference_c: Option<f64>,
+}
+
+impl InputsRecord {
+    /// The default inputs (every axis `+`, every input at `reference_C`) of a machine with these
+    /// axes and this `[thermal]` section.
+    pub fn defaults(
+        axes: impl IntoIterator<Item = AxisLetter>,
+        thermal: Option<&Thermal>,
+    ) -> InputsRecord {
+        InputsRecord {
+            approach: axes.into_iter().map(|l| (l, Approach::Positive)).collect(),
+            temperatures_c: thermal.map_or(Vec::new(), |t| {
+                t.inputs
+                    .iter()
+                    .map(|i| (i.clone(), t.reference_c))
+                    .collect()
+            }),
+            reference_c: thermal.map(|t| t.reference_c),
+        }
+    }
+
+    /// The record of `inputs` over the same axes and thermal inputs: a direction or a
+    /// temperature `inputs` does not give is the default (`+`, `reference_C`).
+    pub fn with(&self, inputs: &Inputs) -> InputsRecord {
+        let reference = self.reference_c.unwrap_or(0.0);
+        InputsRecord {
+            approach: self
+                .approach
+                .iter()
+                .map(|&(l, _)| (l, inputs.approach[l.index()]))
+                .collect(),
+            temperatures_c: self
+                .temperatures_c
+                .iter()
+                .map(|(n, _)| (n.clone(), inputs.temperature_c(n, reference)))
+                .collect(),
+            reference_c: self.reference_c,
+        }
+    }
+
+    /// The approach directions as `--approach` takes them: `X=+,Y=-,Z=+`.
+    pub fn approach_text(&self) -> String {
+        let pairs: Vec<String> = self
+            .approach
+            .iter()
+            .map(|(l, a)| format!("{l}={}", a.sign()))
+            .collect();
+        pairs.join(",")
+    }
+
+    /// The temperatures as `--temperatures` takes them, exact (shortest round-trip decimals):
+    /// `x_scale=24.5,spindle=20`; empty where the machine declares no thermal input.
+    pub fn temperatures_text(&self) -> String {
+        let pairs: Vec<String> = self
+            .temperatures_c
+            .iter()
+            .map(|(n, t)| format!("{n}={t}"))
+            .collect();
+        pairs.join(",")
+    }
+
+    /// Reads a record back from [`InputsRecord::approach_text`],
+    /// [`InputsRecord::temperatures_text`] and the reference temperature.
+    pub fn parse(
+        approach: &str,
+        temperatures: &str,
+        reference_c: Option<f64>,
+    ) -> Result<InputsRecord, InputsError> {
+        let mut record = InputsRecord {
+            reference_c,
+            ..InputsRecord::default()
+        };
+        for (axis, value) in pairs(approach)? {
+            let letter = match axis.chars().collect::<Vec<_>>()[..] {
+                [c] => AxisLetter::from_char(c),
+                _ => None,
+            }
+            .ok_or_else(|| InputsError::Syntax(approach.to_string()))?;
+            if record.approach.iter().any(|(l, _)| *l == letter) {
+                return Err(InputsError::Twice(axis.to_string()));
+            }
+            record.approach.push((letter, direction(axis, value)?));
+        }
+        for (name, value) in pairs(temperatures)? {
+            if record.temperatures_c.iter().any(|(n, _)| n == name) {
+                return Err(InputsError::Twice(name.to_string()));
+            }
+            record
+                .temperatures_c
+                .push((name.to_string(), temperature(name, value)?));
+        }
+        if !record.temperatures_c.is_empty() && reference_c.is_none() {
+            return Err(InputsError::NoReference(temperatures.to_string()));
+        }
+        Ok(record)
+    }
+
+    /// The inputs in words: `approach X+ Y- Z+; temperatures x_scale=24.5 °C, spindle=20 °C
+    /// (reference 20 °C)`.
+    pub fn describe(&self) -> String {
+        let approach: Vec<String> = self
+            .approach
+            .iter()
+            .map(|(l, a)| format!("{l}{}", a.sign()))
             .collect();
         let mut text = format!("approach {}", approach.join(" "));
-        if let Some(thermal) = &machine.thermal {
-            let temperatures: Vec<String> = thermal
-                .inputs
+        if let Some(reference) = self.reference_c {
+            let temperatures: Vec<String> = self
+                .temperatures_c
                 .iter()
-                .map(|i| format!("{i}={} °C", self.temperature_c(i, thermal.reference_c)))
+                .map(|(n, t)| format!("{n}={t} °C"))
                 .collect();
             text += &format!(
-                "; temperatures {} (reference {} °C)",
-                temperatures.join(", "),
-                thermal.reference_c
+                "; temperatures {} (reference {reference} °C)",
+                temperatures.join(", ")
             );
         }
         text
@@ -193,7 +367,8 @@ impl Inputs {
 
 impl Machine {
     /// The machine at the evaluation inputs `inputs`: every dependent error value resolved to
-    /// `value` (or `reverse`) plus its per-kelvin terms, as plain error values.
+    /// `value` (or `reverse`) plus its per-kelvin terms, as plain error values, and the inputs
+    /// kept in [`Machine::inputs`] (what a field of it records).
     pub fn at(&self, inputs: &Inputs) -> Machine {
         let deltas: Vec<f64> = self.thermal.as_ref().map_or(Vec::new(), |thermal| {
             thermal
@@ -202,7 +377,9 @@ impl Machine {
                 .map(|i| inputs.temperature_c(i, thermal.reference_c) - thermal.reference_c)
                 .collect()
         });
-        self.clone().resolve_all(inputs, &deltas)
+        let mut machine = self.clone().resolve_all(inputs, &deltas);
+        machine.inputs = inputs.clone();
+        machine
     }
 
     fn resolve_all(mut self, inputs: &Inputs, deltas: &[f64]) -> Machine {

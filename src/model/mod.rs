@@ -109,6 +109,9 @@ pub struct Machine {
     /// The error values that depend on the evaluation inputs (see [`Machine::at`]); the values
     /// above are those at the default inputs.
     pub dependent: Vec<inputs::Dependent>,
+    /// The evaluation inputs the error values above are at: the default ones (every axis `+`,
+    /// every input at `reference_C`) as loaded, those given to [`Machine::at`] after it.
+    pub inputs: inputs::Inputs,
     pub source: MachineSource,
 }
 
@@ -155,6 +158,7 @@ impl Machine {
             spindle: [0.0; 5],
             thermal: None,
             dependent: Vec::new(),
+            inputs: inputs::Inputs::default(),
             source: MachineSource::default(),
         })
     }

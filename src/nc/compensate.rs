@@ -3,102 +3,22 @@
 //! stays within the chord tolerance of the intended path, arcs kept where they can be.
 
 use std::cell::Cell;
-use std::collections::HashMap;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
+use super::approach::{line_directions, segment_at, segments, Directions, Segment};
+use super::kinematics::{Compensator, Kinematics};
 use super::parse::{parse_program, Line};
 use super::program::{end_position, starting_position, take_line, Motion, State, Step, XY};
-use super::toolpath::{arc_path, arc_through, lerp, Toolpath};
-use super::write::write_block;
-use super::{NcError, NcOption, Options, Report};
+use super::toolpath::{arc_path, arc_through, Toolpath};
+use super::walk::Walk;
+use super::write::{as_written, write_block};
+use super::{NcError, NcOption, Options, Report, ReportInputs};
+use crate::model::inputs::Approach;
 use crate::model::{Command, Machine};
-use crate::reference::Twin;
 
 /// The most pieces one move is split into.
-const MAX_PIECES: usize = 100_000;
-
-/// The machine as one tool sees it, with its ideal twin.
-struct Kinematics {
-    twin: Twin,
-    /// The inverse of the ideal tip's Jacobian in X, Y, Z at the last rotary positions it was
-    /// asked for: the same for every point until the rotary axes move.
-    inverse: std::cell::RefCell<Option<([f64; 3], Matrix3<f64>)>>,
-}
-
-/// The compensation of one program: its name, its options, the machine, the machine per tool.
-struct Compensator<'a> {
-    path: &'a str,
-    options: &'a Options,
-    base: &'a Machine,
-    tools: HashMap<Option<u32>, Kinematics>,
-}
-
-impl Compensator<'_> {
-    fn kinematics(&mut self, tool: Option<u32>, line: usize) -> Result<&Kinematics, NcError> {
-        if !self.tools.contains_key(&tool) {
-            let lengths = &self.options.tool_lengths;
-            let length = match tool.and_then(|t| lengths.per_tool.get(&t)) {
-                Some(&l) => Some(l),
-                None if lengths.per_tool.is_empty() || lengths.all.is_some() => lengths.all,
-                None => {
-                    return Err(NcError::Missing {
-                        path: self.path.to_string(),
-                        line,
-                        option: NcOption::ToolLengths,
-                        message: match tool {
-                            Some(t) => format!("no length for tool T{t} among the tool lengths"),
-                            None => {
-                                "no tool is active yet and the tool lengths name tools only".into()
-                            }
-                        },
-                    })
-                }
-            };
-            let mut real = self.base.clone();
-            if let Some(l) = length {
-                real.tool_offset_mm = [0.0, 0.0, -l];
-            }
-            self.tools.insert(
-                tool,
-                Kinematics {
-                    twin: Twin::new(real),
-                    inverse: Default::default(),
-                },
-            );
-        }
-        Ok(&self.tools[&tool])
-    }
-}
-
-impl Kinematics {
-    /// The inverse of the ideal tip's derivative in X, Y, Z at `q` (constant at fixed rotary
-    /// positions, so kept until they change); `None` where the linear axes do not span X, Y, Z.
-    fn inverse_jacobian(&self, q: &Command) -> Option<Matrix3<f64>> {
-        let rotary = [q[3], q[4], q[5]];
-        let mut cache = self.inverse.borrow_mut();
-        match *cache {
-            Some((at, inverse)) if at == rotary => Some(inverse),
-            _ => {
-                let inverse = self.twin.ideal_jacobian(q).try_inverse()?;
-                *cache = Some((rotary, inverse));
-                Some(inverse)
-            }
-        }
-    }
-
-    /// The command whose real tip lands on the ideal tip of `q`.
-    fn compensate(&self, q: &Command) -> Option<Command> {
-        let inverse = self.inverse_jacobian(q)?;
-        self.twin
-            .real_command_for(self.twin.ideal_tip(q), q, &inverse)
-    }
-
-    /// Distance of the real tip at command `c` from the ideal tip at command `q`.
-    fn miss(&self, c: &Command, q: &Command) -> f64 {
-        (self.twin.real_tip(c) - self.twin.ideal_tip(q)).norm()
-    }
-}
+pub(super) const MAX_PIECES: usize = 100_000;
 
 /// The program's lines, its state before the first, and the machine per tool.
 fn begin<'a>(
@@ -120,14 +40,10 @@ fn begin<'a>(
         position: start,
         written: start,
         written_motion: Motion::Rapid,
+        approach: options.inputs.approach,
+        programmed: options.inputs.approach,
     };
-    let compensator = Compensator {
-        path,
-        options,
-        base: machine,
-        tools: HashMap::new(),
-    };
-    Ok((lines, state, compensator))
+    Ok((lines, state, Compensator::new(path, options, machine)))
 }
 
 /// A compensated program.
@@ -166,7 +82,10 @@ pub fn compensate_with_progress(
         });
     }
     let (lines, mut state, mut compensator) = begin(machine, program, path, options)?;
-    let mut report = Report::default();
+    let mut report = Report {
+        inputs: ReportInputs::of(&options.inputs, machine),
+        ..Report::default()
+    };
     let mut out = String::with_capacity(program.len() * 2);
     let mut start_compensated = false;
     let mut origins = Vec::with_capacity(lines.len());
@@ -208,13 +127,18 @@ pub struct TracePoint {
     pub program: [f64; 6],
     /// The machine command there.
     pub command: Command,
-    /// The ideal and the real tool tip there (workpiece frame, mm).
+    /// The direction every axis approaches it in (X Y Z A B C): that of the move's motion
+    /// arriving there (on an arc, at its end), or of the axis's last move.
+    pub approach: [Approach; 6],
+    /// The ideal and the real tool tip there (workpiece frame, mm), the real one approached in
+    /// `approach` at the options' temperatures.
     pub ideal: Vector3<f64>,
     pub real: Vector3<f64>,
 }
 
 /// Runs a program through the model: every move's end point with the ideal and the real tool
-/// tip (the check that a compensated program lands where the original one was meant to).
+/// tip, each axis approaching in the direction of its motion in this program (the check that a
+/// compensated program lands where the original one was meant to).
 pub fn trace(
     machine: &Machine,
     program: &[u8],
@@ -228,9 +152,13 @@ pub fn trace(
             continue;
         }
         let end = end_position(line, &state);
-        if matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) {
-            arc_path(line, &state, state.position, end, path)?;
-        }
+        let approach = if matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) {
+            let arc = arc_path(line, &state, state.position, end, path)?;
+            let segments = segments(&arc, &state.approach, &[true; 6]);
+            segments.last().expect("a move has a segment").directions
+        } else {
+            line_directions(&state.position, &end, &state.approach)
+        };
         let offset = *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]);
         let command: Command = std::array::from_fn(|d| end[d] + offset[d]);
         let kin = compensator.kinematics(state.tool, line.number)?;
@@ -238,10 +166,12 @@ pub fn trace(
             line: line.number,
             program: end,
             command,
-            ideal: kin.twin.ideal_tip(&command),
-            real: kin.twin.real_tip(&command),
+            approach,
+            ideal: kin.ideal_tip(&command),
+            real: kin.twin(&approach).real_tip(&command),
         });
         state.position = end;
+        state.approach = approach;
     }
     Ok(points)
 }
@@ -280,18 +210,34 @@ fn process_line(
         offset: *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]),
         kin: comp.kinematics(state.tool, line.number)?,
         tolerance: options.chord_tolerance_mm,
+        inch: state.inch,
+        options,
         largest_correction: Cell::new(0.0),
+        take_ups: Cell::new(0),
+        against: Cell::new(0),
     };
     if !*start_compensated {
         // The output starts where the compensated start of the program is.
-        state.written = block.compensate_point(&state.position)?;
+        state.written = block.compensate_point(&state.position, &state.approach)?;
         *start_compensated = true;
     }
     let (start, end, motion) = (state.position, end_position(line, state), state.motion);
     let mut pieces: Vec<[f64; 6]> = Vec::new();
     let mut keep_arc: Option<[f64; 2]> = None;
     if motion == Motion::Rapid {
-        pieces.push(block.compensate_point(&end)?);
+        let programmed = line_directions(&start, &end, &state.programmed);
+        let mut walk = Walk {
+            at: block.written_start(state.written, &start, &state.approach)?,
+            directions: state.approach,
+        };
+        let line = Toolpath::Line {
+            from: start,
+            to: end,
+        };
+        let piece = block.piece(&line, (0.0, 1.0), &programmed, &walk, false)?;
+        block.accept(&piece, &mut walk, &mut pieces);
+        state.approach = walk.directions;
+        state.programmed = programmed;
     } else {
         let intended = match motion {
             Motion::Clockwise | Motion::CounterClockwise => {
@@ -302,22 +248,20 @@ fn process_line(
                 to: end,
             },
         };
+        let segments = segments(&intended, &state.programmed, block.kin.reversing());
         report.largest_error_before_mm = report
             .largest_error_before_mm
-            .max(block.error_before(&intended));
-        let from = block.written_start(state.written, &start)?;
-        let to = block.compensate_point(&end)?;
-        keep_arc = block.arc_within_tolerance(&intended, from, to, motion, report);
-        match keep_arc {
-            Some(_) => pieces.push(to),
-            None => block
-                .split(&intended, (0.0, 1.0), (from, to), 0, &mut pieces, report)
-                .map_err(|e| match e {
-                    Split::Pieces(message) => NcError::line(path, line.number, message),
-                    Split::Point(e) => e,
-                })?,
-        }
+            .max(block.error_before(&intended, &segments));
+        let mut walk = Walk {
+            at: block.written_start(state.written, &start, &state.approach)?,
+            directions: state.approach,
+        };
+        keep_arc = block.feed_move(&intended, &segments, &mut walk, motion, &mut pieces, report)?;
+        state.approach = walk.directions;
+        state.programmed = segments.last().expect("a move has a segment").directions;
     }
+    report.take_ups += block.take_ups.get();
+    report.against_direction += block.against.get();
     report.points += pieces.len();
     report.largest_correction_mm = report
         .largest_correction_mm
@@ -332,32 +276,43 @@ fn samples(length: f64) -> usize {
 }
 
 /// One block being compensated: the line its errors name, the active work offset, the machine
-/// of the active tool, and the largest correction made so far.
-struct Block<'a> {
-    path: &'a str,
-    line: usize,
+/// of the active tool, how the output writes numbers, and the largest correction made so far.
+pub(super) struct Block<'a> {
+    pub(super) path: &'a str,
+    pub(super) line: usize,
     offset: [f64; 6],
-    kin: &'a Kinematics,
-    tolerance: f64,
+    pub(super) kin: &'a Kinematics,
+    pub(super) tolerance: f64,
+    inch: bool,
+    options: &'a Options,
     largest_correction: Cell<f64>,
+    /// Take-ups added at reversals, and pieces whose compensated motion runs against the
+    /// directions they were compensated for.
+    pub(super) take_ups: Cell<usize>,
+    pub(super) against: Cell<usize>,
 }
 
 /// Why a move could not be split: too many pieces, or a point that does not compensate.
-enum Split {
+pub(super) enum Split {
     Pieces(String),
     Point(NcError),
 }
 
 impl Block<'_> {
+    /// A point as the output writes it (rounded).
+    pub(super) fn written(&self, p: &[f64; 6]) -> [f64; 6] {
+        std::array::from_fn(|d| as_written(p[d], d, self.inch, self.options))
+    }
+
     /// The machine command of a point in program coordinates.
-    fn command(&self, p: &[f64; 6]) -> Command {
+    pub(super) fn command(&self, p: &[f64; 6]) -> Command {
         std::array::from_fn(|d| p[d] + self.offset[d])
     }
 
     /// Every axis of the command of `p` within its travel.
     fn check_travel(&self, p: &[f64; 6], what: &str) -> Result<(), NcError> {
         let q = self.command(p);
-        for axis in &self.kin.twin.real().axes {
+        for axis in &self.kin.machine().axes {
             let value = q[axis.letter.index()];
             let [lo, hi] = axis.range;
             if value < lo - 1e-6 || value > hi + 1e-6 {
@@ -374,16 +329,24 @@ impl Block<'_> {
         Ok(())
     }
 
-    /// The program point whose real tool tip lands on the ideal tool tip of `p`.
-    fn compensate_point(&self, p: &[f64; 6]) -> Result<[f64; 6], NcError> {
+    /// The program point whose real tool tip, approaching in `directions`, lands on the ideal
+    /// tool tip of `p`.
+    pub(super) fn compensate_point(
+        &self,
+        p: &[f64; 6],
+        directions: &Directions,
+    ) -> Result<[f64; 6], NcError> {
         self.check_travel(p, "the programmed point")?;
-        let c = self.kin.compensate(&self.command(p)).ok_or_else(|| {
-            NcError::line(
-                self.path,
-                self.line,
-                "the compensation does not converge at this point".into(),
-            )
-        })?;
+        let c = self
+            .kin
+            .compensate(&self.command(p), directions)
+            .ok_or_else(|| {
+                NcError::line(
+                    self.path,
+                    self.line,
+                    "the compensation does not converge at this point".into(),
+                )
+            })?;
         let mut compensated = *p;
         for d in 0..3 {
             compensated[d] = c[d] - self.offset[d];
@@ -399,23 +362,63 @@ impl Block<'_> {
     }
 
     /// The largest distance of the real tool tip from the intended path along the move, as the
-    /// program had it.
-    fn error_before(&self, intended: &Toolpath) -> f64 {
+    /// program had it (each point approached in the direction of its segment).
+    fn error_before(&self, intended: &Toolpath, segments: &[Segment]) -> f64 {
         let n = samples(intended.length());
         (0..=n)
             .map(|k| {
-                let q = self.command(&intended.at(k as f64 / n as f64));
-                self.kin.miss(&q, &q)
+                let t = k as f64 / n as f64;
+                let q = self.command(&intended.at(t));
+                self.kin.miss(&q, &q, &segment_at(segments, t).directions)
             })
             .fold(0.0, f64::max)
     }
 
+    /// The pieces of a feed move along `intended`, segment by segment, starting where `walk`
+    /// is (see [`super::walk`]). Returns the kept arc's centre, where the arc stays an arc: a
+    /// move of one segment that needs no take-up.
+    fn feed_move(
+        &self,
+        intended: &Toolpath,
+        segments: &[Segment],
+        walk: &mut Walk,
+        motion: Motion,
+        pieces: &mut Vec<[f64; 6]>,
+        report: &mut Report,
+    ) -> Result<Option<[f64; 2]>, NcError> {
+        if let [segment] = segments {
+            let piece = self.piece(intended, (0.0, 1.0), &segment.directions, walk, true)?;
+            if piece.take_up.is_none() && !piece.against {
+                let ends = (walk.at, piece.end);
+                if let Some(centre) =
+                    self.arc_within_tolerance(intended, ends, motion, &piece.directions, report)
+                {
+                    self.accept(&piece, walk, pieces);
+                    return Ok(Some(centre));
+                }
+            }
+        }
+        for segment in segments {
+            self.walk_segment(intended, segment, walk, pieces, report)
+                .map_err(|e| match e {
+                    Split::Pieces(message) => NcError::line(self.path, self.line, message),
+                    Split::Point(e) => e,
+                })?;
+        }
+        Ok(None)
+    }
+
     /// Where the output has the tool at the start of a move; an axis not written since its
     /// reference return is taken where the program has it.
-    fn written_start(&self, written: [f64; 6], start: &[f64; 6]) -> Result<[f64; 6], NcError> {
+    fn written_start(
+        &self,
+        written: [f64; 6],
+        start: &[f64; 6],
+        directions: &Directions,
+    ) -> Result<[f64; 6], NcError> {
         let mut from = written;
         if from.iter().any(|v| v.is_nan()) {
-            let start_compensated = self.compensate_point(start)?;
+            let start_compensated = self.compensate_point(start, directions)?;
             for d in 0..6 {
                 if from[d].is_nan() {
                     from[d] = start_compensated[d];
@@ -431,9 +434,9 @@ impl Block<'_> {
     fn arc_within_tolerance(
         &self,
         intended: &Toolpath,
-        from: [f64; 6],
-        to: [f64; 6],
+        (from, to): ([f64; 6], [f64; 6]),
         motion: Motion,
+        directions: &Directions,
         report: &mut Report,
     ) -> Option<[f64; 2]> {
         let Toolpath::Arc {
@@ -465,6 +468,7 @@ impl Block<'_> {
                 self.kin.miss(
                     &self.command(&commanded.at(t)),
                     &self.command(&intended.at(t)),
+                    directions,
                 )
             })
             .fold(0.0, f64::max);
@@ -472,48 +476,5 @@ impl Block<'_> {
             report.largest_error_after_mm = report.largest_error_after_mm.max(worst);
             moved
         })
-    }
-
-    /// Recursive bisection of the intended path on `[ta, tb]` with compensated ends `a`, `b`:
-    /// accepts the straight piece when the real tip along it stays within the tolerance of the
-    /// intended path at the same fraction.
-    fn split(
-        &self,
-        intended: &Toolpath,
-        (ta, tb): (f64, f64),
-        (a, b): ([f64; 6], [f64; 6]),
-        depth: usize,
-        pieces: &mut Vec<[f64; 6]>,
-        report: &mut Report,
-    ) -> Result<(), Split> {
-        let length = (0..3).map(|d| (b[d] - a[d]).powi(2)).sum::<f64>().sqrt();
-        let n = ((length / 0.5).ceil() as usize).clamp(8, 64);
-        let worst = (1..n)
-            .map(|k| {
-                let s = k as f64 / n as f64;
-                let commanded: [f64; 6] = std::array::from_fn(|d| lerp(a[d], b[d], s));
-                self.kin.miss(
-                    &self.command(&commanded),
-                    &self.command(&intended.at(lerp(ta, tb, s))),
-                )
-            })
-            .fold(0.0, f64::max);
-        if pieces.len() >= MAX_PIECES {
-            return Err(Split::Pieces(format!(
-                "a move needs more than {MAX_PIECES} pieces to stay within the chord tolerance of {} mm",
-                self.tolerance
-            )));
-        }
-        if worst <= self.tolerance || depth >= 24 {
-            report.largest_error_after_mm = report.largest_error_after_mm.max(worst);
-            pieces.push(b);
-            return Ok(());
-        }
-        let tm = 0.5 * (ta + tb);
-        let m = self
-            .compensate_point(&intended.at(tm))
-            .map_err(Split::Point)?;
-        self.split(intended, (ta, tm), (a, m), depth + 1, pieces, report)?;
-        self.split(intended, (tm, tb), (m, b), depth + 1, pieces, report)
     }
 }

@@ -18,18 +18,31 @@
 //! arc (with compensated ends and centre) when that already keeps it within the tolerance, and
 //! becomes compensated straight pieces otherwise. Rapid moves (G0) get compensated end points
 //! and are not split: the control does not hold their path.
+//!
+//! Evaluation inputs (MODEL.md): the machine is at the options' temperatures for the whole
+//! program; every point is compensated for the approach direction of each axis there, taken
+//! from the programmed path (`approach`): the direction the axis moves in on the move, or at
+//! that point of an arc, or of its last move where it does not move (the options' initial
+//! directions before its first). Where an axis with a reversal error reverses, at the start of
+//! a move or at an arc's turning point, a take-up piece moves the command from the point
+//! compensated for the old direction to the same point compensated for the new one.
 
+mod approach;
 mod compensate;
+mod kinematics;
 pub mod parse;
 mod program;
 mod toolpath;
+mod walk;
 mod write;
 
 pub use compensate::{compensate, compensate_with_progress, trace, Compensated, TracePoint};
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use crate::io::{read_text, FileError};
+use crate::model::inputs::Inputs;
+use crate::model::Machine;
 
 /// Which option of a compensation an error is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -145,6 +158,9 @@ pub struct Options {
     pub decimals: Option<usize>,
     /// Pass blocks volmap does not understand through unchanged instead of failing.
     pub pass_unknown: bool,
+    /// The temperatures of the machine's thermal inputs for the whole program, and the approach
+    /// direction of every axis at its start (before the axis first moves).
+    pub inputs: Inputs,
 }
 
 impl Default for Options {
@@ -155,6 +171,7 @@ impl Default for Options {
             chord_tolerance_mm: 0.001,
             decimals: None,
             pass_unknown: false,
+            inputs: Inputs::default(),
         }
     }
 }
@@ -226,4 +243,48 @@ pub struct Report {
     /// with the program as it was and as compensated, mm.
     pub largest_error_before_mm: f64,
     pub largest_error_after_mm: f64,
+    /// Take-up pieces added where an axis with a reversal error reverses (at the start of a
+    /// move or at an arc's turning point).
+    pub take_ups: usize,
+    /// Pieces whose compensated motion runs against the programmed direction of an axis with a
+    /// reversal error: the machine approaches them the other way than they were compensated for
+    /// (only where a reversal error makes a reversing move shorter than the programmed one).
+    pub against_direction: usize,
+    /// The evaluation inputs the program was compensated for.
+    pub inputs: ReportInputs,
+}
+
+/// The evaluation inputs of a compensation as a report records them.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct ReportInputs {
+    /// The direction of every axis of the chain before it first moves (`+` or `-`); after that
+    /// each axis approaches in the direction of its programmed motion.
+    pub approach_at_start: BTreeMap<char, char>,
+    /// The temperature of every declared thermal input for the whole program, °C.
+    pub temperatures_c: BTreeMap<String, f64>,
+    /// The machine's reference temperature, where it declares thermal inputs.
+    pub reference_c: Option<f64>,
+    /// The same in words.
+    pub description: String,
+}
+
+impl ReportInputs {
+    pub fn of(inputs: &Inputs, machine: &Machine) -> ReportInputs {
+        let thermal = machine.thermal.as_ref();
+        ReportInputs {
+            approach_at_start: machine
+                .chain
+                .axes()
+                .map(|l| (l.as_char(), inputs.approach[l.index()].sign()))
+                .collect(),
+            temperatures_c: thermal.map_or_else(BTreeMap::new, |t| {
+                t.inputs
+                    .iter()
+                    .map(|i| (i.clone(), inputs.temperature_c(i, t.reference_c)))
+                    .collect()
+            }),
+            reference_c: thermal.map(|t| t.reference_c),
+            description: inputs.describe(machine),
+        }
+    }
 }

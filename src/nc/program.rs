@@ -1,6 +1,7 @@
 //! Reading a program as the control does: modal state (motion, plane, distance, units, work
 //! offset, tool), which codes volmap follows, where each block ends.
 
+use super::approach::{line_directions, Directions};
 use super::parse::Line;
 use super::{NcError, Options};
 use crate::model::{AxisLetter, Machine};
@@ -79,6 +80,11 @@ pub(super) struct State {
     pub(super) written: [f64; 6],
     /// The motion mode the output program is in.
     pub(super) written_motion: Motion,
+    /// The direction each axis last moved in, in the output (the options' initial directions
+    /// before it moves).
+    pub(super) approach: Directions,
+    /// The same in the program as it was.
+    pub(super) programmed: Directions,
 }
 
 /// Where each axis is before the program moves it: the first absolute value the program gives
@@ -282,6 +288,8 @@ pub(super) fn take_line(
         }
         apply_modals(line, state, path)?;
         let end = end_position(line, state);
+        state.approach = line_directions(&state.position, &end, &state.approach);
+        state.programmed = line_directions(&state.position, &end, &state.programmed);
         state.position = end;
         state.written = end;
         return Ok(Step::Pass);

@@ -31,16 +31,31 @@ struct Style {
     absolute: bool,
 }
 
+/// A value of axis `d` (mm, degrees) as the output writes it, in inch where `inch`.
+pub(super) fn as_written(v: f64, d: usize, inch: bool, options: &Options) -> f64 {
+    Style::numbers(inch, options).rounded(v, d)
+}
+
 impl Style {
     fn of(line: &Line, state: &State, options: &Options) -> Style {
-        let decimals = options.decimals.unwrap_or(if state.inch { 5 } else { 4 });
         Style {
-            decimals,
-            rotary_decimals: decimals.max(4),
-            unit: if state.inch { MM_PER_INCH } else { 1.0 },
             lower: line.words.iter().any(|w| w.lower) && !line.words.iter().any(|w| !w.lower),
             separator: if line.spaced { " " } else { "" },
             absolute: state.absolute,
+            ..Style::numbers(state.inch, options)
+        }
+    }
+
+    /// How numbers are written, in inch where `inch`.
+    fn numbers(inch: bool, options: &Options) -> Style {
+        let decimals = options.decimals.unwrap_or(if inch { 5 } else { 4 });
+        Style {
+            decimals,
+            rotary_decimals: decimals.max(4),
+            unit: if inch { MM_PER_INCH } else { 1.0 },
+            lower: false,
+            separator: "",
+            absolute: true,
         }
     }
 

@@ -88,17 +88,21 @@ fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample,
 /// A field file opened for sampling: a single-pose field read whole, or a five-axis map (one
 /// part per pose) whose parts are read one by one as the points ask for them.
 pub enum SampledField {
-    One(LoadedField),
+    One(Box<LoadedField>),
     Parts(FieldFile),
 }
 
 impl SampledField {
     pub fn open(path: &Path) -> Result<SampledField, FieldError> {
-        let file = FieldFile::open(path)?;
+        SampledField::of(FieldFile::open(path)?)
+    }
+
+    /// A field file whose headers are read: a single-pose field is read whole now.
+    pub fn of(file: FieldFile) -> Result<SampledField, FieldError> {
         Ok(if file.is_multipart() {
             SampledField::Parts(file)
         } else {
-            SampledField::One(LoadedField::open_part(&file, 0)?)
+            SampledField::One(Box::new(LoadedField::open_part(&file, 0)?))
         })
     }
 }

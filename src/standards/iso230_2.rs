@@ -24,6 +24,7 @@ use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
 use super::{default_pose, figure, parameter, Setup, StandardsError, TestResult};
+use crate::model::inputs::Approach;
 use crate::model::AxisLetter;
 
 /// Deviations (mm) of a positioning test: `up[i][j]` at target `i`, run `j`, approached in the
@@ -315,22 +316,29 @@ pub(crate) fn positioning_with(
     if spec.runs == 0 {
         return Err(parameter("a positioning test needs at least one run"));
     }
-    let mut deviations = Vec::with_capacity(targets.len());
+    // The ↑ runs approach every target with the axis moving `+`, the ↓ runs with it moving `−`;
+    // the other axes stand still and approach as the inputs say.
+    let mut up_directions = [None; 6];
+    up_directions[letter.index()] = Some(Approach::Positive);
+    let mut down_directions = [None; 6];
+    down_directions[letter.index()] = Some(Approach::Negative);
+    let mut up = Vec::with_capacity(targets.len());
+    let mut down = Vec::with_capacity(targets.len());
     for &t in &targets {
         let mut p = at;
         p[d] = t;
         let command = setup.command(p);
         setup.check_travel(&command, &format!("positioning of {letter}, target {t}"))?;
-        deviations.push(setup.twin().deviation(&command).volumetric_mm[d]);
+        up.push(setup.deviation(&command, &up_directions).volumetric_mm[d]);
+        down.push(setup.deviation(&command, &down_directions).volumetric_mm[d]);
     }
-    // The laser is zeroed at the first target.
-    let zero = deviations[0];
-    let deviations: Vec<f64> = deviations.iter().map(|x| x - zero).collect();
-    let runs = |x: f64| vec![x; spec.runs];
+    // The laser is zeroed at the first target of the first (↑) run.
+    let zero = up[0];
+    let runs = |x: &f64| vec![x - zero; spec.runs];
     let predicted = PositioningData {
         targets_mm: targets.clone(),
-        up: deviations.iter().map(|&x| runs(x)).collect(),
-        down: deviations.iter().map(|&x| runs(x)).collect(),
+        up: up.iter().map(runs).collect(),
+        down: down.iter().map(runs).collect(),
     };
     let predicted_figures = predicted.figures();
     let measured_figures = measured.map(PositioningData::figures);
@@ -378,5 +386,7 @@ pub(crate) fn positioning_with(
         }),
         figures,
         polar: None,
+        inputs: setup.describe_inputs(&[letter], "from the run (+ for ↑, − for ↓)"),
+        moving_axes: vec![letter.as_char()],
     })
 }

@@ -1,4 +1,8 @@
 //! ISO 230-4 circular tests (ballbar) in the XY, YZ and ZX planes.
+//!
+//! Each of the plane's axes approaches every point in the direction it moves there along the
+//! circle ([`circle_directions`]), so a reversal error of an axis shows as a step where the axis
+//! turns (a ballbar's reversal spike).
 
 use std::path::PathBuf;
 
@@ -6,7 +10,11 @@ use nalgebra::{Matrix3, Vector3};
 use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
-use super::{default_pose, figure, parameter, range_of, Setup, StandardsError, TestResult};
+use super::{
+    default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError, TestResult,
+};
+use crate::model::inputs::Approach;
+use crate::model::AxisLetter;
 
 /// ISO 230-4 circular test (ballbar) in one plane.
 #[derive(Debug, Clone, Deserialize)]
@@ -98,6 +106,21 @@ fn sense_of(spec: &CircularSpec) -> Result<f64, StandardsError> {
     }
 }
 
+/// The directions of the plane's first and second axes at angle `t_deg` of a circle run in
+/// `sense` (+1 counter-clockwise): the signs of the velocity `sense·(−sin θ, cos θ)`; at a
+/// turning point (an axis at the end of its diameter, velocity zero) the axis keeps the
+/// direction it arrived in, towards that end: `+` at θ = 0° for the first axis and at 90° for
+/// the second, `−` at 180° and 270°, whichever the sense.
+pub fn circle_directions(t_deg: f64, sense: f64) -> (Approach, Approach) {
+    let (s, c) = t_deg.to_radians().sin_cos();
+    // sin and cos of a multiple of 90° in f64 leave a residue near 1e-16.
+    let zero = |x: f64| if x.abs() < 1e-12 { 0.0 } else { x };
+    (
+        direction_of(-sense * zero(s), c),
+        direction_of(sense * zero(c), s),
+    )
+}
+
 /// A circle's measured results, where the spec names a file: angles in the order of the run.
 pub(crate) fn read_circular(spec: &CircularSpec) -> Result<Option<Measured>, StandardsError> {
     let sense = sense_of(spec)?;
@@ -144,13 +167,18 @@ pub(crate) fn circular_with(
     let (mut e1, mut e2) = (Vector3::zeros(), Vector3::zeros());
     e1[u] = 1.0;
     e2[v] = 1.0;
+    let letters = [AxisLetter::X, AxisLetter::Y, AxisLetter::Z];
     let mut predicted = Vec::with_capacity(angles.len());
     for &t in &angles {
         let (s, c) = t.to_radians().sin_cos();
         let p = centre + radius * (c * e1 + s * e2);
         let command = setup.command(p);
         setup.check_travel(&command, &format!("circle in {plane} at {t}°"))?;
-        let ve = setup.twin().deviation(&command).volumetric_mm;
+        let (du, dv) = circle_directions(t, sense);
+        let mut directions = [None; 6];
+        directions[letters[u].index()] = Some(du);
+        directions[letters[v].index()] = Some(dv);
+        let ve = setup.deviation(&command, &directions).volumetric_mm;
         predicted.push((p + ve - centre).norm() - radius);
     }
     let figures_of = |radial: &[f64]| -> Result<[f64; 3], StandardsError> {
@@ -193,5 +221,7 @@ pub(crate) fn circular_with(
             ),
         ],
         polar: Some([['X', 'Y', 'Z'][u], ['X', 'Y', 'Z'][v]]),
+        inputs: setup.describe_inputs(&[letters[u], letters[v]], "from the path"),
+        moving_axes: vec![letters[u].as_char(), letters[v].as_char()],
     })
 }

@@ -1,4 +1,5 @@
-//! ISO 230-6 displacement along body and face diagonals.
+//! ISO 230-6 displacement along body and face diagonals. Every axis moves one way from the
+//! start to the end and approaches each point in that direction.
 
 use std::path::{Path, PathBuf};
 
@@ -6,7 +7,10 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
-use super::{default_pose, figure, parameter, range_of, Setup, StandardsError, TestResult};
+use super::{
+    default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError, TestResult,
+};
+use crate::model::AxisLetter;
 
 /// ISO 230-6 displacement along a body or face diagonal.
 #[derive(Debug, Clone, Deserialize)]
@@ -176,10 +180,20 @@ pub(crate) fn diagonal_with(
                 .collect()
         }
     };
+    // Each axis moves one way from the start to the end; one that does not move approaches as
+    // the inputs say.
+    let letters = [AxisLetter::X, AxisLetter::Y, AxisLetter::Z];
+    let mut directions = [None; 6];
+    let mut moving = Vec::new();
+    for (d, letter) in letters.into_iter().enumerate() {
+        if direction[d] != 0.0 {
+            directions[letter.index()] = Some(direction_of(direction[d], 0.0));
+            moving.push(letter);
+        }
+    }
     let along = |s: f64| {
         setup
-            .twin()
-            .deviation(&setup.command(from + s * direction))
+            .deviation(&setup.command(from + s * direction), &directions)
             .volumetric_mm
             .dot(&direction)
     };
@@ -213,5 +227,7 @@ pub(crate) fn diagonal_with(
         predicted: vec![predicted],
         measured: measured_values.map(|v| vec![v]),
         polar: None,
+        inputs: setup.describe_inputs(&moving, "from the path"),
+        moving_axes: moving.iter().map(|l| l.as_char()).collect(),
     })
 }

@@ -5,10 +5,10 @@
 //! Every test commands positions, asks the model for `VE` there (the f64 reference of MODEL.md,
 //! workpiece frame), and turns it into what the test's instrument reads:
 //!
-//! - positioning of axis `k` (laser along `k`, zeroed at the first target `t0`):
-//!   `x(t) = VE(t)·e_k − VE(t0)·e_k`, the deviation of the actual from the target position; the
-//!   model has no backlash or scatter, so every run and both approach directions give the same
-//!   deviation (`B = R = 0`, `A = E = M`);
+//! - positioning of axis `k` (laser along `k`, zeroed at the first target `t0` of the ↑ run):
+//!   `x↑(t) = VE↑(t)·e_k − VE↑(t0)·e_k` with `k` approaching `+`, `x↓(t) = VE↓(t)·e_k −
+//!   VE↑(t0)·e_k` with `k` approaching `−`; the model has no scatter, so the runs of one direction
+//!   repeat exactly, and a reversal (`reverse`) error gives `B`, `R` and the bidirectional figures;
 //! - diagonal from `p0` to `p1` (laser along the diagonal `d = (p1 − p0)/|p1 − p0|`, zeroed at
 //!   `p0`): the displacement error `VE(p0 + s·d)·d − VE(p0)·d` at distance `s` along it;
 //! - circular test about centre `c` with radius `r` in a plane (ballbar between a ball at `c` on
@@ -20,6 +20,11 @@
 //!   linear axes are where the ideal machine puts the tool tip at `s`, and the probes read the
 //!   sphere's displacement relative to the nest in the spindle frame, `−R_idealᵀ · VE`, zeroed
 //!   at the first angle.
+//!
+//! Every test evaluates the model at its evaluation inputs (MODEL.md, "Evaluation inputs"): the
+//! temperatures given apply to every point; each axis the test moves approaches in the direction
+//! the path moves it at that point ([`Directions`]), and the axes it does not move approach as the
+//! inputs say (default `+`).
 //!
 //! Measured curves are compared as they come: zero them where the prediction is zeroed.
 
@@ -34,14 +39,18 @@ pub use iso230_4::{circular, least_squares_circle, plane_axes, CircularSpec};
 pub use iso230_6::{diagonal, diagonal_ends, read_profile, DiagonalSpec};
 pub use rtest::{rtest, RTestSpec};
 
+use std::cell::OnceCell;
+
 use nalgebra::Vector3;
 
 use crate::error::input_errors;
 use crate::io::csv::CsvError;
 use crate::io::FileError;
 use crate::model::grid::{self, GridError};
+use crate::model::inputs::{Approach, Inputs};
+use crate::model::perturbation::ErrorTarget;
 use crate::model::{AxisLetter, Command, Machine};
-use crate::reference::Twin;
+use crate::reference::{Deviation, Twin};
 
 #[derive(Debug, thiserror::Error)]
 pub enum StandardsError {
@@ -69,29 +78,157 @@ fn parameter(message: impl Into<String>) -> StandardsError {
     StandardsError::Parameter(message.into())
 }
 
-/// The machine under test with its ideal twin, and the positions of the rotary axes not tested.
+/// The direction each axis moves in at a point of a test's path, indexed by
+/// [`AxisLetter::index`]; `None` for an axis the test does not move (it approaches as the
+/// evaluation inputs say).
+pub type Directions = [Option<Approach>; 6];
+
+/// The direction of an axis whose commanded position changes by `velocity` (any positive
+/// multiple of its rate); a zero velocity is a turning point, where the axis keeps the direction
+/// it arrived in, `arrived`.
+pub(crate) fn direction_of(velocity: f64, arrived: f64) -> Approach {
+    let sign = if velocity != 0.0 { velocity } else { arrived };
+    if sign < 0.0 {
+        Approach::Negative
+    } else {
+        Approach::Positive
+    }
+}
+
+/// The machine under test at its evaluation inputs, with its ideal twin, and the positions of
+/// the rotary axes not tested.
 pub struct Setup {
-    twin: Twin,
+    /// The machine as given, with its input-dependent error values.
+    machine: Machine,
+    /// The temperatures, and the approach of the axes a test does not move.
+    inputs: Inputs,
+    /// The axes with a `reverse` value: the only ones whose direction changes the machine.
+    reversing: Vec<AxisLetter>,
+    /// The machine at the inputs, one per combination of the reversing axes' directions (bit
+    /// `n` set: `reversing[n]` approaches `−`), made when first asked for.
+    twins: Vec<OnceCell<Twin>>,
     pub pose: Command,
 }
 
 impl Setup {
-    /// `pose`: positions of rotary axes, `B=30,C=60` (degrees; not named: 0).
+    /// `pose`: positions of rotary axes, `B=30,C=60` (degrees; not named: 0). The machine at the
+    /// default inputs (every axis `+`, every thermal input at `reference_C`).
     pub fn new(machine: &Machine, pose: &str) -> Result<Setup, StandardsError> {
+        Setup::with_inputs(machine, pose, &Inputs::default())
+    }
+
+    /// [`Setup::new`] at the evaluation inputs `inputs`: their temperatures hold for every
+    /// point, their approach directions for the axes a test does not move.
+    pub fn with_inputs(
+        machine: &Machine,
+        pose: &str,
+        inputs: &Inputs,
+    ) -> Result<Setup, StandardsError> {
+        let mut reversing: Vec<AxisLetter> = machine
+            .dependent
+            .iter()
+            .filter(|d| d.reverse.is_some())
+            .filter_map(|d| match d.target {
+                ErrorTarget::Component { axis, .. } => Some(axis),
+                _ => None,
+            })
+            .collect();
+        reversing.sort();
+        reversing.dedup();
         Ok(Setup {
             pose: grid::parse_pose(pose, machine)?,
-            twin: Twin::of(machine),
+            twins: (0..1usize << reversing.len())
+                .map(|_| OnceCell::new())
+                .collect(),
+            reversing,
+            machine: machine.clone(),
+            inputs: inputs.clone(),
         })
     }
 
-    /// The machine under test.
+    /// The machine under test, as given (its values at the default inputs).
     pub fn machine(&self) -> &Machine {
-        self.twin.real()
+        &self.machine
     }
 
-    /// The machine under test with its ideal twin.
+    /// The evaluation inputs: the temperatures, and the approach of axes a test does not move.
+    pub fn inputs(&self) -> &Inputs {
+        &self.inputs
+    }
+
+    /// The machine at the inputs, with its ideal twin, every axis approaching as the inputs say.
     pub fn twin(&self) -> &Twin {
-        &self.twin
+        self.twin_moving(&[None; 6])
+    }
+
+    /// The machine at the inputs with the axes the path moves approaching in `directions`.
+    pub fn twin_moving(&self, directions: &Directions) -> &Twin {
+        let approach =
+            |l: AxisLetter| directions[l.index()].unwrap_or(self.inputs.approach[l.index()]);
+        let index = self
+            .reversing
+            .iter()
+            .enumerate()
+            .filter(|&(_, &l)| approach(l) == Approach::Negative)
+            .fold(0, |i, (n, _)| i | 1 << n);
+        self.twins[index].get_or_init(|| {
+            let mut inputs = self.inputs.clone();
+            for l in AxisLetter::ALL {
+                inputs.approach[l.index()] = approach(l);
+            }
+            Twin::new(self.machine.at(&inputs))
+        })
+    }
+
+    /// VE and OE at a commanded position with the axes the path moves approaching in
+    /// `directions`.
+    pub fn deviation(&self, command: &Command, directions: &Directions) -> Deviation {
+        self.twin_moving(directions).deviation(command)
+    }
+
+    /// The inputs a test ran at, in words: `approach X Y from the path, Z+; temperatures
+    /// hall=26 °C (reference 20 °C)`. `moving`: the axes the test moves.
+    pub fn describe_inputs(&self, moving: &[AxisLetter], how: &str) -> String {
+        let mut path = Vec::new();
+        let mut fixed = Vec::new();
+        for l in AxisLetter::ALL
+            .into_iter()
+            .filter(|&l| self.machine.chain.contains(l))
+        {
+            if moving.contains(&l) {
+                path.push(l.to_string());
+            } else {
+                fixed.push(format!("{l}{}", self.inputs.approach[l.index()].sign()));
+            }
+        }
+        let mut text = "approach".to_string();
+        if !path.is_empty() {
+            text += &format!(" {} {how}", path.join(" "));
+            if !fixed.is_empty() {
+                text += ",";
+            }
+        }
+        if !fixed.is_empty() {
+            text += &format!(" {}", fixed.join(" "));
+        }
+        if let Some(thermal) = &self.machine.thermal {
+            let temperatures: Vec<String> = thermal
+                .inputs
+                .iter()
+                .map(|i| {
+                    format!(
+                        "{i}={} °C",
+                        self.inputs.temperature_c(i, thermal.reference_c)
+                    )
+                })
+                .collect();
+            text += &format!(
+                "; temperatures {} (reference {} °C)",
+                temperatures.join(", "),
+                thermal.reference_c
+            );
+        }
+        text
     }
 
     /// The commanded position with X Y Z at `xyz` and the rotary axes at the pose.
@@ -151,7 +288,7 @@ impl Setup {
         tip: Vector3<f64>,
         command: &Command,
     ) -> Result<Command, StandardsError> {
-        self.twin.ideal_command_for(tip, command).ok_or_else(|| {
+        self.twin().ideal_command_for(tip, command).ok_or_else(|| {
             parameter(
                 "the machine's linear axes do not span X, Y and Z: no position reaches the tip",
             )
@@ -185,6 +322,10 @@ pub struct TestResult {
     pub figures: Vec<Figure>,
     /// Circular tests are drawn as polar plots: the plane's first and second axes.
     pub polar: Option<[char; 2]>,
+    /// The evaluation inputs of the prediction, in words (see [`Setup::describe_inputs`]).
+    pub inputs: String,
+    /// The axes the test moves: their directions come from the path, not from the inputs.
+    pub moving_axes: Vec<char>,
 }
 
 fn figure(name: &str, meaning: &str, predicted: f64, measured: Option<f64>) -> Figure {

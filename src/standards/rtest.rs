@@ -1,4 +1,6 @@
-//! The R-test of a rotary axis (Hwang et al. 2014, Figs. 14–15).
+//! The R-test of a rotary axis (Hwang et al. 2014, Figs. 14–15). The rotary axis turns `+`
+//! (the angles rise); the linear axes following the sphere approach each point in the direction
+//! they move there.
 
 use std::path::PathBuf;
 
@@ -7,9 +9,14 @@ use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
 use super::{
-    default_pose, figure, parameter, range_of, read_profile, Setup, StandardsError, TestResult,
+    default_pose, direction_of, figure, parameter, range_of, read_profile, Setup, StandardsError,
+    TestResult,
 };
+use crate::model::inputs::Approach;
 use crate::model::AxisLetter;
+
+/// How far back along the sweep (degrees) a linear axis's direction is read.
+const LOOK_BACK_DEG: f64 = 0.01;
 
 /// The R-test of a rotary axis.
 #[derive(Debug, Clone, Deserialize)]
@@ -96,20 +103,41 @@ pub(crate) fn rtest_with(
         }
     };
     let mut curves: Vec<Vec<f64>> = vec![Vec::new(); 3];
-    for &angle in &angles {
+    let command_at = |angle: f64| {
         let mut command = setup.pose;
         command[letter.index()] = angle;
-        let command = setup.nominal_command_for_tip(sphere, &command)?;
+        setup.nominal_command_for_tip(sphere, &command)
+    };
+    let mut moving = vec![letter];
+    for &angle in &angles {
+        let command = command_at(angle)?;
         setup.check_travel(
             &command,
             &format!("R-test of {letter} at {letter}={angle}°"),
         )?;
-        let ve = setup.twin().deviation(&command).volumetric_mm;
+        // The rotary axis turns `+` (angles rising); each linear axis moves the way its command
+        // changed over the last LOOK_BACK_DEG of the sweep (at a turning point: the way it
+        // arrived); one whose command does not change approaches as the inputs say.
+        let before = command_at(angle - LOOK_BACK_DEG)?;
+        let mut directions = [None; 6];
+        directions[letter.index()] = Some(Approach::Positive);
+        for linear in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z] {
+            let i = linear.index();
+            let change = command[i] - before[i];
+            if change.abs() > 1e-12 * (1.0 + command[i].abs()) {
+                directions[i] = Some(direction_of(change, 0.0));
+                if !moving.contains(&linear) {
+                    moving.push(linear);
+                }
+            }
+        }
+        let ve = setup.deviation(&command, &directions).volumetric_mm;
         let reading = -(setup.twin().ideal_rotation(&command).transpose() * ve);
         for d in 0..3 {
             curves[d].push(reading[d]);
         }
     }
+    moving.sort();
     // The probes are zeroed at the first angle.
     for curve in &mut curves {
         let zero = curve[0];
@@ -143,5 +171,7 @@ pub(crate) fn rtest_with(
         measured: measured_curves,
         figures,
         polar: None,
+        inputs: setup.describe_inputs(&moving, "from the sweep"),
+        moving_axes: moving.iter().map(|l| l.as_char()).collect(),
     })
 }

@@ -334,3 +334,192 @@ fn build_rejects_bad_measurement_files() {
     let error = build::read_axis_csv(&missing, X).unwrap_err().to_string();
     assert!(error.contains("missing.csv"), "{error}");
 }
+
+const THERMAL_TOML: &str = r#"
+name = "three-axis, warm hall"
+chain = "FYXFZ"
+[thermal]
+reference_C = 20.0
+inputs = ["hall"]
+[axes.X]
+range = [-400.0, 400.0]
+[axes.Y]
+range = [-300.0, 300.0]
+[axes.Z]
+range = [-250.0, 250.0]
+"#;
+
+/// Measured circles of the thermal machine with EC0Y = s0 + k·(hall − 20) and EB0Z = b: XY
+/// circles at `xy_halls`, a ZX circle at 26 °C, each with its `temperatures`, written beside
+/// the fit file whose `estimate` line is `estimate`.
+fn thermal_measurements(
+    dir: &tempfile::TempDir,
+    truth: (f64, f64, f64),
+    xy_halls: &[f64],
+    estimate: &str,
+) -> std::path::PathBuf {
+    let (s0, k, b) = truth;
+    let given = Machine::from_toml(THERMAL_TOML, "thermal.toml", None).unwrap();
+    let text = THERMAL_TOML.replace(
+        "range = [-300.0, 300.0]",
+        &format!(
+            "range = [-300.0, 300.0]\nEC0Y = {{ value = {s0:e}, per_kelvin = {{ hall = {k:e} }} }}"
+        ),
+    ) + &format!("EB0Z = {b:e}\n");
+    let truth = Machine::from_toml(&text, "truth.toml", None).unwrap();
+    assert_eq!(truth.thermal, given.thermal);
+    let mut rng = super::common::Rng(11);
+    let mut fit_toml = format!("estimate = [{estimate}]\n");
+    let circles = xy_halls.iter().map(|&t| ("XY", t)).chain([("ZX", 26.0)]);
+    for (n, (plane, hall)) in circles.enumerate() {
+        let inputs =
+            volmap::model::inputs::Inputs::parse(&format!("hall={hall}"), "", &truth).unwrap();
+        let setup = Setup::with_inputs(&truth, "", &inputs).unwrap();
+        let spec = standards::CircularSpec {
+            points: 180,
+            ..circular_spec(plane, 250.0)
+        };
+        let result = standards::circular(&setup, &spec).unwrap();
+        let name = format!("c{n}.csv");
+        write_measured(
+            &dir.path().join(&name),
+            "angle_deg,deviation_um",
+            &result,
+            0.3e-3,
+            &mut rng,
+        );
+        fit_toml += &format!(
+            "[[circular]]\nplane = \"{plane}\"\nradius_mm = 250.0\npoints = 180\ncsv = \"{name}\"\ntemperatures = {{ hall = {hall:?} }}\n"
+        );
+    }
+    write(dir, "fit.toml", &fit_toml)
+}
+
+#[test]
+fn fit_recovers_a_squareness_and_its_thermal_coefficient_from_circles_at_three_temperatures() {
+    use volmap::calibrate::fit;
+    let dir = tempfile::tempdir().unwrap();
+    // The squareness of Y to X grows by 1.5 µrad per kelvin of the hall from 20 µrad at 20 °C.
+    let (s0, k, b) = (2.0e-5, 1.5e-6, -1.5e-5);
+    let path = thermal_measurements(
+        &dir,
+        (s0, k, b),
+        &[20.0, 26.0, 32.0],
+        "\"EC0Y\", \"EC0Y.per_kelvin.hall\", \"EB0Z\"",
+    );
+    let given = Machine::from_toml(THERMAL_TOML, "thermal.toml", None).unwrap();
+    let report = fit::fit(&given, &fit::FitFile::read(&path).unwrap()).unwrap();
+    let names: Vec<&str> = report.estimates.iter().map(|e| e.name.as_str()).collect();
+    assert_eq!(names, ["EC0Y", "EC0Y.per_kelvin.hall", "EB0Z"]);
+    assert_eq!(report.estimates[1].unit, "rad/K");
+    // 0.3 µm of noise on 180 points of a 250 mm circle: about 0.25 µrad per circle, and the
+    // coefficient from ±6 K about 0.03 µrad/K.
+    for (estimate, (value, bound)) in
+        report
+            .estimates
+            .iter()
+            .zip([(s0, 1e-6), (k, 1e-7), (b, 1e-6)])
+    {
+        assert_eq!(estimate.initial, 0.0);
+        assert!(
+            estimate.uncertainty > 0.0 && estimate.uncertainty < bound,
+            "{estimate:?}"
+        );
+        assert!(
+            (estimate.value - value).abs() < 4.0 * estimate.uncertainty,
+            "{estimate:?} against {value}"
+        );
+    }
+    assert!(report.rms_after_mm < 0.4e-3, "{}", report.rms_after_mm);
+    // The machine file with the estimates carries the coefficient in the general form; EB0Z
+    // stays a number.
+    let text = fit::fitted_machine_toml(&given, &report.estimates).unwrap();
+    assert!(text.contains("per_kelvin"), "{text}");
+    let fitted = Machine::from_toml(&text, "fitted.toml", None).unwrap();
+    let (s, c) = (report.estimates[0].value, report.estimates[1].value);
+    let at = |hall: f64| {
+        let inputs =
+            volmap::model::inputs::Inputs::parse(&format!("hall={hall}"), "", &fitted).unwrap();
+        fitted.at(&inputs).axis(Y).unwrap().location[5]
+    };
+    assert_eq!(at(20.0), s);
+    assert!((at(30.0) - (s + 10.0 * c)).abs() < 1e-18);
+    assert_eq!(
+        fitted.axis(Z).unwrap().location[4],
+        report.estimates[2].value
+    );
+    assert_eq!(fitted.dependent.len(), 1);
+}
+
+#[test]
+fn a_fit_file_naming_an_undeclared_input_names_the_file_and_the_key() {
+    use volmap::calibrate::fit;
+    let dir = tempfile::tempdir().unwrap();
+    let given = Machine::from_toml(THERMAL_TOML, "thermal.toml", None).unwrap();
+    let truth = (2.0e-5, 1.5e-6, 0.0);
+    // The tests' temperatures.
+    let path = thermal_measurements(&dir, truth, &[20.0, 30.0], "\"EC0Y\"");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let bad = write(
+        &dir,
+        "lobby.toml",
+        &text.replacen("hall = 30.0", "lobby = 30.0", 1),
+    );
+    let error = fit::fit(&given, &fit::FitFile::read(&bad).unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("lobby.toml")
+            && error.contains("[[circular]] number 2, temperatures.lobby")
+            && error.contains("it declares hall"),
+        "{error}"
+    );
+    let bad = write(
+        &dir,
+        "hot.toml",
+        &text.replacen("hall = 30.0", "hall = \"hot\"", 1),
+    );
+    let error = fit::FitFile::read(&bad).unwrap_err().to_string();
+    assert!(
+        error.contains("hot.toml") && error.contains("temperatures.hall"),
+        "{error}"
+    );
+    // The unknowns.
+    let unknown = write(
+        &dir,
+        "unknown.toml",
+        &text.replace(
+            "estimate = [\"EC0Y\"]",
+            "estimate = [\"EC0Y.per_kelvin.lobby\"]",
+        ),
+    );
+    let error = fit::fit(&given, &fit::FitFile::read(&unknown).unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("unknown.toml: estimate")
+            && error.contains("`lobby` is not a thermal input"),
+        "{error}"
+    );
+    let error = fit::fit(&three_axis(), &fit::FitFile::read(&unknown).unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("no [thermal] section"), "{error}");
+    // A coefficient the tests' temperatures cannot see, or cannot tell from the value.
+    let one = thermal_measurements(&dir, truth, &[20.0], "\"EC0Y.per_kelvin.hall\"");
+    let error = fit::fit(&given, &fit::FitFile::read(&one).unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("does not change") && error.contains("hall"),
+        "{error}"
+    );
+    let same = thermal_measurements(&dir, truth, &[26.0], "\"EC0Y\", \"EC0Y.per_kelvin.hall\"");
+    let error = fit::fit(&given, &fit::FitFile::read(&same).unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("cannot be told apart") && error.contains("two or more temperatures"),
+        "{error}"
+    );
+}

@@ -249,6 +249,30 @@ fn the_engines_evaluate_every_form_within_the_tolerances_of_the_reference() {
             );
         }
     }
+    // Where some axes do not vary along X, the GPU composes them once per run of points along
+    // a line (runs of 64: 70 points make a full run and a partial one): X alone, and X then Y
+    // (a table of X and Y) with Z after them.
+    let without = |keys: &[&str]| -> String {
+        EVERY_FORM
+            .lines()
+            .filter(|l| !keys.iter().any(|k| l.contains(k)))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    for errors in [without(&["EZY", "EXZ"]), without(&["EXZ"])] {
+        let m = gantry(&errors);
+        for engine in &engines {
+            let machine = m.at(&inputs(&m, "hall=24,spindle=30", "Y=-"));
+            assert!(machine.has_cross_axis_errors());
+            let grid = Grid::full_travel(&machine, [70, 5, 4], [0.0; 6]).unwrap();
+            let worst = worst_against_reference(engine, &machine, &grid);
+            assert!(
+                worst[0] < 1e-6 && worst[1] < 1e-9,
+                "{} on {errors}: {worst:?}",
+                engine.name()
+            );
+        }
+    }
     // Without the cross-axis forms the folded kernel maps the thermal and reversal terms.
     let plain = gantry(
         "X: EXX = { value = { table = [[0, 0.0], [1000, 0.006], [2000, 0.004]], interp = \"cubic\" }, reverse = { poly = [0.003, 2.0e-6] }, per_kelvin = { x_scale = { poly = [0.0, 11.5e-6] } } }\nY: EC0Y = { value = 1.0e-5, per_kelvin = { hall = 2.0e-6 } }\nS: EZS = { value = 0.001, per_kelvin = { spindle = -0.0015 } }",

@@ -80,6 +80,8 @@ pub(super) enum SampledKernel {
     Positions,
     /// The per-point map of a machine with errors of other axes' positions.
     GridPoints,
+    /// The same, runs of points along X sharing the axes that do not vary along X.
+    GridRuns,
     /// The reduce pass of a shape of machine and a tiling.
     Reduce(PointVariant),
 }

@@ -301,7 +301,7 @@ impl FunctionTables {
             pieces: [
                 self.pieces.len() as u32,
                 form.pieces.len() as u32,
-                form.periodic as u32 * FUNCTION_PERIODIC | argument << FUNCTION_ARG_SHIFT,
+                (form.periodic as u32 * FUNCTION_PERIODIC) | (argument << FUNCTION_ARG_SHIFT),
                 next,
             ],
             domain: [

@@ -8,10 +8,10 @@ use super::mapper::{GpuMapper, SampledKernel};
 use super::pack::pack;
 use super::{check_error_angles, BYTES_PER_POINT};
 use crate::gpu::device::{Pass, Readback};
-use crate::gpu::layout::WORKGROUP_SIZE;
+use crate::gpu::layout::{GRID_RUN, WORKGROUP_SIZE};
 use crate::gpu::GpuError;
 use crate::model::grid::Grid;
-use crate::model::Machine;
+use crate::model::{AxisLetter, Machine};
 
 impl GpuMapper {
     /// [`GpuMapper::run`] for a machine with errors of other axes' positions.
@@ -35,10 +35,20 @@ impl GpuMapper {
                 .into());
         }
         let chunks = grid.chunks((limit / nx).max(1) * nx);
+        let (first_x, last_x) = x_dependent_axes(machine);
+        // Sharing the axes outside [first_x, last_x] along a run pays only where there are some;
+        // where there are none, one point per invocation keeps more of the device busy.
+        let every_axis_varies = first_x == 0 && last_x as usize + 1 == machine.axes.len();
+        let (kernel, run) = if every_axis_varies {
+            (SampledKernel::GridPoints, 1)
+        } else {
+            (SampledKernel::GridRuns, GRID_RUN)
+        };
+        let runs_per_line = nx.div_ceil(u64::from(run));
         let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
         let gpu = &self.gpu;
-        let kernel = self.sampled_kernel(SampledKernel::GridPoints)?;
+        let kernel = self.sampled_kernel(kernel)?;
         let params = gpu.uniform("per-point params", bytemuck::bytes_of(&packed.params));
         let axes = gpu.storage("axes", &packed.axes);
         let functions = gpu.storage("functions", &packed.functions);
@@ -61,16 +71,17 @@ impl GpuMapper {
         );
         let max_groups = gpu.max_workgroups_per_dimension() as u64;
         for (first_line, lines) in chunks {
-            let groups = (lines * nx).div_ceil(WORKGROUP_SIZE as u64);
+            let groups = (lines * runs_per_line).div_ceil(WORKGROUP_SIZE as u64);
             let rows = groups.div_ceil(max_groups);
             let row_groups = groups.div_ceil(rows);
-            // chunk.z: the invocations in one row of workgroups.
+            // chunk.z: the invocations in one row of workgroups; chunk.w: the axes composed at
+            // every point.
             let mut chunk_params = packed.params;
             chunk_params.chunk = [
                 first_line as u32,
                 lines as u32,
                 (row_groups * WORKGROUP_SIZE as u64) as u32,
-                0,
+                first_x | last_x << 8,
             ];
             gpu.write(&params, bytemuck::bytes_of(&chunk_params));
             let bytes = lines * nx * BYTES_PER_POINT;
@@ -91,5 +102,25 @@ impl GpuMapper {
             })??;
         }
         Ok(())
+    }
+}
+
+/// The first and last axis, in product order, whose transform varies along a grid line: X, and
+/// any axis with an error of X's position. `(n, 0)` where there is none (every axis per line).
+fn x_dependent_axes(machine: &Machine) -> (u32, u32) {
+    let depends = |axis: &crate::model::Axis| {
+        axis.letter == AxisLetter::X
+            || axis
+                .components
+                .iter()
+                .flatten()
+                .any(|f| f.other_axes().contains(&AxisLetter::X))
+    };
+    let order = machine.axes_in_product_order();
+    let first = order.iter().position(|a| depends(a));
+    let last = order.iter().rposition(|a| depends(a));
+    match (first, last) {
+        (Some(f), Some(l)) => (f as u32, l as u32),
+        _ => (order.len() as u32, 0),
     }
 }

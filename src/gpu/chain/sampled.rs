@@ -132,6 +132,7 @@ impl GpuMapper {
             SampledKernel::Groups => ("groups_sampled_main", Vec::new()),
             SampledKernel::Positions => ("positions_main", Vec::new()),
             SampledKernel::GridPoints => ("grid_points_main", Vec::new()),
+            SampledKernel::GridRuns => ("grid_runs_main", Vec::new()),
             SampledKernel::Reduce(variant) => ("points_reduce_main", variant.constants().to_vec()),
         };
         self.pipeline(&self.sampled, kernel, entry, &constants)

@@ -5,6 +5,7 @@
 use std::fs::File;
 use std::io::{BufReader, Read};
 
+use super::inputs::{self, RawInputs};
 use super::{FieldError, FieldInfo, PIXEL_FLOAT};
 use crate::model::channels::CHANNELS;
 
@@ -71,11 +72,16 @@ impl Cursor<'_> {
     pub fn header(&mut self) -> Result<Option<(FieldInfo, ImageAttributes)>, FieldError> {
         let mut info = FieldInfo::default();
         let mut image = ImageAttributes::default();
+        let mut raw = RawInputs::default();
         let mut empty = true;
         loop {
             let name = self.text()?;
             if name.is_empty() {
-                return Ok((!empty).then_some((info, image)));
+                if empty {
+                    return Ok(None);
+                }
+                info.inputs = raw.record(&info, self.path)?;
+                return Ok(Some((info, image)));
             }
             empty = false;
             let kind = self.text()?;
@@ -84,7 +90,7 @@ impl Cursor<'_> {
                 return Err(self.format(format!("attribute {name} claims {size} bytes")));
             }
             let value = self.bytes(size)?;
-            self.attribute(&name, &kind, &value, &mut info, &mut image)?;
+            self.attribute(&name, &kind, &value, &mut info, &mut image, &mut raw)?;
         }
     }
 
@@ -96,6 +102,7 @@ impl Cursor<'_> {
         value: &[u8],
         info: &mut FieldInfo,
         image: &mut ImageAttributes,
+        raw: &mut RawInputs,
     ) -> Result<(), FieldError> {
         let string = || String::from_utf8_lossy(value).into_owned();
         let need = |n: usize| {
@@ -157,6 +164,12 @@ impl Cursor<'_> {
             ("volmap.chain", _) => info.chain = string(),
             ("volmap.machineToml", _) => info.machine_toml = string(),
             ("volmap.device", _) => info.device = string(),
+            (inputs::APPROACH, _) => raw.approach = Some(string()),
+            (inputs::TEMPERATURES, _) => raw.temperatures = Some(string()),
+            (inputs::REFERENCE, "double") => {
+                need(8)?;
+                raw.reference_c = Some(f64s::<1>(value)[0]);
+            }
             (n, _) if n.starts_with("volmap.csv.") => info
                 .csv_files
                 .push((n["volmap.csv.".len()..].to_string(), string())),

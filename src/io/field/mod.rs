@@ -10,6 +10,7 @@
 //! only when every line is written, so an interrupted run never leaves a truncated field.
 
 mod header;
+mod inputs;
 mod loaded;
 mod read;
 mod write;
@@ -21,6 +22,7 @@ pub use write::{FieldWriter, PartsWriter};
 use super::FileError;
 use crate::error::{Classify, ErrorKind};
 use crate::model::grid::Grid;
+use crate::model::inputs::InputsRecord;
 use crate::model::{poses, AxisLetter};
 
 #[derive(Debug, thiserror::Error)]
@@ -59,6 +61,12 @@ pub enum FieldError {
         pose: String,
         poses: String,
     },
+    #[error("{path} holds the field computed at {held}, not at the inputs asked ({asked})")]
+    Inputs {
+        path: String,
+        held: String,
+        asked: String,
+    },
 }
 
 impl Classify for FieldError {
@@ -67,9 +75,10 @@ impl Classify for FieldError {
     fn kind(&self) -> ErrorKind {
         match self {
             FieldError::File(e) => e.kind(),
-            FieldError::Format { .. } | FieldError::Poses { .. } | FieldError::NoPose { .. } => {
-                ErrorKind::Input
-            }
+            FieldError::Format { .. }
+            | FieldError::Poses { .. }
+            | FieldError::NoPose { .. }
+            | FieldError::Inputs { .. } => ErrorKind::Input,
             FieldError::OutOfOrder { .. }
             | FieldError::Incomplete { .. }
             | FieldError::PartOutOfOrder { .. } => ErrorKind::Work,
@@ -100,6 +109,11 @@ pub struct FieldInfo {
     pub csv_files: Vec<(String, String)>,
     /// The device that computed the field (`volmap.device`).
     pub device: String,
+    /// The evaluation inputs the field was computed for: every axis's approach direction and
+    /// every declared input's temperature (`volmap.approach`, `volmap.temperatures`,
+    /// `volmap.referenceTemperature`); the default inputs in a field written before fields
+    /// recorded them.
+    pub inputs: InputsRecord,
 }
 
 impl FieldInfo {

@@ -13,6 +13,7 @@ use super::{
 };
 use crate::io::FileError;
 use crate::model::channels::CHANNELS;
+use crate::model::inputs::InputsRecord;
 
 /// One part of a field file: its name (empty in a single-part file), its header and where its
 /// offset table starts.
@@ -137,6 +138,11 @@ impl FieldFile {
             info.csv_files = self.parts[0].info.csv_files.clone();
         }
         info
+    }
+
+    /// The evaluation inputs part `part` was computed for.
+    pub fn inputs(&self, part: usize) -> &InputsRecord {
+        &self.parts[part].info.inputs
     }
 
     /// The pose of part `part`, degrees of A, B, C.

@@ -5,6 +5,7 @@
 use std::io::Write;
 use std::path::Path;
 
+use super::inputs;
 use super::{
     grid_text, FieldError, FieldInfo, FLAG_LONG_NAMES, FLAG_MULTIPART, MAGIC, PIXEL_FLOAT, UNITS,
     VERSION,
@@ -100,6 +101,12 @@ fn header_attributes(info: &FieldInfo, part: Option<PartAttributes>) -> HeaderBu
     for (path, text) in &info.csv_files {
         h.string(&format!("volmap.csv.{path}"), text);
     }
+    h.string(inputs::APPROACH, &info.inputs.approach_text());
+    h.string(inputs::TEMPERATURES, &info.inputs.temperatures_text());
+    if let Some(reference) = info.inputs.reference_c {
+        h.attribute(inputs::REFERENCE, "double", &reference.to_le_bytes());
+    }
+    h.string(inputs::WORDS, &info.inputs.describe());
     h.string("volmap.device", &info.device);
     h.string("volmap.version", env!("CARGO_PKG_VERSION"));
     h.bytes.push(0);

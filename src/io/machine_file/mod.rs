@@ -15,7 +15,7 @@ use crate::error::input_errors;
 
 use crate::model::chain::{AxisLetter, Chain, ChainError};
 use crate::model::errorfn::TableError;
-use crate::model::inputs::{Dependent, Thermal};
+use crate::model::inputs::{Dependent, Inputs, Thermal};
 use crate::model::perturbation::{ErrorTarget, SPINDLE_NAMES};
 use crate::model::{Axis, Machine, MachineSource, COMPONENT_NAMES};
 
@@ -213,6 +213,7 @@ impl Machine {
             spindle,
             thermal,
             dependent: reader.dependent,
+            inputs: Inputs::default(),
             source: MachineSource {
                 toml: text.to_string(),
                 csv_files: reader.csv_files,

@@ -78,3 +78,78 @@ fn compensate_writes_a_new_program_and_never_the_input() {
         "no temporary files left"
     );
 }
+
+/// A gantry whose X scale grows 11.5 µm/m per kelvin and whose X has a 10 µm backlash.
+const THERMAL_GANTRY: &str = r#"
+name = "gantry"
+chain = "FFXYZ"
+[thermal]
+reference_C = 20.0
+inputs = ["x_scale"]
+[axes.X]
+range = [0.0, 2000.0]
+EXX = { value = 0.0, reverse = 0.010, per_kelvin = { x_scale = { poly = [0.0, 11.5e-6] } } }
+[axes.Y]
+range = [0.0, 1500.0]
+[axes.Z]
+range = [0.0, 800.0]
+"#;
+
+#[test]
+fn compensate_takes_the_temperatures_and_the_starting_directions() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = dir.path().join("gantry.toml");
+    std::fs::write(&machine, THERMAL_GANTRY).unwrap();
+    let program = dir.path().join("p.nc");
+    std::fs::write(&program, "G90 G0 X100. Y10. Z10.\nG1 Y20. F500\nX500.\n").unwrap();
+    let (out, json) = (dir.path().join("out.nc"), dir.path().join("r.json"));
+    let run = |extra: &[&str]| {
+        let mut command = volmap();
+        command
+            .args(["compensate", "--machine"])
+            .arg(&machine)
+            .arg("--program")
+            .arg(&program)
+            .arg("--out")
+            .arg(&out)
+            .arg("--json")
+            .arg(&json)
+            .args(extra);
+        command.assert()
+    };
+    run(&["--temperatures", "x_scale=30", "--approach", "X=-"])
+        .success()
+        .stdout(
+            predicate::str::contains("approach X- Y+ Z+; temperatures x_scale=30 °C")
+                .and(predicate::str::contains("take-ups at reversals       1")),
+        );
+    // Hand-derived: at 30 °C the tip lies at q·(1 + 11.5e-6·10); X starts approaching `−`
+    // (tip W = 0.010 further), so X100 is commanded at (100 − 0.010)/1.000115 = 99.9785;
+    // X500 approached `+`: 500/1.000115 = 499.9425 (the expansion α·x·ΔT = 0.0575 removed).
+    let text = std::fs::read_to_string(&out).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "G90 G0 X99.9785 Y10.0 Z10.0", "{text}");
+    assert_eq!(lines[1], "G1 Y20.0 F500", "{text}");
+    assert_eq!(lines.last().unwrap(), &"X499.9425", "{text}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let inputs = &report["inputs"];
+    assert_eq!(inputs["temperatures_c"]["x_scale"], 30.0);
+    assert_eq!(inputs["approach_at_start"]["X"], "-");
+    assert_eq!(inputs["reference_c"], 20.0);
+    assert_eq!(report["take_ups"], 1);
+    // Bad values: exit 2, the flag named, nothing written.
+    std::fs::remove_file(&out).unwrap();
+    for (flag, value, message) in [
+        ("--temperatures", "spindle=30", "not a thermal input"),
+        ("--temperatures", "x_scale=warm", "not a finite number"),
+        ("--temperatures", "x_scale", "NAME=VALUE"),
+        ("--approach", "X=up", "the approach direction is + or -"),
+        ("--approach", "B=-", "not an axis of this machine"),
+    ] {
+        run(&[flag, value]).code(2).stderr(
+            predicate::str::contains(format!("{flag}: ")).and(predicate::str::contains(message)),
+        );
+        assert!(!out.exists());
+    }
+}

@@ -2,6 +2,8 @@
 
 mod compensate;
 mod design;
+mod inputs;
+mod machines;
 mod map;
 mod plot;
 mod query;

@@ -169,3 +169,190 @@ fn build_and_fit_write_machine_files_that_map() {
         .stderr(predicate::str::contains("AXIS=FILE.csv"));
     assert!(!dir.path().join("never.toml").exists());
 }
+
+/// A three-axis machine with a backlash of 4 µm on X and a thermal X scale.
+const BACKLASH_TOML: &str = r#"
+name = "backlash"
+chain = "FYXFZ"
+[thermal]
+reference_C = 20.0
+inputs = ["x_scale", "hall"]
+[axes.X]
+range = [-400.0, 400.0]
+EXX = { value = 0.0, reverse = 0.004, per_kelvin = { x_scale = { poly = [0.0, 1.0e-5] } } }
+[axes.Y]
+range = [-300.0, 300.0]
+[axes.Z]
+range = [-250.0, 250.0]
+"#;
+
+fn figure(json: &std::path::Path, name: &str) -> f64 {
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    report["figures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["name"] == name)
+        .unwrap()["predicted_mm"]
+        .as_f64()
+        .unwrap()
+}
+
+#[test]
+fn test_takes_temperatures_and_the_approach_of_axes_it_does_not_move() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = dir.path().join("backlash.toml");
+    std::fs::write(&machine, BACKLASH_TOML).unwrap();
+    let json = dir.path().join("x.json");
+    // B is the backlash; at x_scale = 30 °C the scale adds 1e-5·10 per mm over 800 mm to E.
+    volmap()
+        .args(["test", "positioning", "--axis", "X", "--machine"])
+        .arg(&machine)
+        .args(["--temperatures", "x_scale=30", "--approach", "Z=-", "--json"])
+        .arg(&json)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "inputs: approach X from the run (+ for ↑, − for ↓), Y+ Z-; temperatures x_scale=30 °C, hall=20 °C (reference 20 °C)",
+        ));
+    assert!((figure(&json, "B") - 0.004).abs() < 1e-12);
+    assert!((figure(&json, "E") - (0.004 + 1e-4 * 800.0)).abs() < 1e-12);
+    // The path decides the direction of the axes the test moves.
+    volmap()
+        .args([
+            "test",
+            "positioning",
+            "--axis",
+            "X",
+            "--approach",
+            "X=-",
+            "--machine",
+        ])
+        .arg(&machine)
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("--approach X: the test moves X"));
+    // Bad inputs: exit code 2 naming the flag.
+    volmap()
+        .args([
+            "test",
+            "circular",
+            "--plane",
+            "XY",
+            "--temperatures",
+            "lobby=22",
+            "--machine",
+        ])
+        .arg(&machine)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--temperatures").and(predicate::str::contains("lobby")));
+    volmap()
+        .args([
+            "test",
+            "diagonal",
+            "--diagonal",
+            "PPP",
+            "--approach",
+            "C=-",
+            "--machine",
+        ])
+        .arg(&machine)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--approach").and(predicate::str::contains("`C`")));
+}
+
+#[test]
+fn fit_estimates_a_thermal_coefficient_and_writes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let given = dir.path().join("given.toml");
+    std::fs::write(&given, BACKLASH_TOML).unwrap();
+    // The truth: EC0Y = 10 µrad + 2 µrad/K·(hall − 20).
+    let truth = dir.path().join("truth.toml");
+    std::fs::write(
+        &truth,
+        BACKLASH_TOML.replace(
+            "range = [-300.0, 300.0]",
+            "range = [-300.0, 300.0]\nEC0Y = { value = 1.0e-5, per_kelvin = { hall = 2.0e-6 } }",
+        ),
+    )
+    .unwrap();
+    let mut fit = String::from("estimate = [\"EC0Y\", \"EC0Y.per_kelvin.hall\"]\n");
+    for hall in [18, 24] {
+        let json = dir.path().join(format!("xy{hall}.json"));
+        volmap()
+            .args([
+                "test",
+                "circular",
+                "--plane",
+                "XY",
+                "--points",
+                "36",
+                "--machine",
+            ])
+            .arg(&truth)
+            .arg("--temperatures")
+            .arg(format!("hall={hall}"))
+            .arg("--json")
+            .arg(&json)
+            .assert()
+            .success();
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let mut text = String::from("angle_deg,deviation_mm\n");
+        for (a, r) in report["positions"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(report["predicted"][0].as_array().unwrap())
+        {
+            text += &format!("{a},{r}\n");
+        }
+        std::fs::write(dir.path().join(format!("xy{hall}.csv")), text).unwrap();
+        fit += &format!(
+            "[[circular]]\nplane = \"XY\"\npoints = 36\ncsv = \"xy{hall}.csv\"\ntemperatures = {{ hall = {hall} }}\n"
+        );
+    }
+    let measurements = dir.path().join("fit.toml");
+    std::fs::write(&measurements, &fit).unwrap();
+    let fitted = dir.path().join("fitted.toml");
+    volmap()
+        .args(["fit", "--measurements"])
+        .arg(&measurements)
+        .arg("--machine")
+        .arg(&given)
+        .arg("--out")
+        .arg(&fitted)
+        .assert()
+        .success()
+        .stdout(
+            predicate::str::contains("EC0Y.per_kelvin.hall").and(predicate::str::contains("rad/K")),
+        );
+    let machine = volmap::model::Machine::from_path(&fitted).unwrap();
+    let inputs = volmap::model::inputs::Inputs::parse("hall=30", "", &machine).unwrap();
+    // Exact measurements: the fit lands on the truth, 10 + 2·10 µrad at 30 °C.
+    let ec0y = machine
+        .at(&inputs)
+        .axis(volmap::model::AxisLetter::Y)
+        .unwrap()
+        .location[5];
+    assert!((ec0y - 3.0e-5).abs() < 1e-9, "{ec0y}");
+    // The reversal and thermal terms of X are kept.
+    assert_eq!(machine.dependent.len(), 2);
+    // A test measured at an input the machine does not declare.
+    std::fs::write(&measurements, fit.replace("hall = 24", "lobby = 24")).unwrap();
+    volmap()
+        .args(["fit", "--measurements"])
+        .arg(&measurements)
+        .arg("--machine")
+        .arg(&given)
+        .assert()
+        .code(2)
+        .stderr(
+            predicate::str::contains("fit.toml").and(predicate::str::contains(
+                "[[circular]] number 2, temperatures.lobby",
+            )),
+        );
+}
