@@ -58,7 +58,7 @@ struct AxisData {
     info: vec4<u32>,            // kind (0 linear, 1 rotary), source (0..2 grid dim, 3 fixed), rotation axis, first axis-value entry
     fixed_q: vec4<f32>,         // x: position when the source is fixed
     functions_a: vec4<u32>,     // EXk EYk EZk EAk (NO_FUNCTION: zero)
-    functions_b: vec4<u32>,     // EBk ECk, -, -
+    functions_b: vec4<u32>,     // EBk ECk, the axis's letter index (X Y Z A B C: 0..5), -
 }
 
 // One term of an error value: polynomial pieces in its argument, or a two-axis table.
@@ -292,14 +292,43 @@ fn command_q(c: Command, index: u32) -> f32 {
     return c.rotary[min(index, 5u) - 3u];
 }
 
+// Which terms of an error value to evaluate: all of them, those that vary along a grid line in
+// X, or those constant along it.
+const TERMS_ALL: u32 = 0u;
+const TERMS_ALONG_X: u32 = 1u;
+const TERMS_ACROSS_X: u32 = 2u;
+
 // Error function `index` at own position q with every axis at `c`: each term of a sum reads its
 // own argument.
 fn eval_function_at(index: u32, q: f32, c: Command) -> f32 {
+    return eval_terms_at(index, q, c, 0u, TERMS_ALL);
+}
+
+// Whether term `f` of an error of the axis with letter index `own` varies along X: it reads X's
+// commanded position, as its (first) argument, or as a two-axis table's second.
+fn term_varies_along_x(f: Function, own: u32) -> bool {
+    let arg = (f.pieces.z >> FUNCTION_ARG_SHIFT) & 15u;
+    var first = own;
+    if arg != 0u {
+        first = arg - 1u;
+    }
+    if (f.pieces.z & FUNCTION_TABLE2D) != 0u {
+        let arg2 = (f.pieces.z >> FUNCTION_ARG2_SHIFT) & 15u;
+        return first == 0u || max(arg2, 1u) - 1u == 0u;
+    }
+    return first == 0u;
+}
+
+// eval_function_at over the terms `which` selects (TERMS_*), of an error of axis `own`.
+fn eval_terms_at(index: u32, q: f32, c: Command, own: u32, which: u32) -> f32 {
     var total = 0.0;
     var next = index;
     while next != NO_FUNCTION {
         let f = functions[next];
         next = f.pieces.w;
+        if which != TERMS_ALL && term_varies_along_x(f, own) != (which == TERMS_ALONG_X) {
+            continue;
+        }
         let arg = (f.pieces.z >> FUNCTION_ARG_SHIFT) & 15u;
         var x = q;
         if arg != 0u {
@@ -326,6 +355,21 @@ fn component_errors(a: AxisData, q: f32) -> array<vec3<f32>, 2> {
             eval_function(a.functions_a.w, q),
             eval_function(a.functions_b.x, q),
             eval_function(a.functions_b.y, q)));
+}
+
+// The six component errors of axis `a` at q with every axis at `command`, over the terms
+// `which` selects (TERMS_*).
+fn component_terms_at(a: AxisData, q: f32, command: Command, which: u32) -> array<vec3<f32>, 2> {
+    let own = a.functions_b.z;
+    return array<vec3<f32>, 2>(
+        vec3<f32>(
+            eval_terms_at(a.functions_a.x, q, command, own, which),
+            eval_terms_at(a.functions_a.y, q, command, own, which),
+            eval_terms_at(a.functions_a.z, q, command, own, which)),
+        vec3<f32>(
+            eval_terms_at(a.functions_a.w, q, command, own, which),
+            eval_terms_at(a.functions_b.x, q, command, own, which),
+            eval_terms_at(a.functions_b.y, q, command, own, which)));
 }
 
 // An axis's six component errors at q with every axis at `command`.

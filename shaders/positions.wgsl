@@ -90,11 +90,13 @@ fn grid_points_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     store((local / nx) * 6u * nx + ijk.x, nx, oe, t.d);
 }
 
-// `grid_points_main` for a machine with axes that do not vary along X: each invocation takes a
-// run of up to GRID_RUN points along one line. The axes before the first and after the last axis
-// that depends on X (X itself, or an axis with an error of X's position; chunk.w holds the range
-// as first | last << 8) are composed once for the run with their errors at the line's commanded
-// positions; the axes of that range at every point. Invocation (x, y) is run x + y · chunk.z.
+// `grid_points_main` for a machine with axes or error terms that do not vary along X: each
+// invocation takes a run of up to GRID_RUN points along one line. The axes before the first and
+// after the last axis that depends on X (X itself, or an axis with an error of X's position;
+// chunk.w holds the range as first | last << 8) are composed once for the run with their errors
+// at the line's commanded positions; the axes of that range at every point, with the terms of
+// their errors that do not read X (an error of Z on the X axis) evaluated once for the run.
+// Invocation (x, y) is run x + y · chunk.z.
 const GRID_RUN: u32 = 64u;
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -108,7 +110,7 @@ fn grid_runs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let line = params.chunk.x + local / runs;
     let first_i = (local % runs) * GRID_RUN;
     let first_x = params.chunk.w & 255u;
-    let last_x = params.chunk.w >> 8u;
+    let last_x = min(params.chunk.w >> 8u, first_x + 5u);
     var ijk = vec3<u32>(first_i, line % params.grid.y, line / params.grid.y);
     var command = Command(
         params.origin.xyz + vec3<f32>(ijk) * params.spacing.xyz,
@@ -116,11 +118,16 @@ fn grid_runs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
     );
     var pre = Dev(IDENTITY3, vec3<f32>(0.0), ZERO3, vec3<f32>(0.0));
     var post = pre;
+    // The terms constant along the line of the axes composed at every point.
+    var across: array<array<vec3<f32>, 2>, 6>;
     for (var n = 0u; n < params.grid.w; n = n + 1u) {
+        let a = axes[n];
         if n < first_x {
-            pre = compose(pre, grid_axis_transform(axes[n], ijk, command));
+            pre = compose(pre, grid_axis_transform(a, ijk, command));
         } else if n > last_x {
-            post = compose(post, grid_axis_transform(axes[n], ijk, command));
+            post = compose(post, grid_axis_transform(a, ijk, command));
+        } else {
+            across[n - first_x] = component_terms_at(a, grid_q(a, ijk), command, TERMS_ACROSS_X);
         }
     }
     post = compose(post, dev_of(constants[CONSTANT_TAIL]));
@@ -130,7 +137,13 @@ fn grid_runs_main(@builtin(global_invocation_id) gid: vec3<u32>) {
         command.linear.x = params.origin.x + f32(i) * params.spacing.x;
         var t = pre;
         for (var n = first_x; n <= last_x && n < params.grid.w; n = n + 1u) {
-            t = compose(t, grid_axis_transform(axes[n], ijk, command));
+            let a = axes[n];
+            let q = grid_q(a, ijk);
+            let along = component_terms_at(a, q, command, TERMS_ALONG_X);
+            let line_terms = across[n - first_x];
+            let errors = array<vec3<f32>, 2>(line_terms[0] + along[0], line_terms[1] + along[1]);
+            let location = Location(a.location_delta, a.location_m);
+            t = compose(t, axis_transform_with(a, location, errors, q));
         }
         t = compose(t, post);
         let oe = rotation_vector_of_half_skew(0.5 * skew(t.m));

@@ -403,3 +403,40 @@ tolerance_mm = 0.005
         assert_eq!(strict[0].verdict, Verdict::Unfit);
     }
 }
+
+#[test]
+fn sampled_machines_with_errors_of_other_axes_give_the_same_statistics_on_every_engine() {
+    // The gantry's cross-rail sag is a table of Y and Z and its roll an error of Y's position:
+    // the GPU maps each sampled machine point by point; every sample against the reference.
+    let machine = embedded::load("gantry-2m").unwrap();
+    assert!(machine.has_cross_axis_errors());
+    let grids = vec![Grid::full_travel(&machine, [7, 5, 4], [0.0; 6]).unwrap()];
+    let file = ToleranceFile::load(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("examples/tolerances/gantry-2m.toml")
+            .as_path(),
+        &machine,
+    )
+    .unwrap();
+    let ones = vec![1.0; file.tolerances.len()];
+    let study = Study {
+        machine: &machine,
+        tolerances: &file.tolerances,
+        grids: &grids,
+        seed: 3,
+    };
+    let variants = volmap::engine::variants::Variants {
+        base: &machine,
+        perturbations: &study.perturbations(),
+    };
+    let rows = study.amplitudes(0, 12, &ones);
+    for engine in engines() {
+        let got = engine
+            .variant_stats(&variants, &rows, &grids, |_| {})
+            .unwrap();
+        for (s, (g, row)) in got.iter().zip(&rows).enumerate() {
+            let want = reference_stats(&variants.machine(row), &grids);
+            assert_stats_close(g, &want, &format!("sample {s} on {}", engine.name()));
+        }
+    }
+}

@@ -1,8 +1,11 @@
 //! The map of a machine whose error values read other axes' positions (`of`, `table2d`): the
 //! per-map tables of the chain kernel hold each axis at the grid values of its own dimension
-//! only, so such a machine is mapped by `grid_points_main` instead, every point composing every
-//! axis with its errors evaluated at the point's commanded positions. Slower than the folded
-//! chain, exact to the same tolerance; chunk after chunk, each read back before the next.
+//! only, so such a machine is mapped point by point, each axis's errors evaluated at the point's
+//! commanded positions. Where some axes do not vary along a grid line in X, `grid_runs_main`
+//! composes them once per run of points along the line and evaluates the terms that do not read
+//! X once per run too; where every axis varies, `grid_points_main` composes every axis at every
+//! point (one point per invocation keeps more of the device busy). Slower than the folded chain,
+//! exact to the same tolerance; chunk after chunk, each read back before the next.
 
 use super::mapper::{GpuMapper, SampledKernel};
 use super::pack::pack;
@@ -11,6 +14,8 @@ use crate::gpu::device::{Pass, Readback};
 use crate::gpu::layout::{GRID_RUN, WORKGROUP_SIZE};
 use crate::gpu::GpuError;
 use crate::model::grid::Grid;
+use crate::model::perturbation::Perturbation;
+use crate::model::statistics::FieldStats;
 use crate::model::{AxisLetter, Machine};
 
 impl GpuMapper {
@@ -122,5 +127,38 @@ fn x_dependent_axes(machine: &Machine) -> (u32, u32) {
     match (first, last) {
         (Some(f), Some(l)) => (f as u32, l as u32),
         _ => (order.len() as u32, 0),
+    }
+}
+
+impl GpuMapper {
+    /// [`GpuMapper::variant_stats`] for a machine with errors of other axes' positions: each
+    /// sampled machine is mapped point by point on the device and its statistics are reduced on
+    /// the host as its chunks come back.
+    pub(super) fn variant_stats_per_point(
+        &self,
+        machine: &Machine,
+        perturbations: &[Perturbation],
+        rows: &[Vec<f64>],
+        grid: &Grid,
+        mut on_batch: impl FnMut(usize),
+    ) -> Result<Vec<FieldStats>, GpuError> {
+        let nx = grid.dims[0];
+        let mut all = Vec::with_capacity(rows.len());
+        for (done, row) in rows.iter().enumerate() {
+            let sample = machine.perturbed(perturbations, row);
+            let mut stats = FieldStats::default();
+            self.run(
+                &sample,
+                grid,
+                None,
+                |first, lines, data| -> Result<(), GpuError> {
+                    stats.add_chunk(first, lines, nx, data);
+                    Ok(())
+                },
+            )?;
+            all.push(stats);
+            on_batch(done + 1);
+        }
+        Ok(all)
     }
 }

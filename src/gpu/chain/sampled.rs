@@ -330,7 +330,9 @@ impl GpuMapper {
         grid: &Grid,
         mut on_batch: impl FnMut(usize),
     ) -> Result<Vec<FieldStats>, GpuError> {
-        super::check_own_axis_errors(machine)?;
+        if machine.has_cross_axis_errors() {
+            return self.variant_stats_per_point(machine, perturbations, rows, grid, on_batch);
+        }
         let base = Base::new(machine, perturbations, grid);
         let nx = grid.dims[0] as u64;
         let max_groups = self.gpu.max_workgroups_per_dimension() as u64;
