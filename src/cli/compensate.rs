@@ -92,6 +92,14 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     bar.finish_and_clear();
     let compensated = compensated.map_err(option_failure)?;
     let (text, report) = (compensated.text, compensated.report);
+    // The program says what it was compensated for (MODEL: every output records its inputs).
+    let text = nc::with_note(
+        &text,
+        &format!(
+            "compensated by volmap for {} at {}; each axis then approaches in the direction it moves",
+            machine.name, report.inputs.description
+        ),
+    );
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
     println!("{}: compensated for {}", args.out.display(), machine.name);
     println!(

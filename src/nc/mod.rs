@@ -288,3 +288,29 @@ impl ReportInputs {
         }
     }
 }
+
+/// `program` with `note` as a comment of its own line at its head (after a leading `%` line, the
+/// tape delimiter, where there is one): how the program was made. The note is made fit for a
+/// comment: parentheses become brackets, and characters outside printable ASCII are dropped.
+pub fn with_note(program: &str, note: &str) -> String {
+    let note: String = note
+        .chars()
+        .map(|c| match c {
+            '(' => '[',
+            ')' => ']',
+            c => c,
+        })
+        .filter(|c| c.is_ascii() && !c.is_ascii_control())
+        .collect();
+    let comment = format!("({})\n", note.trim());
+    let first_line_end = program.find('\n').map_or(program.len(), |e| e + 1);
+    if program[..first_line_end].trim() == "%" {
+        format!(
+            "{}{comment}{}",
+            &program[..first_line_end],
+            &program[first_line_end..]
+        )
+    } else {
+        format!("{comment}{program}")
+    }
+}

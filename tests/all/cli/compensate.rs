@@ -128,8 +128,13 @@ fn compensate_takes_the_temperatures_and_the_starting_directions() {
     // X500 approached `+`: 500/1.000115 = 499.9425 (the expansion α·x·ΔT = 0.0575 removed).
     let text = std::fs::read_to_string(&out).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    assert_eq!(lines[0], "G90 G0 X99.9785 Y10.0 Z10.0", "{text}");
-    assert_eq!(lines[1], "G1 Y20.0 F500", "{text}");
+    // The program records what it was compensated for, as a comment of its own.
+    assert_eq!(
+        lines[0],
+        "(compensated by volmap for gantry at approach X- Y+ Z+; temperatures x_scale=30 C [reference 20 C]; each axis then approaches in the direction it moves)"
+    );
+    assert_eq!(lines[1], "G90 G0 X99.9785 Y10.0 Z10.0", "{text}");
+    assert_eq!(lines[2], "G1 Y20.0 F500", "{text}");
     assert_eq!(lines.last().unwrap(), &"X499.9425", "{text}");
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
@@ -152,4 +157,94 @@ fn compensate_takes_the_temperatures_and_the_starting_directions() {
         );
         assert!(!out.exists());
     }
+}
+
+#[test]
+fn linuxcnc_runs_the_compensated_programs_without_an_error() {
+    if !super::super::field::tool_available(
+        std::process::Command::new("sh").args(["-c", "command -v rs274"]),
+        "LinuxCNC's rs274 interpreter",
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let machine = dir.path().join("gantry.toml");
+    std::fs::write(&machine, THERMAL_GANTRY).unwrap();
+    let example = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/dobariya2015");
+    // Lines, arcs both ways with reversals on them, and the tape delimiters.
+    let arcs = dir.path().join("arcs.nc");
+    std::fs::write(
+        &arcs,
+        "%\nG21 G90 G17 G0 X80. Y50. Z10.\nG1 X100. F500\nG2 X100. Y50. I-20. J0\nG3 X60. Y50. R20.\nG1 X70. Y40.\nM2\n%\n",
+    )
+    .unwrap();
+    for (machine, program, extra) in [
+        (
+            machine.clone(),
+            arcs.clone(),
+            vec!["--temperatures", "x_scale=28"],
+        ),
+        (machine.clone(), arcs, vec!["--approach", "X=-,Y=-"]),
+        (
+            example.join("machine.toml"),
+            example.join("test-piece.nc"),
+            vec!["--work-offset", "G54=0,0,10"],
+        ),
+    ] {
+        let out = dir.path().join("out.nc");
+        volmap()
+            .args(["compensate", "--machine"])
+            .arg(&machine)
+            .arg("--program")
+            .arg(&program)
+            .arg("--out")
+            .arg(&out)
+            .args(&extra)
+            .assert()
+            .success();
+        let canon = dir.path().join("canon.txt");
+        let run = std::process::Command::new("rs274")
+            .arg("-g")
+            .arg(&out)
+            .arg(&canon)
+            .output()
+            .unwrap();
+        let text = std::fs::read_to_string(&out).unwrap();
+        assert!(
+            run.status.success(),
+            "rs274 on {}: {}\n{text}",
+            program.display(),
+            String::from_utf8_lossy(&run.stderr)
+        );
+        // The interpreter read the record and every move: one canonical move per moving line.
+        let canon = std::fs::read_to_string(&canon).unwrap();
+        assert!(
+            canon.contains("COMMENT(\"compensated by volmap for"),
+            "{canon}"
+        );
+        let moves = canon
+            .lines()
+            .filter(|l| l.contains("STRAIGHT_") || l.contains("ARC_FEED"))
+            .count();
+        let moving_lines = text.lines().filter(|l| has_axis_word(l)).count();
+        assert_eq!(moves, moving_lines, "{canon}\n{text}");
+    }
+}
+
+/// Whether an NC line, its comments left out, has an X, Y or Z word.
+fn has_axis_word(line: &str) -> bool {
+    let mut code = String::new();
+    let mut depth = 0;
+    for c in line.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            c if depth == 0 => code.push(c),
+            _ => {}
+        }
+    }
+    let bytes = code.as_bytes();
+    bytes.windows(2).any(|w| {
+        matches!(w[0], b'X' | b'Y' | b'Z') && (w[1].is_ascii_digit() || matches!(w[1], b'-' | b'.'))
+    })
 }
