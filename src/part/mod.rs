@@ -20,7 +20,9 @@
 //!   displacement, so a cutter that only shifts and tilts leaves a true cylinder).
 //!
 //! - profile of a meshed surface (normal `n` per triangle): `d = n·VE`, sampled over the
-//!   surface at the sampling spacing.
+//!   surface at the sampling spacing; judged nominally, or after moving the machined surface by
+//!   the datum reference frame its machined datum planes and holes establish, or by its own
+//!   least-squares best fit (`datum_frame`).
 //!
 //! Flatness and cylindricity are minimum zones ([`crate::part::tolerance`]); the height of a rib is the
 //! largest deviation of its top from nominal; the parallelism of a hole to a datum hole is the
@@ -34,7 +36,8 @@
 //!
 //! The part file ([`PartFile`]) is read and checked in `file`; `cuts` generates the cutter
 //! positions of each kind of feature and what they leave, `profile` does the same over a meshed
-//! surface, `geometry` and [`tolerance`] (minimum zones) turn cuts into tolerances, and
+//! surface, `datum_frame` fits datum reference frames and best fits, `geometry` and
+//! [`tolerance`] (minimum zones) turn cuts into tolerances, and
 //! [`evaluate`] rates every feature.
 
 mod cuts;
