@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use volmap::io::field::{FieldError, FieldFile, LoadedField};
 use volmap::model::{poses, AxisLetter};
-use volmap::part::{self, ErrorSource, PartFile, Verdict};
+use volmap::part::{self, ErrorSource, Evaluation, PartFile, Verdict};
 
 use volmap::design::conformance::conformance;
 use volmap::design::monte_carlo::{check_confidence, Study};
@@ -126,8 +126,8 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
     let rows = part::evaluate(&part, source, &part_name)?;
     println!("{} ({} features) at {at}", part.name, rows.len());
     println!(
-        "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} worst point (commanded X Y Z, mm)",
-        "feature", "kind", "error mm", "tolerance mm", "safety", "verdict"
+        "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} {:<16} worst point (commanded X Y Z, mm)",
+        "feature", "kind", "error mm", "tolerance mm", "safety", "verdict", "against"
     );
     for r in &rows {
         let safety = r.safety.map_or("-".to_string(), |s| format!("{s:.2}"));
@@ -139,14 +139,21 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         let area = r.area_outside.map_or(String::new(), |a| {
             format!("  ({:.1}% of the area outside the zone)", 100.0 * a)
         });
+        let against = match r.evaluation {
+            Evaluation::MinimumZone => "minimum zone".to_string(),
+            Evaluation::Nominal => "nominal".to_string(),
+            Evaluation::BestFit => "best fit".to_string(),
+            Evaluation::Datums => format!("datums {}", r.datums.join(" ")),
+        };
         println!(
-            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:.3} {:.3} {:.3}{area}",
+            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:<16} {:.3} {:.3} {:.3}{area}",
             r.name,
             r.kind,
             r.error_mm,
             r.tolerance_mm,
             safety,
             verdict,
+            against,
             r.worst_point[0],
             r.worst_point[1],
             r.worst_point[2]

@@ -17,9 +17,10 @@ use crate::model::Command;
 use crate::reference::Twin;
 
 /// A machined point: where it should be and where it is (commanded frame), its deviation along
-/// the surface normal, and the cutter position that cut it.
+/// the surface's outward normal, and the cutter position that cut it.
 pub(super) struct Cut {
     pub nominal: Vector3<f64>,
+    pub normal: Vector3<f64>,
     pub actual: Vector3<f64>,
     pub deviation: f64,
     pub cutter: Vector3<f64>,
@@ -35,6 +36,7 @@ impl Cut {
     ) -> Cut {
         Cut {
             nominal,
+            normal: n,
             actual: nominal + deviation * n,
             deviation,
             cutter,
@@ -240,6 +242,7 @@ impl Evaluator<'_> {
                 let nominal = bottom + e * (diameter / 2.0) + a * s;
                 level.push(Cut {
                     nominal,
+                    normal: e,
                     actual: nominal + displacement,
                     deviation: e.dot(&displacement),
                     cutter: tip,

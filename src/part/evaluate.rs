@@ -1,6 +1,7 @@
 //! Every feature of a part evaluated against its tolerance: the cuts of each feature, the GD&T
 //! error they leave, and the rating. Holes come first (the datums of parallel holes), positions
-//! last (after their datum planes); the rows come back in the order of the file.
+//! and profiles last (after their datum planes and holes); the rows come back in the order of
+//! the file.
 
 use std::collections::HashMap;
 
@@ -9,9 +10,11 @@ use nalgebra::{Vector2, Vector3};
 use std::sync::Mutex;
 
 use super::cuts::{Cut, CutterPositions, Errors, Evaluator};
-use super::file::{FeatureSpec, PartFile};
+use super::datum_frame::SurfacePoint;
+use super::file::{FeatureSpec, PartFile, ProfileEvaluation};
 use super::geometry::{datum_shift, enclosing_diameter, median_line, worst};
-use super::{tolerance, ErrorSource, FeatureError, FeatureResult, Verdict};
+use super::profile::DatumSurfaces;
+use super::{tolerance, ErrorSource, Evaluation, FeatureError, FeatureResult, Verdict};
 use crate::io::mesh::Mesh;
 use crate::model::channels::Sample;
 use crate::reference::Twin;
@@ -23,6 +26,42 @@ struct Datums {
     medians: HashMap<String, Vec<Vector3<f64>>>,
     /// Each plane's outward normal and mean deviation along it: where it moves a datum frame.
     planes: HashMap<String, (Vector3<f64>, f64)>,
+    /// Each plane's and hole's machined samples: what establishes a profile's datum frame.
+    surfaces: HashMap<String, Vec<SurfacePoint>>,
+}
+
+impl Datums {
+    fn keep_surface(&mut self, name: &str, cuts: &[&Cut]) {
+        let points = cuts
+            .iter()
+            .map(|c| SurfacePoint {
+                nominal: c.nominal,
+                normal: c.normal,
+                actual: c.actual,
+                weight: 1.0,
+            })
+            .collect();
+        self.surfaces.insert(name.to_string(), points);
+    }
+}
+
+/// What a feature's error is judged against, and its datums.
+fn judged_against(feature: &FeatureSpec) -> (Evaluation, Vec<String>) {
+    match feature {
+        FeatureSpec::EndMilledPlane { .. }
+        | FeatureSpec::FlankMilledPlane { .. }
+        | FeatureSpec::Hole { .. } => (Evaluation::MinimumZone, Vec::new()),
+        FeatureSpec::RibHeight { .. } => (Evaluation::Nominal, Vec::new()),
+        FeatureSpec::ParallelHole { datum, .. } => (Evaluation::Datums, vec![datum.clone()]),
+        FeatureSpec::HolePosition { datums, .. } | FeatureSpec::RibPosition { datums, .. } => {
+            (Evaluation::Datums, datums.clone())
+        }
+        FeatureSpec::Profile { datums, .. } => match feature.profile_evaluation() {
+            Some(ProfileEvaluation::Datums) => (Evaluation::Datums, datums.clone()),
+            Some(ProfileEvaluation::BestFit) => (Evaluation::BestFit, Vec::new()),
+            _ => (Evaluation::Nominal, Vec::new()),
+        },
+    }
 }
 
 /// A feature's error (mm), the commanded position of the cutter where its worst point was cut,
@@ -88,7 +127,9 @@ fn evaluate_with(
     let mut order: Vec<&FeatureSpec> = part.features.iter().collect();
     order.sort_by_key(|f| match f {
         FeatureSpec::Hole { .. } => 0,
-        FeatureSpec::HolePosition { .. } | FeatureSpec::RibPosition { .. } => 2,
+        FeatureSpec::HolePosition { .. }
+        | FeatureSpec::RibPosition { .. }
+        | FeatureSpec::Profile { .. } => 2,
         _ => 1,
     });
     let mut datums = Datums::default();
@@ -97,6 +138,7 @@ fn evaluate_with(
         let (error_mm, worst_point, area_outside) = evaluator.feature(feature, &mut datums)?;
         let tolerance_mm = feature.tolerance();
         let safety = (error_mm > 0.0).then(|| tolerance_mm / error_mm);
+        let (evaluation, datum_names) = judged_against(feature);
         results.push(FeatureResult {
             name: feature.name().to_string(),
             kind: feature.kind().to_string(),
@@ -106,6 +148,8 @@ fn evaluate_with(
             verdict: safety.map_or(Verdict::Fit, Verdict::of),
             worst_point,
             area_outside,
+            evaluation,
+            datums: datum_names,
         });
     }
     results.sort_by_key(|r| part.features.iter().position(|f| f.name() == r.name));
@@ -129,8 +173,17 @@ impl Evaluator<'_> {
                 mesh,
                 tolerance_mm,
                 ply,
+                datums: names,
                 ..
-            } => self.profile_error(name, mesh, *tolerance_mm, ply.as_deref())?,
+            } => {
+                let surfaces: Vec<(&str, &[SurfacePoint])> = names
+                    .iter()
+                    .map(|d| (d.as_str(), datums.surfaces[d].as_slice()))
+                    .collect();
+                let evaluation = feature.profile_evaluation().expect("a profile");
+                let judged = (evaluation, surfaces.as_slice());
+                self.profile_error(name, mesh, *tolerance_mm, ply.as_deref(), judged)?
+            }
             FeatureSpec::HolePosition {
                 centre_mm,
                 diameter_mm,
@@ -153,6 +206,7 @@ impl Evaluator<'_> {
                 datums
                     .planes
                     .insert(name.to_string(), (Vector3::z(), mean_deviation(&cuts)));
+                datums.keep_surface(name, &cuts.iter().collect::<Vec<_>>());
                 self.flatness(name, &cuts, &Vector3::z())?
             }
             FeatureSpec::RibHeight {
@@ -170,6 +224,7 @@ impl Evaluator<'_> {
                 datums
                     .planes
                     .insert(name.to_string(), (normal, mean_deviation(&cuts)));
+                datums.keep_surface(name, &cuts.iter().collect::<Vec<_>>());
                 self.flatness(name, &cuts, &normal)?
             }
             FeatureSpec::Hole {
@@ -208,6 +263,7 @@ impl Evaluator<'_> {
         let cuts: Vec<&Cut> = levels.iter().flatten().collect();
         let axis = median_line(&levels);
         datums.medians.insert(name.to_string(), axis.clone());
+        datums.keep_surface(name, &cuts);
         let error = match parallel_to {
             Some(datum) => {
                 let datum_axis = datums.medians.get(datum).expect("holes come first");
@@ -264,6 +320,7 @@ impl Evaluator<'_> {
         mesh: &str,
         tolerance_mm: f64,
         ply: Option<&str>,
+        (evaluation, datums): (ProfileEvaluation, &DatumSurfaces),
     ) -> Result<Evaluated, FeatureError> {
         let mesh_error = |source| FeatureError::Mesh {
             file: self.file.to_string(),
@@ -271,7 +328,7 @@ impl Evaluator<'_> {
             source,
         };
         let mesh = Mesh::read_stl(&self.part.base.join(mesh)).map_err(mesh_error)?;
-        let profile = self.profile(name, &mesh, tolerance_mm)?;
+        let profile = self.profile(name, &mesh, tolerance_mm, evaluation, datums)?;
         // A part evaluated on many machines (recorded, replayed) writes no per-machine file.
         let one_machine = matches!(self.errors, Errors::Exact(_) | Errors::Field(_));
         if let (Some(ply), true) = (ply, one_machine) {

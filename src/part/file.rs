@@ -141,15 +141,36 @@ pub enum FeatureSpec {
         tolerance_mm: f64,
     },
     /// A free-form surface given as an STL mesh (part frame, mm; a path relative to the part
-    /// file): the surface profile, a zone `tolerance_mm` wide centred on the nominal surface.
-    /// `ply`, when given, is where the per-vertex normal deviation is written.
+    /// file): the surface profile, a zone `tolerance_mm` wide centred on the nominal surface,
+    /// placed as `evaluation` says (with `datums`, in their reference frame). `ply`, when given,
+    /// is where the per-vertex normal deviation is written.
     Profile {
         name: String,
         mesh: String,
         tolerance_mm: f64,
         #[serde(default)]
         ply: Option<String>,
+        /// Datum features in order of precedence (primary first): planes or holes of the part.
+        #[serde(default)]
+        datums: Vec<String>,
+        /// Where the zone sits; by default `datums` where datums are named, else `nominal`.
+        #[serde(default)]
+        evaluation: Option<ProfileEvaluation>,
     },
+}
+
+/// Where a profile's zone sits before the surface is judged against it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProfileEvaluation {
+    /// Where the drawing puts it, in the commanded frame: every error of the machine counts.
+    Nominal,
+    /// Moved with the datum reference frame that the machined datum features establish; the
+    /// degrees of freedom the datums leave free float to the best fit.
+    Datums,
+    /// Moved by the rigid motion that best fits the surface (least squares, six degrees of
+    /// freedom): the form alone.
+    BestFit,
 }
 
 /// A wall as the cutter's side machines it: from `start_mm` (its bottom) along `direction_deg`
@@ -217,6 +238,20 @@ impl FeatureSpec {
             FeatureSpec::HolePosition { .. } => "hole_position",
             FeatureSpec::RibPosition { .. } => "rib_position",
             FeatureSpec::Profile { .. } => "profile",
+        }
+    }
+
+    /// A profile's evaluation, its default resolved (`datums` where it names datums).
+    pub fn profile_evaluation(&self) -> Option<ProfileEvaluation> {
+        match self {
+            FeatureSpec::Profile {
+                datums, evaluation, ..
+            } => Some(evaluation.unwrap_or(if datums.is_empty() {
+                ProfileEvaluation::Nominal
+            } else {
+                ProfileEvaluation::Datums
+            })),
+            _ => None,
         }
     }
 
@@ -414,6 +449,9 @@ impl Check<'_> {
                 }
                 Ok(())
             }
+            FeatureSpec::Profile {
+                datums, evaluation, ..
+            } => self.profile_datums(name, datums, *evaluation, kinds),
             FeatureSpec::ParallelHole { datum, .. } => match kinds.get(datum) {
                 Some(&"hole") => Ok(()),
                 Some(kind) => {
@@ -426,5 +464,59 @@ impl Check<'_> {
             },
             _ => Ok(()),
         }
+    }
+
+    /// A profile's datums: one to three distinct planes or holes of the part, which the
+    /// evaluation must use (`datums`) where they are named, and must be named for it.
+    fn profile_datums(
+        &self,
+        name: &str,
+        datums: &[String],
+        evaluation: Option<ProfileEvaluation>,
+        kinds: &HashMap<String, &'static str>,
+    ) -> Result<(), FeatureError> {
+        match (evaluation, datums.is_empty()) {
+            (Some(ProfileEvaluation::Datums), true) => {
+                return Err(self.error(
+                    name,
+                    "evaluation = \"datums\" needs `datums`: the planes or holes that establish the datum reference frame".into(),
+                ))
+            }
+            (Some(e @ (ProfileEvaluation::Nominal | ProfileEvaluation::BestFit)), false) => {
+                let e = if e == ProfileEvaluation::Nominal { "nominal" } else { "best_fit" };
+                return Err(self.error(
+                    name,
+                    format!("evaluation = \"{e}\" ignores `datums`: give one or the other (or evaluation = \"datums\")"),
+                ));
+            }
+            _ => {}
+        }
+        if datums.len() > 3 {
+            return Err(self.error(
+                name,
+                format!(
+                    "datums: names {} datums: give one to three (primary, secondary, tertiary)",
+                    datums.len()
+                ),
+            ));
+        }
+        for (i, datum) in datums.iter().enumerate() {
+            if datums[..i].contains(datum) {
+                return Err(self.error(name, format!("datums: `{datum}` is named twice")));
+            }
+            match kinds.get(datum) {
+                Some(&("end_milled_plane" | "flank_milled_plane" | "hole")) => {}
+                Some(kind) => {
+                    return Err(self.error(name, format!("datums: `{datum}` is a {kind}: datums of a profile are end_milled_plane, flank_milled_plane or hole features")))
+                }
+                None => {
+                    return Err(self.error(
+                        name,
+                        format!("datums: `{datum}` names no feature of the part"),
+                    ))
+                }
+            }
+        }
+        Ok(())
     }
 }

@@ -20,7 +20,9 @@
 //!   displacement, so a cutter that only shifts and tilts leaves a true cylinder).
 //!
 //! - profile of a meshed surface (normal `n` per triangle): `d = n·VE`, sampled over the
-//!   surface at the sampling spacing.
+//!   surface at the sampling spacing; judged nominally, or after moving the machined surface by
+//!   the datum reference frame its machined datum planes and holes establish, or by its own
+//!   least-squares best fit (`datum_frame`).
 //!
 //! Flatness and cylindricity are minimum zones ([`crate::part::tolerance`]); the height of a rib is the
 //! largest deviation of its top from nominal; the parallelism of a hole to a datum hole is the
@@ -34,10 +36,12 @@
 //!
 //! The part file ([`PartFile`]) is read and checked in `file`; `cuts` generates the cutter
 //! positions of each kind of feature and what they leave, `profile` does the same over a meshed
-//! surface, `geometry` and [`tolerance`] (minimum zones) turn cuts into tolerances, and
+//! surface, `datum_frame` fits datum reference frames and best fits, `geometry` and
+//! [`tolerance`] (minimum zones) turn cuts into tolerances, and
 //! [`evaluate`] rates every feature.
 
 mod cuts;
+mod datum_frame;
 mod evaluate;
 mod file;
 mod geometry;
@@ -46,7 +50,7 @@ pub mod tolerance;
 
 pub use cuts::CutterPositions;
 pub use evaluate::{cutter_positions, evaluate, evaluate_at};
-pub use file::{Cutter, FeatureSpec, PartFile, Placement, Sampling};
+pub use file::{Cutter, FeatureSpec, PartFile, Placement, ProfileEvaluation, Sampling};
 
 use serde::Serialize;
 
@@ -125,6 +129,20 @@ impl Verdict {
     }
 }
 
+/// What a feature's error was judged against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Evaluation {
+    /// The feature's own minimum zone (flatness, cylindricity): its form alone.
+    MinimumZone,
+    /// The nominal geometry, where the drawing puts it (a rib's height, a profile by default).
+    Nominal,
+    /// The datum reference frame of the datum features named with it.
+    Datums,
+    /// The surface's least-squares rigid best fit (a profile's form alone).
+    BestFit,
+}
+
 /// One row of `volmap features`.
 #[derive(Debug, Clone, Serialize)]
 pub struct FeatureResult {
@@ -140,4 +158,9 @@ pub struct FeatureResult {
     /// Profiles: the fraction of the surface's area outside the tolerance zone.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub area_outside: Option<f64>,
+    /// What the error was judged against.
+    pub evaluation: Evaluation,
+    /// The datum features, primary first, where `evaluation` is `datums`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub datums: Vec<String>,
 }

@@ -6,6 +6,7 @@ mod inputs;
 mod machines;
 mod map;
 mod plot;
+mod profile_datums;
 mod query;
 mod standards;
 mod sweep;
