@@ -24,3 +24,4 @@ mod standards;
 mod standards_inputs;
 mod tolerance;
 mod variants;
+mod vtk;
