@@ -13,7 +13,9 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::atomic::{write_atomically, AtomicFile};
+use super::field::FieldInfo;
 use super::FileError;
+use crate::model::channels::CHANNELS;
 
 /// A data array as the XML header announces it: its VTK type, name, components and number of
 /// tuples.
@@ -188,6 +190,21 @@ impl ImageGrid {
     }
 }
 
+/// Writes `values` (X varying fastest, then Y, then Z) on `grid` as VTK XML ImageData with the
+/// one point data array `name`, the active scalars; whole or not at all.
+pub fn write_image(
+    path: &Path,
+    grid: &ImageGrid,
+    name: &str,
+    values: &[f64],
+) -> Result<(), FileError> {
+    assert_eq!(values.len() as u64, grid.points(), "one value per point");
+    let array = ArraySpec::float32(name, 1, grid.points());
+    let mut writer = ImageWriter::create(path, grid, &[array])?;
+    writer.write(0, 0, values.iter().map(|&v| v as f32))?;
+    writer.finish()
+}
+
 /// Streams VTK XML ImageData into a temporary file renamed into place by [`ImageWriter::finish`]:
 /// the header and each array's length first, then the values of any range of points of any
 /// array in any order, each written where it belongs.
@@ -291,5 +308,63 @@ impl ImageWriter {
             ))));
         }
         self.out.commit()
+    }
+}
+
+/// A field streamed into VTK XML ImageData as the map computes it: the grid of the field (origin
+/// and spacing in mm), the point data arrays `VE` (mm) and `OE` (rad), three components each,
+/// filled chunk by chunk of whole grid lines in the layout of [`CHANNELS`].
+pub struct FieldImage {
+    writer: ImageWriter,
+    nx: usize,
+}
+
+/// The field's arrays: VE first (the active vectors ParaView colours by), then OE; each with
+/// the [`CHANNELS`] index of its X component.
+const FIELD_ARRAYS: [(&str, usize); 2] = [("VE", 3), ("OE", 0)];
+
+impl FieldImage {
+    /// Starts writing `path` for the field of `info`.
+    pub fn create(path: &Path, info: &FieldInfo) -> Result<FieldImage, FileError> {
+        let [nx, ny, nz] = info.dims;
+        let grid = ImageGrid {
+            extent: [[0, nx - 1], [0, ny - 1], [0, nz - 1]],
+            origin_mm: info.origin_mm,
+            spacing_mm: info.spacing_mm,
+        };
+        let points = grid.points();
+        let arrays: Vec<ArraySpec> = FIELD_ARRAYS
+            .iter()
+            .map(|(name, _)| ArraySpec::float32(name, 3, points))
+            .collect();
+        Ok(FieldImage {
+            writer: ImageWriter::create(path, &grid, &arrays)?,
+            nx,
+        })
+    }
+
+    /// Writes `lines` grid lines from `first_line`: `data` holds, per line, `nx` values of each
+    /// channel of [`CHANNELS`] in turn.
+    pub fn write_lines(
+        &mut self,
+        first_line: u64,
+        lines: u64,
+        data: &[f32],
+    ) -> Result<(), FileError> {
+        let nx = self.nx;
+        let per_line = CHANNELS.len() * nx;
+        let data = &data[..lines as usize * per_line];
+        for (array, &(_, first_channel)) in FIELD_ARRAYS.iter().enumerate() {
+            let values = data.chunks_exact(per_line).flat_map(|line| {
+                (0..nx).flat_map(move |i| (0..3).map(move |c| line[(first_channel + c) * nx + i]))
+            });
+            self.writer.write(array, first_line * nx as u64, values)?;
+        }
+        Ok(())
+    }
+
+    /// Puts the file in place once every line was written.
+    pub fn finish(self) -> Result<(), FileError> {
+        self.writer.finish()
     }
 }

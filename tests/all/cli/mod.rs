@@ -14,7 +14,7 @@ mod sweep_readers;
 use assert_cmd::Command;
 use predicates::prelude::*;
 
-fn volmap() -> Command {
+pub(crate) fn volmap() -> Command {
     Command::cargo_bin("volmap").unwrap()
 }
 
