@@ -3,6 +3,7 @@
 mod compensate;
 mod design;
 mod inputs;
+mod machine_files;
 mod machines;
 mod map;
 mod plot;
