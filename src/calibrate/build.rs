@@ -14,7 +14,9 @@
 
 use std::path::Path;
 
-use super::CalibrateError;
+use toml_edit::{Array, DocumentMut, InlineTable, Item, TableLike, Value};
+
+use super::{toml_number, CalibrateError};
 use crate::io::csv::Csv;
 use crate::io::read_text;
 use crate::model::{AxisLetter, Interp, Machine, Table, COMPONENT_NAMES};
@@ -240,14 +242,57 @@ pub fn parse_interp_choices(text: &str) -> Result<Vec<(String, Interp)>, Calibra
         .collect()
 }
 
+/// A measured component as the machine file holds it: `{ interp = "…", table = [ [q, v], … ] }`,
+/// one node a line, each number rounded to [`super::SIGNIFICANT_DIGITS`] significant digits.
+fn component_entry(nodes: &[(f64, f64)], interp: Interp) -> InlineTable {
+    let mut table = Array::new();
+    for &(q, v) in nodes {
+        let mut pair = Array::new();
+        pair.push(toml_number(q));
+        pair.push(toml_number(v));
+        let mut pair = Value::Array(pair);
+        pair.decor_mut().set_prefix("\n    ");
+        table.push_formatted(pair);
+    }
+    table.set_trailing_comma(true);
+    table.set_trailing("\n");
+    let mut entry = InlineTable::new();
+    entry.insert("interp", interp.name().into());
+    entry.insert("table", Value::Array(table));
+    entry
+}
+
+/// Sets component `name` of an axis's section to `entry`: in place of the old one, keeping its
+/// comments (a `[axes.X.EXX]` section keeps its header and takes the entry's keys), or at the
+/// end of the section.
+fn set_component(section: &mut dyn TableLike, name: &str, entry: InlineTable) {
+    match section.get_mut(name) {
+        Some(Item::Table(table)) => {
+            table.clear();
+            for (key, value) in entry.iter() {
+                table.insert(key, Item::Value(value.clone()));
+            }
+        }
+        Some(Item::Value(old)) => {
+            let decor = old.decor().clone();
+            *old = Value::InlineTable(entry);
+            *old.decor_mut() = decor;
+        }
+        _ => {
+            section.insert(name, Item::Value(Value::InlineTable(entry)));
+        }
+    }
+}
+
 /// Builds the components of each measured axis and writes them into the base machine's file:
-/// returns the new file's text (a comment-free rewrite of the base TOML) and what was chosen.
+/// returns the new file's text (the base file with its comments and order, each measured
+/// component set) and what was chosen.
 pub fn build(
     base: &Machine,
     axes: &[(AxisLetter, &Path)],
     asked: &[(String, Interp)],
 ) -> Result<(String, Vec<BuiltComponent>), CalibrateError> {
-    let mut table: toml::Table = toml::from_str(&base.source.toml).map_err(|e| {
+    let mut document: DocumentMut = base.source.toml.parse().map_err(|e| {
         CalibrateError::Parameter(format!("the base machine's file does not parse again: {e}"))
     })?;
     let mut built = Vec::new();
@@ -269,11 +314,10 @@ pub fn build(
                 base.chain.hwang_notation()
             )));
         }
-        let section = table
+        let section = document
             .get_mut("axes")
-            .and_then(|v| v.as_table_mut())
-            .and_then(|t| t.get_mut(&axis.to_string()))
-            .and_then(|v| v.as_table_mut())
+            .and_then(|a| a.get_mut(axis.to_string().as_str()))
+            .and_then(Item::as_table_like_mut)
             .ok_or_else(|| {
                 CalibrateError::Parameter(format!(
                     "the base machine file has no [axes.{axis}] section"
@@ -287,18 +331,7 @@ pub fn build(
             Table::new(nodes.clone(), interp, false).map_err(|e| {
                 CalibrateError::Parameter(format!("{}: {name}: {e}", path.display()))
             })?;
-            let mut entry = toml::Table::new();
-            entry.insert(
-                "table".into(),
-                toml::Value::Array(
-                    nodes
-                        .iter()
-                        .map(|&(q, v)| toml::Value::Array(vec![q.into(), v.into()]))
-                        .collect(),
-                ),
-            );
-            entry.insert("interp".into(), interp.name().into());
-            section.insert(name.clone(), toml::Value::Table(entry));
+            set_component(section, &name, component_entry(&nodes, interp));
             built.push(BuiltComponent {
                 name,
                 axis: axis.as_char(),
@@ -310,6 +343,5 @@ pub fn build(
             });
         }
     }
-    let text = toml::to_string(&table).map_err(|e| CalibrateError::Parameter(e.to_string()))?;
-    Ok((text, built))
+    Ok((document.to_string(), built))
 }

@@ -325,9 +325,12 @@ fn check_observable(j: &DMatrix<f64>, unknowns: &[Unknown]) -> Result<(), Calibr
     Ok(())
 }
 
-/// The machine file with the estimates written in: the original file, comments and all, with
-/// each estimated error set, as a number or, where it has a thermal coefficient, as `{ value =
-/// …, per_kelvin = { input = … } }`.
+/// The machine file with the estimates written in: the original file, comments, order and all,
+/// with each estimated error set, as a number or, where it has a thermal coefficient, as `{ value
+/// = …, per_kelvin = { input = … } }`. Each estimate is written to the decimal place of a
+/// thousandth of its standard uncertainty (rounding moves it by less than 0.05 % of the
+/// uncertainty; digits below carry nothing the measurements know) and to at most
+/// [`super::SIGNIFICANT_DIGITS`] significant digits.
 pub fn fitted_machine_toml(
     machine: &Machine,
     estimates: &[Estimate],
@@ -339,7 +342,7 @@ pub fn fitted_machine_toml(
         .iter()
         .map(|e| {
             Unknown::parse(&e.name, machine)
-                .map(|u| (u, e.value))
+                .map(|u| (u, super::rounded(e.value, e.uncertainty * 1e-3)))
                 .map_err(CalibrateError::Parameter)
         })
         .collect::<Result<Vec<_>, _>>()?;

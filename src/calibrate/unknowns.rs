@@ -5,6 +5,8 @@
 
 use toml_edit::{DocumentMut, InlineTable, Item, TableLike, Value};
 
+use super::toml_number as number;
+
 use crate::model::inputs::Dependent;
 use crate::model::perturbation::{ErrorTarget, SPINDLE_NAMES};
 use crate::model::{AxisLetter, ErrorFunction, Machine, COMPONENT_NAMES};
@@ -201,17 +203,6 @@ fn set_plain_value(machine: &mut Machine, target: ErrorTarget, value: f64) {
         ErrorTarget::Spindle { index } => machine.spindle[index] = value,
         ErrorTarget::Component { .. } => {}
     }
-}
-
-/// A number as a person would write it, exactly: `0.0`, `1.5e-5`, `0.004`.
-fn number(value: f64) -> toml_edit::Value {
-    let text = if value != 0.0 && (value.abs() < 1e-3 || value.abs() >= 1e6) {
-        format!("{value:e}")
-    } else {
-        format!("{value:?}")
-    };
-    text.parse()
-        .unwrap_or_else(|_| toml_edit::Value::from(value))
 }
 
 /// Sets `key` of a table to `value`, keeping the comments and spacing around the old one.

@@ -3,12 +3,12 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use volmap::calibrate::build;
+use volmap::calibrate::{self, build};
 use volmap::io::embedded;
 use volmap::model::AxisLetter;
 
 use super::failure::{Failure, FlagContext};
-use super::output::write_file;
+use super::output::{write_file, written_by};
 
 #[derive(clap::Args)]
 pub struct BuildArgs {
@@ -51,6 +51,31 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
     let asked = build::parse_interp_choices(&args.interp).flag("--interp")?;
     let axes_ref: Vec<_> = axes.iter().map(|(l, p)| (*l, p.as_path())).collect();
     let (text, built) = build::build(&base, &axes_ref, &asked)?;
+    let measured: Vec<String> = axes
+        .iter()
+        .map(|(letter, path)| format!("{letter}={}", path.display()))
+        .collect();
+    let components: Vec<String> = built
+        .iter()
+        .map(|c| format!("{} {}", c.name, c.interp))
+        .collect();
+    let text = calibrate::with_header(
+        &text,
+        &[
+            written_by(),
+            format!(
+                "The base machine `{}` ({}) with the components measured in {}: {}.",
+                base.name,
+                args.base,
+                measured.join(", "),
+                components.join(", ")
+            ),
+            format!(
+                "Measured values rounded to {} significant digits.",
+                calibrate::SIGNIFICANT_DIGITS
+            ),
+        ],
+    );
     // The new file must read back as a machine before it replaces anything.
     let folder = args
         .out

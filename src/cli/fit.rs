@@ -4,11 +4,11 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use volmap::calibrate::fit;
+use volmap::calibrate::{self, fit};
 
 use super::args::{JsonArg, MachineArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{write_file, write_json};
+use super::output::{write_file, write_json, written_by};
 
 const UM_PER_MM: f64 = 1000.0;
 
@@ -62,6 +62,22 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
     println!("  (uncertainty: one standard uncertainty, from the residuals)");
     if let Some(path) = &args.out {
         let text = fit::fitted_machine_toml(&machine, &report.estimates)?;
+        let names: Vec<&str> = report.estimates.iter().map(|e| e.name.as_str()).collect();
+        let text = calibrate::with_header(
+            &text,
+            &[
+                written_by(),
+                format!(
+                    "The machine `{}` with {} fitted to the tests of {} ({} points, RMS residual {:.3} µm).",
+                    machine.name,
+                    names.join(", "),
+                    args.measurements.display(),
+                    report.points,
+                    report.rms_after_mm * UM_PER_MM
+                ),
+                "Each estimate written to a thousandth of its standard uncertainty.".to_string(),
+            ],
+        );
         write_file(path, |out| out.write_all(text.as_bytes())).flag("--out")?;
         println!("  machine with the estimates: {}", path.display());
     }

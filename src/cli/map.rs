@@ -36,6 +36,10 @@ pub struct MapArgs {
     /// (exit code 4 when it exceeds 1e-6 mm or 1e-9 rad).
     #[arg(long, default_value_t = 0)]
     check: usize,
+    /// Also write the field as VTK XML ImageData (.vti) for ParaView: point arrays VE (mm) and
+    /// OE (rad) on the grid, written chunk by chunk as the field is.
+    #[arg(long)]
+    vti: Option<PathBuf>,
     /// At most this many points per chunk (the device's limits apply anyway).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     chunk_points: Option<u64>,
@@ -58,6 +62,22 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
             args.out.display()
         )));
     }
+    if let Some(vti) = &args.vti {
+        if vti
+            .extension()
+            .is_none_or(|e| !e.eq_ignore_ascii_case("vti"))
+        {
+            return Err(Failure::input(format!(
+                "--vti {}: a VTK ImageData file ends in .vti",
+                vti.display()
+            )));
+        }
+        if grids.is_some() {
+            return Err(Failure::input(
+                "--vti writes the field of one pose; with --poses, `volmap plot slice --pose … --out FILE.vti` writes a slice of one",
+            ));
+        }
+    }
     let (engine, note) = args.device.engine()?;
     if let Some(note) = note {
         eprintln!("volmap: {note}");
@@ -65,6 +85,7 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     let options = MapOptions {
         chunk_points: args.chunk_points,
         check_points: args.check,
+        vtk_image: args.vti.clone(),
     };
     if let Some(grids) = &grids {
         let summary = sweep::map_sweep(&machine, grids, &engine, &args.out, &options)
@@ -89,6 +110,9 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     print_summary(&info, &summary.stats);
     print_time(summary.seconds, summary.stats.points);
     println!("  field       {}", args.out.display());
+    if let Some(vti) = &args.vti {
+        println!("  VTK image   {}", vti.display());
+    }
     Ok(print_check(summary.check.as_ref()))
 }
 

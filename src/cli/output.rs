@@ -24,6 +24,27 @@ pub fn progress(len: Option<u64>, verb: &str, unit: &str) -> ProgressBar {
     bar
 }
 
+/// The first line of the header of a machine file a command writes: volmap's version, the date
+/// and time (UTC) and the command line that wrote it.
+pub fn written_by() -> String {
+    let words: Vec<String> = std::env::args()
+        .skip(1)
+        .map(|a| {
+            if a.is_empty() || a.contains(char::is_whitespace) {
+                format!("{a:?}")
+            } else {
+                a
+            }
+        })
+        .collect();
+    format!(
+        "Written by volmap {} on {}: volmap {}",
+        env!("CARGO_PKG_VERSION"),
+        humantime::format_rfc3339_seconds(std::time::SystemTime::now()),
+        words.join(" ")
+    )
+}
+
 /// Writes a file whole or not at all.
 pub fn write_file(
     path: &Path,

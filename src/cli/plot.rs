@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use volmap::io::field::FieldError;
+use volmap::io::vtk;
 use volmap::model::poses;
 use volmap::plot::{self, Color, Series};
 use volmap::query::{self, Quantity, QueryError};
@@ -80,7 +81,7 @@ enum PlotKind {
         /// What to show: VE (|VE|, mm), OE (|OE|, rad) or one channel: VE.X … OE.Z.
         #[arg(long, default_value = "VE")]
         quantity: String,
-        /// Output files (.svg or .png).
+        /// Output files: .svg or .png, or .vti for the slice as VTK ImageData (ParaView).
         #[arg(long, required = true)]
         out: Vec<PathBuf>,
     },
@@ -103,8 +104,10 @@ enum PlotKind {
 }
 
 pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
-    let outputs = match &args.kind {
-        PlotKind::Slice { out, .. } | PlotKind::Grid { out, .. } => out.clone(),
+    let is_vti = |p: &PathBuf| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("vti"));
+    let (images, outputs): (Vec<PathBuf>, Vec<PathBuf>) = match &args.kind {
+        PlotKind::Slice { out, .. } => out.iter().cloned().partition(is_vti),
+        PlotKind::Grid { out, .. } => (Vec::new(), out.clone()),
     };
     check_plot_paths(&outputs, "--out")?;
     let drawing = match args.kind {
@@ -149,6 +152,14 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
                         None => failure,
                     }
                 })?;
+            for path in &images {
+                vtk::write_image(path, &slice.image, &slice.array_name, &slice.values)
+                    .flag("--out")?;
+                eprintln!("VTK image: {}", path.display());
+            }
+            if outputs.is_empty() {
+                return Ok(ExitCode::SUCCESS);
+            }
             plot::colour_map(
                 &slice.title,
                 (&slice.labels[0], &slice.labels[1]),

@@ -1,12 +1,13 @@
 //! `volmap map`: the machine over a grid, on the GPU or the CPU, streamed into a field file, with
 //! the closing statistics and the optional spot check against the reference.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use super::reference;
 use super::{Engine, EngineError};
-use crate::io::field::{FieldInfo, FieldWriter};
+use crate::io::field::{FieldError, FieldInfo, FieldWriter};
+use crate::io::vtk::FieldImage;
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 pub use crate::model::statistics::FieldStats;
@@ -47,6 +48,9 @@ pub struct MapOptions {
     pub chunk_points: Option<u64>,
     /// Points to recompute with the reference afterwards (the spot check of a map).
     pub check_points: usize,
+    /// A VTK ImageData file (`.vti`) to write the field into as well, for ParaView (a map of
+    /// one pose; a sweep writes none).
+    pub vtk_image: Option<PathBuf>,
 }
 
 /// `n` distinct pseudo-random point numbers below `total`, sorted (splitmix64, fixed seed).
@@ -90,7 +94,8 @@ pub fn field_info(machine: &Machine, grid: &Grid, device: &str) -> FieldInfo {
     }
 }
 
-/// Maps `machine` over `grid` into the field file `out`. `on_progress(points_done)` is called
+/// Maps `machine` over `grid` into the field file `out` (and the VTK image the options name).
+/// `on_progress(points_done)` is called
 /// after each chunk.
 pub fn map_to_file(
     machine: &Machine,
@@ -101,7 +106,12 @@ pub fn map_to_file(
     mut on_progress: impl FnMut(u64),
 ) -> Result<MapSummary, EngineError> {
     let device = engine.name();
-    let mut writer = FieldWriter::create(out, &field_info(machine, grid, &device))?;
+    let info = field_info(machine, grid, &device);
+    let mut writer = FieldWriter::create(out, &info)?;
+    let mut image = match &options.vtk_image {
+        Some(path) => Some(FieldImage::create(path, &info).map_err(FieldError::from)?),
+        None => None,
+    };
     let nx = grid.dims[0];
     let mut stats = FieldStats::default();
     let checked = sample_points(grid.points(), options.check_points);
@@ -113,6 +123,11 @@ pub fn map_to_file(
         options.chunk_points,
         |first_line, lines, data| -> Result<(), EngineError> {
             writer.write_lines(first_line, lines, data)?;
+            if let Some(image) = &mut image {
+                image
+                    .write_lines(first_line, lines, data)
+                    .map_err(FieldError::from)?;
+            }
             stats.add_chunk(first_line, lines, nx, data);
             let end_point = capture(&checked, &mut captured, first_line, lines, nx, data);
             on_progress(end_point);
@@ -120,6 +135,9 @@ pub fn map_to_file(
         },
     )?;
     writer.finish()?;
+    if let Some(image) = image {
+        image.finish().map_err(FieldError::from)?;
+    }
     let seconds = start.elapsed().as_secs_f64();
     let check =
         (!checked.is_empty()).then(|| check_against_reference(machine, grid, &checked, &captured));

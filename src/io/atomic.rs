@@ -4,7 +4,7 @@
 //! interrupted run never leaves half a file under the name asked for.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 use super::FileError;
@@ -68,6 +68,14 @@ impl Write for AtomicFile {
 
     fn flush(&mut self) -> std::io::Result<()> {
         self.out.flush()
+    }
+}
+
+/// Seeking flushes the buffer first: writers that fill in a file out of order (VTK's appended
+/// arrays) seek to where each piece belongs.
+impl Seek for AtomicFile {
+    fn seek(&mut self, position: SeekFrom) -> std::io::Result<u64> {
+        self.out.seek(position)
     }
 }
 

@@ -1,5 +1,6 @@
 //! Triangle meshes of parts: STL in (ASCII and binary), PLY out with a scalar per vertex (for
-//! ParaView and MeshLab to colour), as the large-part profile checks of the feature queries need.
+//! MeshLab to colour; ParaView's reader drops such properties and opens the `.vtp` of
+//! [`Mesh::write_vtp`] instead), as the large-part profile checks of the feature queries need.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -209,19 +210,20 @@ impl Mesh {
         Mesh::from_triangles(&triangles, path)
     }
 
-    /// Writes the mesh as binary little-endian PLY with one scalar property per vertex, whole or
-    /// not at all.
+    /// Writes the mesh as binary little-endian PLY with a scalar per vertex, whole or not at all:
+    /// the scalar twice, as `quality` (the one vertex property MeshLab colours by) and under
+    /// `property`, its name with its unit, for other readers.
     pub fn write_ply(&self, path: &Path, property: &str, values: &[f32]) -> Result<(), MeshError> {
         assert_eq!(values.len(), self.vertices.len(), "one value per vertex");
         write_atomically(path, |out| {
             write!(
                 out,
-                "ply\nformat binary_little_endian 1.0\ncomment written by volmap\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float {property}\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+                "ply\nformat binary_little_endian 1.0\ncomment written by volmap\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float quality\nproperty float {property}\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
                 self.vertices.len(),
                 self.triangles.len()
             )?;
             for (v, value) in self.vertices.iter().zip(values) {
-                for c in [v.x as f32, v.y as f32, v.z as f32, *value] {
+                for c in [v.x as f32, v.y as f32, v.z as f32, *value, *value] {
                     out.write_all(&c.to_le_bytes())?;
                 }
             }
@@ -233,6 +235,13 @@ impl Mesh {
             }
             Ok(())
         })?;
+        Ok(())
+    }
+
+    /// Writes the mesh as VTK XML PolyData with `values` as the point data array `property`,
+    /// which ParaView colours by; whole or not at all.
+    pub fn write_vtp(&self, path: &Path, property: &str, values: &[f32]) -> Result<(), MeshError> {
+        super::vtk::write_poly_data(path, &self.vertices, &self.triangles, property, values)?;
         Ok(())
     }
 }

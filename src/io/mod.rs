@@ -1,6 +1,6 @@
 //! Files: every format volmap reads and writes that more than one part of it uses. The machine
 //! file (TOML, with CSV tables) and the embedded machines, field files (OpenEXR), points CSV,
-//! meshes (STL in, PLY out); underneath them one CSV reader for every CSV input and one way of
+//! meshes (STL in, PLY and VTK PolyData out), VTK ImageData of fields; underneath them one CSV reader for every CSV input and one way of
 //! writing a file whole or not at all.
 
 pub mod atomic;
@@ -11,6 +11,7 @@ pub mod machine_file;
 pub mod mesh;
 pub mod points;
 pub mod tolerance_file;
+pub mod vtk;
 
 use std::path::Path;
 

@@ -332,12 +332,17 @@ impl Evaluator<'_> {
         // A part evaluated on many machines (recorded, replayed) writes no per-machine file.
         let one_machine = matches!(self.errors, Errors::Exact(_) | Errors::Field(_));
         if let (Some(ply), true) = (ply, one_machine) {
-            mesh.write_ply(
-                &self.part.base.join(ply),
-                "deviation_mm",
-                &profile.vertex_deviation,
-            )
-            .map_err(mesh_error)?;
+            let path = self.part.base.join(ply);
+            // ParaView opens the VTK file; MeshLab and the rest the PLY.
+            let vtk = path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("vtp"));
+            let write = if vtk {
+                Mesh::write_vtp
+            } else {
+                Mesh::write_ply
+            };
+            write(&mesh, &path, "deviation_mm", &profile.vertex_deviation).map_err(mesh_error)?;
         }
         Ok((
             2.0 * profile.max_deviation,

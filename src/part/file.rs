@@ -143,7 +143,8 @@ pub enum FeatureSpec {
     /// A free-form surface given as an STL mesh (part frame, mm; a path relative to the part
     /// file): the surface profile, a zone `tolerance_mm` wide centred on the nominal surface,
     /// placed as `evaluation` says (with `datums`, in their reference frame). `ply`, when given,
-    /// is where the per-vertex normal deviation is written.
+    /// is where the per-vertex normal deviation is written: binary PLY (for MeshLab), or VTK XML
+    /// PolyData (for ParaView) where the name ends in `.vtp`.
     Profile {
         name: String,
         mesh: String,

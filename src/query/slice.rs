@@ -4,6 +4,7 @@ use std::path::Path;
 
 use super::QueryError;
 use crate::io::field::{FieldFile, FieldInfo, FieldReader};
+use crate::io::vtk::ImageGrid;
 use crate::model::channels::CHANNELS;
 
 /// A plane of a field for a colour map: `values[r * cols + c]`, row 0 at the low end of the
@@ -19,6 +20,11 @@ pub struct FieldSlice {
     pub rows: usize,
     pub values: Vec<f64>,
     pub unit: String,
+    /// Where the plane lies in the field's grid (one index along the normal), for VTK.
+    pub image: ImageGrid,
+    /// The quantity with its unit as one word, the name of a VTK array: `VE_magnitude_mm`,
+    /// `OE.Z_rad`.
+    pub array_name: String,
 }
 
 /// What a slice shows at each point.
@@ -124,6 +130,18 @@ pub fn field_slice_at_pose(
     let (h_lo, h_hi) = span(h);
     let (v_lo, v_hi) = span(v);
     let position = info.origin_mm[d] + index as f64 * info.spacing_mm[d];
+    let mut extent = info.dims.map(|n| [0, n - 1]);
+    extent[d] = [index, index];
+    let image = ImageGrid {
+        extent,
+        origin_mm: info.origin_mm,
+        spacing_mm: info.spacing_mm,
+    };
+    let array_name = match parsed {
+        Quantity::VolumetricMagnitude => "VE_magnitude_mm".to_string(),
+        Quantity::OrientationMagnitude => "OE_magnitude_rad".to_string(),
+        Quantity::Channel(c) => format!("{}_{unit}", CHANNELS[c]),
+    };
     // The part of a sweep says its pose; a single-pose field's title stays as it was.
     let machine = if file.is_multipart() {
         format!("{} at {}", info.machine_name, file.name(part))
@@ -146,6 +164,8 @@ pub fn field_slice_at_pose(
         rows,
         values,
         unit: unit.to_string(),
+        image,
+        array_name,
     })
 }
 

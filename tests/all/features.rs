@@ -258,9 +258,42 @@ fn a_meshed_profile_gives_its_largest_deviation_and_the_area_outside_the_zone() 
     let float =
         |k: usize| f32::from_le_bytes(bytes[end + 4 * k..end + 4 * k + 4].try_into().unwrap());
     for v in 0..4 {
-        let (x, deviation) = (float(4 * v), float(4 * v + 3));
+        let (x, deviation) = (float(5 * v), float(5 * v + 3));
         assert!(
             (deviation as f64 - a * x as f64).abs() < 1e-9,
+            "vertex at x={x}: {deviation}"
+        );
+    }
+}
+
+#[test]
+fn a_profile_written_as_vtp_holds_the_deviation_for_paraview() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("square.stl"), square_stl(100.0)).unwrap();
+    // VE_z = a·x: the normal deviation at a vertex is a·x.
+    let a = 1e-4;
+    let mut m = gantry();
+    m.axis_mut(X).unwrap().components[2] = Some(ErrorFunction::Poly(vec![0.0, a]));
+    let part_path = dir.path().join("part.toml");
+    std::fs::write(
+        &part_path,
+        format!("{PART}\n[[features]]\nkind = \"profile\"\nname = \"skin\"\nmesh = \"square.stl\"\ntolerance_mm = 0.01\nply = \"skin.vtp\"\n"),
+    )
+    .unwrap();
+    let p = PartFile::read(&part_path).unwrap();
+    evaluate(&p, ErrorSource::Exact(&m), "part.toml").unwrap();
+    let path = dir.path().join("skin.vtp");
+    assert!(std::fs::read(&path).unwrap().starts_with(b"<?xml"));
+    let Some(json) = crate::vtk::python_read("vtk", "read_vtk.py", &path) else {
+        return;
+    };
+    assert_eq!(json["points"], 4);
+    assert_eq!(json["active"], "deviation_mm");
+    for v in 0..4 {
+        let x = json["coordinates"][v][0].as_f64().unwrap();
+        let deviation = json["arrays"]["deviation_mm"][v].as_f64().unwrap();
+        assert!(
+            (deviation - a * x).abs() < 1e-9,
             "vertex at x={x}: {deviation}"
         );
     }

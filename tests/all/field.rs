@@ -10,7 +10,7 @@ use volmap::model::channels::CHANNELS;
 use volmap::model::grid::{parse_pose, Grid};
 
 /// What the CPU engine computes for the grid: the field file must hold exactly these values.
-fn engine_values(
+pub(crate) fn engine_values(
     machine: &volmap::model::Machine,
     grid: &Grid,
 ) -> impl Fn([usize; 3], usize) -> f32 {
@@ -31,6 +31,7 @@ fn mapped(
     let options = MapOptions {
         chunk_points: Some(dims[0] as u64 * 3),
         check_points: 0,
+        ..Default::default()
     };
     map::map_to_file(&machine, &grid, &Engine::Cpu, &path, &options, |_| {}).unwrap();
     (machine, grid, path)
@@ -272,6 +273,7 @@ fn two_poses(path: &std::path::Path) -> (volmap::model::Machine, Vec<Grid>) {
     let options = MapOptions {
         chunk_points: Some(4),
         check_points: 3,
+        ..Default::default()
     };
     let summary = volmap::engine::sweep::map_sweep_to_file(
         &machine,

@@ -25,3 +25,4 @@ mod standards;
 mod standards_inputs;
 mod tolerance;
 mod variants;
+mod vtk;

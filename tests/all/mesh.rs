@@ -1,4 +1,5 @@
-//! STL reading (ASCII and binary) and PLY writing.
+//! STL reading (ASCII and binary), PLY and VTK PolyData writing, read back as MeshLab and
+//! ParaView users read them.
 
 use nalgebra::Vector3;
 use volmap::io::mesh::{Mesh, MeshError};
@@ -111,19 +112,84 @@ fn ply_holds_the_vertices_faces_and_the_scalar() {
     let header = std::str::from_utf8(&bytes[..end]).unwrap();
     assert!(
         header.contains("element vertex 4\n")
-            && header.contains("property float deviation_mm\n")
+            && header.contains("property float quality\nproperty float deviation_mm\n")
             && header.contains("element face 4\n")
     );
     let body = &bytes[end..];
-    assert_eq!(body.len(), 4 * 16 + 4 * 13);
+    assert_eq!(body.len(), 4 * 20 + 4 * 13);
     let float = |k: usize| f32::from_le_bytes(body[4 * k..4 * k + 4].try_into().unwrap());
     // Vertices in order of first use: the second is the first triangle's second corner.
     assert_eq!(
-        [float(4), float(5), float(6), float(7)],
-        [0.0, 20.0, 0.0, -0.002]
+        [float(5), float(6), float(7), float(8), float(9)],
+        [0.0, 20.0, 0.0, -0.002, -0.002]
     );
-    let face = &body[64 + 13..64 + 26];
+    let face = &body[80 + 13..80 + 26];
     assert_eq!(face[0], 3);
     assert_eq!(i32::from_le_bytes(face[5..9].try_into().unwrap()), 2);
     assert!(!dir.path().join("deviation.ply.part").exists());
+}
+
+#[test]
+fn plyfile_sees_the_deviation_as_quality() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = Mesh::from_triangles(&tetrahedron(), "t").unwrap();
+    let values = [0.001f32, -0.002, 0.0005, 0.003];
+    let path = dir.path().join("deviation.ply");
+    mesh.write_ply(&path, "deviation_mm", &values).unwrap();
+    let Some(json) = crate::vtk::python_read("plyfile", "read_ply.py", &path) else {
+        return;
+    };
+    assert_eq!(
+        json["properties"],
+        serde_json::json!(["x", "y", "z", "quality", "deviation_mm"])
+    );
+    for name in ["quality", "deviation_mm"] {
+        let got: Vec<f32> = json["vertex"][name]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap() as f32)
+            .collect();
+        assert_eq!(got, values, "{name}");
+    }
+    // Vertices in order of first use: triangle 0 is corners 0, 2, 1 of the tetrahedron.
+    assert_eq!(json["faces"][0], serde_json::json!([0, 1, 2]));
+    assert_eq!(json["vertex"]["y"][1], 20.0);
+}
+
+#[test]
+fn vtk_reads_the_poly_data_with_the_deviation_as_its_scalars() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = Mesh::from_triangles(&tetrahedron(), "t").unwrap();
+    let values = [0.001f32, -0.002, 0.0005, 0.003];
+    let path = dir.path().join("deviation.vtp");
+    mesh.write_vtp(&path, "deviation_mm", &values).unwrap();
+    assert!(!dir.path().join(".deviation.vtp.part").exists());
+    let Some(json) = crate::vtk::python_read("vtk", "read_vtk.py", &path) else {
+        return;
+    };
+    assert_eq!(json["points"], 4);
+    assert_eq!(json["cells"], 4);
+    assert_eq!(json["active"], "deviation_mm");
+    let got: Vec<f32> = json["arrays"]["deviation_mm"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap() as f32)
+        .collect();
+    assert_eq!(got, values);
+    // The corners exactly (f64), in order of first use: (0,0,0), (0,20,0), (10,0,0), (0,0,5.5).
+    assert_eq!(
+        json["coordinates"],
+        serde_json::json!([
+            [0.0, 0.0, 0.0],
+            [0.0, 20.0, 0.0],
+            [10.0, 0.0, 0.0],
+            [0.0, 0.0, 5.5]
+        ])
+    );
+    assert_eq!(
+        json["polygons"],
+        serde_json::json!([[0, 1, 2], [0, 2, 3], [2, 1, 3], [1, 0, 3]])
+    );
 }

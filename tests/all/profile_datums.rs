@@ -223,12 +223,15 @@ fn a_squareness_shows_against_the_datums_and_a_best_fit_removes_it() {
         + 11;
     let float =
         |i: usize| f32::from_le_bytes(bytes[end + 4 * i..end + 4 * i + 4].try_into().unwrap());
+    // Each vertex: x, y, z, quality (MeshLab's scalar), deviation_mm; the same value twice.
     for v in 0..4 {
-        let (z, deviation) = (float(4 * v + 2) as f64, float(4 * v + 3) as f64);
-        assert!(
-            (deviation - k * (z + 20.0)).abs() < 1e-8,
-            "vertex at z={z}: {deviation}"
-        );
+        let z = float(5 * v + 2) as f64;
+        for deviation in [float(5 * v + 3) as f64, float(5 * v + 4) as f64] {
+            assert!(
+                (deviation - k * (z + 20.0)).abs() < 1e-8,
+                "vertex at z={z}: {deviation}"
+            );
+        }
     }
 }
 

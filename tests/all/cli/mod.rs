@@ -3,6 +3,7 @@
 mod compensate;
 mod design;
 mod inputs;
+mod machine_files;
 mod machines;
 mod map;
 mod plot;
@@ -15,7 +16,7 @@ mod sweep_readers;
 use assert_cmd::Command;
 use predicates::prelude::*;
 
-fn volmap() -> Command {
+pub(crate) fn volmap() -> Command {
     Command::cargo_bin("volmap").unwrap()
 }
 
