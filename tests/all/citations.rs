@@ -1,6 +1,7 @@
 //! The repository stands on its own: no file names a document outside it (the specification the
 //! project was first written from, the text files its papers were kept in), the model is in
-//! `docs/model.md`, and the papers are cited by authors, title, venue and year.
+//! `docs/model.md`, the papers are cited by authors, title, venue and year, and the README asks
+//! for the Rust version `Cargo.toml` declares.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -137,4 +138,19 @@ fn the_model_document_cites_every_paper_and_the_readme_points_to_it() {
     }
     let readme = fs::read_to_string(root.join("README.md")).unwrap();
     assert!(readme.contains("[docs/model.md](docs/model.md)"));
+}
+
+#[test]
+fn the_readme_asks_for_the_rust_version_cargo_toml_declares() {
+    let root = repository();
+    let manifest: toml::Table = fs::read_to_string(root.join("Cargo.toml"))
+        .unwrap()
+        .parse()
+        .unwrap();
+    let version = manifest["package"]["rust-version"].as_str().unwrap();
+    let readme = fs::read_to_string(root.join("README.md")).unwrap();
+    assert!(
+        readme.contains(&format!("Rust {version} or newer")),
+        "the README should ask for Rust {version} or newer, as Cargo.toml's rust-version does"
+    );
 }
