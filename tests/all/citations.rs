@@ -11,7 +11,7 @@ fn forbidden_names() -> Vec<String> {
     vec![
         ["MODEL", ".md"].concat(),
         ["../", "shared"].concat(),
-        ["shared/", "seeds"].concat(),
+        ["shared", "/seeds"].concat(),
     ]
 }
 
