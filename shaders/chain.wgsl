@@ -1,4 +1,4 @@
-// The full kinematic chain of MODEL.md at every grid point of a chunk.
+// The full kinematic chain of docs/model.md at every grid point of a chunk.
 //
 //   E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn · S · Trans(tool)
 //   linear axis: A_k(q) = L_k · Trans(q·u_k) · E_k(q)

@@ -1,6 +1,6 @@
 //! volmap: the volumetric error of multi-axis machine tools, mapped over their workspace.
 //!
-//! The mathematics is MODEL.md's: every axis contributes a relative transform with its ISO
+//! The mathematics is docs/model.md's: every axis contributes a relative transform with its ISO
 //! 230-1 errors, the chain `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn · S · Trans(tool)` is multiplied
 //! at every commanded position, and the tool tip's deviation from the ideal machine is the
 //! volumetric error.

@@ -193,7 +193,7 @@ pub fn choose_interp(
 ) -> (Interp, Vec<(String, f64)>, String) {
     let mut scores: Vec<(Interp, f64)> = Vec::new();
     for interp in [Interp::Linear, Interp::Quadratic, Interp::Cubic] {
-        if interp == Interp::Quadratic && nodes.len() % 2 == 0 {
+        if interp == Interp::Quadratic && nodes.len().is_multiple_of(2) {
             continue;
         }
         if let Some(score) = leave_one_out(nodes, interp) {

@@ -1,5 +1,5 @@
 //! The unknowns of a fit: location errors `E?0k`, spindle errors `E?S`, and the thermal
-//! coefficient of either for one declared input, `EC0Y.per_kelvin.hall` (MODEL.md, "Thermal
+//! coefficient of either for one declared input, `EC0Y.per_kelvin.hall` (docs/model.md, "Thermal
 //! terms": `v(T) = value + Σ_s per_kelvin_s · (T_s − reference_C)`); how each is read from and
 //! written into a machine, and into its file.
 

@@ -180,7 +180,7 @@ pub fn sweep_grids(
     }
 }
 
-/// `--temperatures` and `--approach`: the evaluation inputs (MODEL.md, "Evaluation inputs").
+/// `--temperatures` and `--approach`: the evaluation inputs (docs/model.md, "Evaluation inputs").
 #[derive(clap::Args)]
 pub struct InputsArg {
     /// Temperatures of the machine's thermal inputs in °C, e.g. `x_scale=24.5,spindle=31`;

@@ -1,6 +1,6 @@
-//! The error budget (MODEL.md): each toleranced term alone at its limit (`+h` for uniform, `+2σ`
-//! for normal) on the ideal machine (every other error value zero, nominal offsets kept), and the
-//! statistics of that term's own field over the grid (and every pose of a sweep). The budget's
+//! The error budget (docs/model.md): each toleranced term alone at its limit (`+h` for uniform,
+//! `+2σ` for normal) on the ideal machine (every other error value zero, nominal offsets kept), and
+//! the statistics of that term's own field over the grid (and every pose of a sweep). The budget's
 //! total is the root sum of squares of the terms' `max |VE|`; a term's share is its `max |VE|²`
 //! over the sum of them all.
 

@@ -1,4 +1,4 @@
-//! Machine design (MODEL.md, "Tolerances and sampled machines"): what a designer's tolerances
+//! Machine design (docs/model.md, "Tolerances and sampled machines"): what a designer's tolerances
 //! mean before any machine exists. The error budget (each toleranced term alone at its limit on
 //! the ideal machine), Monte Carlo over machines built to the tolerances (each sample's field
 //! reduced to its statistics on the engine), tolerance allocation (the common factor on the

@@ -22,7 +22,7 @@ pub struct CheckResult {
     pub max_oe_diff_rad: f64,
 }
 
-/// The accuracy MODEL.md and the core issue ask of the f32 field against the f64 reference.
+/// The accuracy docs/model.md (section 7) asks of the f32 field against the f64 reference.
 pub const VE_TOLERANCE_MM: f64 = 1e-6;
 pub const OE_TOLERANCE_RAD: f64 = 1e-9;
 

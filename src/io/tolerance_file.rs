@@ -1,5 +1,5 @@
-//! The tolerance file (TOML, MODEL.md "Tolerances and sampled machines"): how far each error value
-//! of the machines built may lie from the machine file's, and the scaled copy a tolerance
+//! The tolerance file (TOML, docs/model.md, "Tolerances and sampled machines"): how far each error
+//! value of the machines built may lie from the machine file's, and the scaled copy a tolerance
 //! allocation writes.
 //!
 //! ```toml

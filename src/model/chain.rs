@@ -1,5 +1,5 @@
 //! Axis letters and the kinematic chain, in the notation of Hwang et al. (`FYXCFZB`) or the
-//! ISO 10791 structural code (`w C' X' Y' b Z B t`). See MODEL.md, "Axes and the kinematic chain".
+//! ISO 10791 structural code (`w C' X' Y' b Z B t`). See docs/model.md, "The kinematic chain".
 
 use std::fmt;
 
@@ -203,8 +203,8 @@ impl Chain {
     }
 
     /// The axes in the order their relative transforms multiply in
-    /// `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn` (MODEL.md): the work branch from the workpiece down to
-    /// the bed, then the tool branch from the bed up to the tool.
+    /// `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn` (docs/model.md): the work branch from the workpiece
+    /// down to the bed, then the tool branch from the bed up to the tool.
     pub fn product_order(&self) -> Vec<AxisLetter> {
         self.work.iter().rev().chain(&self.tool).copied().collect()
     }

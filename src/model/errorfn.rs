@@ -1,4 +1,4 @@
-//! Error values as functions of commanded positions (MODEL.md, "Error values"): of their own
+//! Error values as functions of commanded positions (docs/model.md, "Error values"): of their own
 //! axis's position, of another axis's (`of`), of two axes at once (`table2d`), and sums of these.
 //!
 //! [`ErrorFunction::eval_at`] is the f64 definition used by the CPU reference; it reads the nodes

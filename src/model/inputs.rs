@@ -1,6 +1,6 @@
-//! Evaluation inputs (MODEL.md, "Evaluation inputs" and "Thermal terms"): the approach direction
-//! of every axis and the temperature of every declared thermal input, and the error values that
-//! depend on them.
+//! Evaluation inputs (docs/model.md, "Evaluation inputs" and "Thermal terms"): the approach
+//! direction of every axis and the temperature of every declared thermal input, and the error
+//! values that depend on them.
 //!
 //! A machine file's error value may carry a `reverse` form (the value while its axis approaches
 //! in the negative direction) and `per_kelvin` forms; the machine as loaded holds the value at

@@ -1,7 +1,7 @@
 //! The model: what a machine is, with no file or device in sight. The kinematic chain, the axes
 //! with their nominal geometry and ISO 230-1 errors as functions of position, the spindle errors
-//! and the tool offset (MODEL.md); the grid of commanded positions a map covers; the channels of
-//! a field. Machine files are read into it by [`crate::io::machine_file`].
+//! and the tool offset (docs/model.md); the grid of commanded positions a map covers; the channels
+//! of a field. Machine files are read into it by [`crate::io::machine_file`].
 
 pub mod chain;
 pub mod channels;
@@ -92,7 +92,7 @@ pub struct MachineSource {
     pub csv_files: Vec<(String, String)>,
 }
 
-/// A complete machine: what MODEL.md's chain needs.
+/// A complete machine: what docs/model.md's chain needs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Machine {
     pub name: String,
@@ -164,7 +164,7 @@ impl Machine {
     }
 
     /// The same machine with every error value zero (nominal offsets, directions, tool kept):
-    /// the ideal machine of MODEL.md.
+    /// the ideal machine of docs/model.md.
     pub fn without_errors(&self) -> Machine {
         let mut ideal = self.clone();
         for axis in &mut ideal.axes {

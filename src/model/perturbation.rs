@@ -1,6 +1,6 @@
-//! Deviations added to a machine's error values: what a tolerance allows (MODEL.md, "Tolerances
-//! and sampled machines"). A sampled machine is the machine with `s·shape(q)` added to each
-//! toleranced error value, `s` the sample's amplitude for that term.
+//! Deviations added to a machine's error values: what a tolerance allows (docs/model.md,
+//! "Tolerances and sampled machines"). A sampled machine is the machine with `s·shape(q)` added to
+//! each toleranced error value, `s` the sample's amplitude for that term.
 
 use super::{AxisLetter, ErrorFunction, Machine, COMPONENT_NAMES};
 

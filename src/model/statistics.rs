@@ -1,6 +1,6 @@
-//! The statistics of a field (MODEL.md, "Tolerances and sampled machines"): over every point of a
-//! grid, and over every pose of a sweep, the largest |VE| (Euclidean) and where, the RMS of |VE|,
-//! the largest |OE|, and the largest |VE| along each axis.
+//! The statistics of a field (docs/model.md, "Tolerances and sampled machines"): over every point
+//! of a grid, and over every pose of a sweep, the largest |VE| (Euclidean) and where, the RMS of
+//! |VE|, the largest |OE|, and the largest |VE| along each axis.
 
 use super::channels::CHANNELS;
 

@@ -1,4 +1,4 @@
-//! An error value of two axes at once (MODEL.md, "Two axes at once"): `values[i][j]` at
+//! An error value of two axes at once (docs/model.md, "Two axes at once"): `values[i][j]` at
 //! (`x[i]`, `y[j]`), bilinear between the nodes, clamped to the edge outside.
 
 use super::{AxisLetter, Command};

@@ -1,4 +1,4 @@
-//! The approach direction of every axis along a program (MODEL.md, "Evaluation inputs"): the
+//! The approach direction of every axis along a program (docs/model.md, "Evaluation inputs"): the
 //! direction an axis moves in on a move, or at a point of an arc; an axis that does not move
 //! keeps the direction of its last move.
 //!

@@ -4,7 +4,7 @@
 //!
 //! Frames: program coordinates are the work coordinate system of the active work offset
 //! (G54–G59), in mm or inch; the machine is commanded at `q = program + work offset` (mm and
-//! degrees), which is MODEL.md's commanded position. The programmed point is where the ideal
+//! degrees), which is docs/model.md's commanded position. The programmed point is where the ideal
 //! machine puts the tool tip, `ideal(q)`; the compensated command `q'` is the one whose real tool
 //! tip lands there, `real(q') = ideal(q)` (workpiece frame), found by Newton steps with the ideal
 //! machine's Jacobian in X, Y, Z (exact: the nominal tip is affine in them) until it agrees to
@@ -19,7 +19,7 @@
 //! becomes compensated straight pieces otherwise. Rapid moves (G0) get compensated end points
 //! and are not split: the control does not hold their path.
 //!
-//! Evaluation inputs (MODEL.md): the machine is at the options' temperatures for the whole
+//! Evaluation inputs (docs/model.md): the machine is at the options' temperatures for the whole
 //! program; every point is compensated for the approach direction of each axis there, taken
 //! from the programmed path (`approach`): the direction the axis moves in on the move, or at
 //! that point of an arc, or of its last move where it does not move (the options' initial

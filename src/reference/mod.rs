@@ -1,7 +1,7 @@
-//! The CPU reference: MODEL.md in f64 with nalgebra, exact transforms, written for clarity rather
-//! than speed. It is the ground truth every other path is tested against, and [`Twin`], a machine
-//! with its ideal twin, is how every part of volmap asks what the machine does against what it
-//! should do.
+//! The CPU reference: docs/model.md in f64 with nalgebra, exact transforms, written for clarity
+//! rather than speed. It is the ground truth every other path is tested against, and [`Twin`], a
+//! machine with its ideal twin, is how every part of volmap asks what the machine does against what
+//! it should do.
 //!
 //! Frames: every transform maps coordinates of a child frame into its parent; products compose
 //! from the workpiece outward, `E_rel = A_wm ⋯ A_w1 · A_t1 ⋯ A_tn · S · Trans(tool)`, and the
@@ -95,7 +95,7 @@ pub fn spindle_and_tool_at(spindle: [f64; 5], tool_mm: [f64; 3]) -> Transform {
     spindle_error_at(spindle) * trans(Vector3::from(tool_mm))
 }
 
-/// `E_rel(q)` of MODEL.md for the machine at the commanded positions.
+/// `E_rel(q)` of docs/model.md for the machine at the commanded positions.
 pub fn relative_transform(machine: &Machine, command: &Command) -> Transform {
     let chain = machine
         .axes_in_product_order()

@@ -1,6 +1,6 @@
 //! A machine and its ideal twin: the same machine with every error value zero (nominal offsets,
-//! directions and tool kept), MODEL.md's ideal machine. The volumetric error is the real tool tip
-//! against the ideal one; a standard test commands where the ideal machine puts the tip; NC
+//! directions and tool kept), docs/model.md's ideal machine. The volumetric error is the real tool
+//! tip against the ideal one; a standard test commands where the ideal machine puts the tip; NC
 //! compensation finds the command whose real tip lands where the ideal one would.
 
 use nalgebra::{Matrix3, Vector3};

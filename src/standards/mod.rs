@@ -2,8 +2,8 @@
 //! ISO 230-2 positioning of one axis, ISO 230-6 body and face diagonals, ISO 230-4 circular
 //! tests (ballbar) and the R-test of a rotary axis (Hwang et al. 2014, Figs. 14–15).
 //!
-//! Every test commands positions, asks the model for `VE` there (the f64 reference of MODEL.md,
-//! workpiece frame), and turns it into what the test's instrument reads:
+//! Every test commands positions, asks the model for `VE` there (the f64 reference of
+//! docs/model.md, workpiece frame), and turns it into what the test's instrument reads:
 //!
 //! - positioning of axis `k` (laser along `k`, zeroed at the first target `t0` of the ↑ run):
 //!   `x↑(t) = VE↑(t)·e_k − VE↑(t0)·e_k` with `k` approaching `+`, `x↓(t) = VE↓(t)·e_k −
@@ -21,10 +21,10 @@
 //!   sphere's displacement relative to the nest in the spindle frame, `−R_idealᵀ · VE`, zeroed
 //!   at the first angle.
 //!
-//! Every test evaluates the model at its evaluation inputs (MODEL.md, "Evaluation inputs"): the
-//! temperatures given apply to every point; each axis the test moves approaches in the direction
-//! the path moves it at that point ([`Directions`]), and the axes it does not move approach as the
-//! inputs say (default `+`).
+//! Every test evaluates the model at its evaluation inputs (docs/model.md, "Evaluation inputs"):
+//! the temperatures given apply to every point; each axis the test moves approaches in the
+//! direction the path moves it at that point ([`Directions`]), and the axes it does not move
+//! approach as the inputs say (default `+`).
 //!
 //! Measured curves are compared as they come: zero them where the prediction is zeroed.
 

@@ -78,7 +78,7 @@ pub fn with_random_errors(mut machine: Machine, rng: &mut Rng) -> Machine {
         for n in 0..6 {
             let scale = if n < 3 { 0.01 } else { 3e-5 };
             let kind = rng.next_u64() % 5;
-            let periodic = !axis.letter.is_linear() && rng.next_u64() % 2 == 0;
+            let periodic = !axis.letter.is_linear() && rng.next_u64().is_multiple_of(2);
             let function = match kind {
                 0 => ErrorFunction::Constant(rng.uniform(-scale, scale)),
                 1 => {

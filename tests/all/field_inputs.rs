@@ -1,4 +1,4 @@
-//! Field files record the evaluation inputs they were computed for (MODEL.md, "Evaluation
+//! Field files record the evaluation inputs they were computed for (docs/model.md, "Evaluation
 //! inputs"): every header, every part, read back the same; a field written before fields
 //! recorded them means the default inputs; OpenEXR's own readers see the attributes.
 

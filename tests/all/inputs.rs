@@ -1,4 +1,4 @@
-//! The model real machines need (MODEL.md): errors of other axes' positions (`of`, `table2d`),
+//! The model real machines need (docs/model.md): errors of other axes' positions (`of`, `table2d`),
 //! sums, reversal and thermal terms, against cases derived by hand; every bad machine file for
 //! them named by file and key.
 

@@ -2,6 +2,7 @@
 //! `VOLMAP_REQUIRE_GPU=1` (set by CI) a missing adapter is a failure.
 
 mod calibrate;
+mod citations;
 mod cli;
 mod common;
 mod cpu;

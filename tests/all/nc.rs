@@ -1,5 +1,5 @@
-//! Offline NC compensation: the seed's test piece, programs in the styles people write, uniform
-//! errors that keep arcs, five axes, inch, and bad programs.
+//! Offline NC compensation: the test piece of Dobariya, Patel and Jani (2015), programs in the
+//! styles people write, uniform errors that keep arcs, five axes, inch, and bad programs.
 
 use std::path::Path;
 
@@ -115,7 +115,7 @@ fn check_only_coordinates_change(input: &str, output: &nc::Compensated) {
 }
 
 #[test]
-fn the_seed_test_piece_comes_out_within_a_micrometre() {
+fn the_dobariya_test_piece_comes_out_within_a_micrometre() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/dobariya2015");
     let machine = Machine::from_path(&dir.join("machine.toml")).unwrap();
     let program = std::fs::read_to_string(dir.join("test-piece.nc")).unwrap();

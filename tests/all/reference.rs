@@ -200,7 +200,8 @@ fn hwang_and_iso10791_chains_are_the_same_machine() {
     }
 }
 
-/// `E_rel = T_work⁻¹ · T_tool` with the branches built as MODEL.md defines them, inverses and all.
+/// `E_rel = T_work⁻¹ · T_tool` with the branches built as docs/model.md defines them, inverses
+/// and all.
 fn e_rel_from_branches(m: &Machine, command: &[f64; 6]) -> Matrix4<f64> {
     let a = |l: AxisLetter| reference::axis_transform(m.axis(l).unwrap(), command[l.index()]);
     let t_work = m
@@ -224,7 +225,7 @@ fn e_rel_from_branches(m: &Machine, command: &[f64; 6]) -> Matrix4<f64> {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
-    /// The product order of MODEL.md equals the definition with the work branch inverted.
+    /// The product order of docs/model.md equals the definition with the work branch inverted.
     #[test]
     fn chain_product_equals_inverted_work_branch(chain_index in 0usize..720, seed in any::<u64>(), q in prop::array::uniform6(-1.0f64..1.0)) {
         let chain = &all_five_axis_chains([X, Y, Z, A, C])[chain_index];

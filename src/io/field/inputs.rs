@@ -1,6 +1,6 @@
-//! The evaluation inputs a field was computed for (MODEL.md, "Evaluation inputs"): the approach
-//! direction of every axis and the temperature of every declared thermal input, recorded in
-//! every header (every part of a multi-part file) and checked against the inputs a reader asks
+//! The evaluation inputs a field was computed for (docs/model.md, "Evaluation inputs"): the
+//! approach direction of every axis and the temperature of every declared thermal input, recorded
+//! in every header (every part of a multi-part file) and checked against the inputs a reader asks
 //! for, as a field's pose is.
 //!
 //! Attributes: `volmap.approach` (`X=+,Y=-,Z=+`, every axis of the chain) and

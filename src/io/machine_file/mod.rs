@@ -1,4 +1,4 @@
-//! The machine file (TOML, MODEL.md "The machine file"): parsing and validation.
+//! The machine file (TOML; what the values mean: docs/model.md): parsing and validation.
 //!
 //! The top level, `[tool]` and `[spindle]` are serde structs with `deny_unknown_fields`. The keys
 //! of an `[axes.K]` section depend on its letter (`EXX` belongs to X, `EXY` to Y), so axis

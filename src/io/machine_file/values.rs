@@ -1,4 +1,4 @@
-//! Error values in a machine file (MODEL.md, "Error values"): the forms (a number, `poly`,
+//! Error values in a machine file (docs/model.md, "Error values"): the forms (a number, `poly`,
 //! `table` or `csv`, each with an optional `of`; `table2d`; `sum`), the general form `{ value,
 //! reverse, per_kelvin }` and its shorthand beside a `poly` or `table`, and the constant values of
 //! location and spindle errors with their `per_kelvin` terms.
