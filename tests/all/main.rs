@@ -17,6 +17,7 @@ mod mesh;
 mod nc;
 mod nc_inputs;
 mod plot;
+mod plot_looks;
 mod query;
 mod reference;
 mod shaders;

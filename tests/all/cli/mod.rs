@@ -15,7 +15,7 @@ mod sweep_readers;
 use assert_cmd::Command;
 use predicates::prelude::*;
 
-fn volmap() -> Command {
+pub fn volmap() -> Command {
     Command::cargo_bin("volmap").unwrap()
 }
 
