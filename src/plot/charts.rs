@@ -117,9 +117,27 @@ fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
     }
 }
 
-/// The legend's rows from `(x, y)` down; the box it takes, `[x, y, w, h]`.
+/// The legend's rows from `(x, y)` down, framed; the frame, `[x, y, w, h]`.
 fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64; 4] {
-    let mut wide: f64 = 0.0;
+    let wide = series
+        .iter()
+        .map(|s| 30.0 + super::text_width(&s.name, 12.0))
+        .fold(0.0, f64::max);
+    let frame = [
+        x - 6.0,
+        y - 16.0,
+        wide + 12.0,
+        18.0 * series.len() as f64 + 6.0,
+    ];
+    // A white frame: the curves pass behind the legend, not through its words.
+    d.shapes.push(Shape::Rect {
+        x: frame[0],
+        y: frame[1],
+        w: frame[2],
+        h: frame[3],
+        fill: Some(Color(255, 255, 255)),
+        stroke: Some(Color::LIGHT),
+    });
     for (n, s) in series.iter().enumerate() {
         let row = y + 18.0 * n as f64;
         d.line(
@@ -131,9 +149,8 @@ fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64; 4] {
         d.shapes
             .extend(marker_shape(s.marker, [x + 12.0, row - 4.0], 4.0, s.color));
         d.text(x + 30.0, row, s.name.clone(), 12.0, Anchor::Start);
-        wide = wide.max(30.0 + super::text_width(&s.name, 12.0));
     }
-    [x, y - 14.0, wide, 18.0 * series.len() as f64]
+    frame
 }
 
 /// Curves over a common x axis, with round ticks, a grid, axis labels and a legend.
