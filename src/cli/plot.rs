@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use volmap::io::field::FieldError;
 use volmap::io::vtk;
 use volmap::model::poses;
-use volmap::plot::{self, Color, Series};
+use volmap::plot::{self, Color, Marker, Series};
 use volmap::query::{self, Quantity, QueryError};
 use volmap::standards::TestResult;
 
@@ -18,21 +18,39 @@ use super::output::{check_plot_paths, write_plot};
 const CURVE_COLOURS: [Color; 3] = [Color::BLUE, Color::ORANGE, Color::GREEN];
 
 /// The test's curves, predicted solid and measured dashed, in one chart (polar for circles).
+/// Curves of an approach direction (ISO 230-2's ↑ and ↓) mark their targets with triangles
+/// pointing that way, and measured runs draw their ±2s band.
 pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> {
     let mut series = Vec::new();
     for (n, name) in result.curve_names.iter().enumerate() {
         let colour = CURVE_COLOURS[n % CURVE_COLOURS.len()];
         let scale = if result.polar.is_some() { 1.0 } else { 1000.0 };
+        let marker = if name.contains('↑') {
+            Marker::Up
+        } else if name.contains('↓') {
+            Marker::Down
+        } else {
+            Marker::None
+        };
         series.push(Series {
             name: format!("{name}, predicted"),
             x: result.positions.clone(),
             y: result.predicted[n].iter().map(|v| v * scale).collect(),
             color: colour,
             dashed: false,
+            marker,
+            band: None,
         });
         if let Some(measured) = &result.measured {
+            let band = result
+                .measured_2s
+                .as_ref()
+                .map(|b| b[n].iter().map(|v| v * scale).collect());
             series.push(Series {
-                name: format!("{name}, measured"),
+                name: match band {
+                    Some(_) => format!("{name}, measured (thin: ±2s)"),
+                    None => format!("{name}, measured"),
+                },
                 x: result.positions.clone(),
                 y: measured[n].iter().map(|v| v * scale).collect(),
                 color: if result.curve_names.len() == 1 {
@@ -41,6 +59,8 @@ pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> 
                     colour
                 },
                 dashed: true,
+                marker,
+                band,
             });
         }
     }
@@ -180,9 +200,16 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
             let machine = machine.load()?;
             let grid = full_travel(&machine, &grid, &pose)?;
             let deformed = query::deformed_grid(&machine, &grid, scale);
+            // A machine with rotary axes is drawn at one pose: the title says which.
+            let pose = poses::pose_name(&grid.pose, &machine);
+            let at = if pose.is_empty() {
+                String::new()
+            } else {
+                format!(" at {pose}")
+            };
             plot::deformed_grid(
                 &format!(
-                    "{}: the workspace deformed by its volumetric error",
+                    "{}{at}: the workspace deformed by its volumetric error",
                     machine.name
                 ),
                 &format!(

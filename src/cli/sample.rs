@@ -5,24 +5,33 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use volmap::io::atomic::AtomicFile;
 use volmap::io::field::FieldFile;
-use volmap::io::points::{self, QueryPoint};
-use volmap::query::{self, SampledField};
+use volmap::io::points::{PointReader, PointsError, Precision, QueryPoint, SampleWriter};
+use volmap::io::FileError;
+use volmap::model::channels::Sample;
+use volmap::model::{Command, Machine};
+use volmap::query::{self, FieldSampler, Outside, SampledField};
 
 use super::args::{load_machine, DeviceArg, InputsArg, OptionalMachineArg, PoseArg};
 use super::failure::{Failure, FlagContext};
-use super::output::write_file;
 
 #[derive(clap::Args)]
 #[command(mut_arg("pose", |a| a.requires("exact")))]
 pub struct SampleArgs {
-    /// Positions: CSV with a header row naming X, Y, Z (mm) and optionally A, B, C (degrees).
+    /// Positions: CSV with a header row naming X, Y, Z (mm) and optionally A, B, C (degrees), in
+    /// either case; other columns (an id) are carried through to the answer.
     #[arg(long)]
     points: PathBuf,
-    /// Interpolate (trilinear) in this field file; positions outside its grid are an error. In a
-    /// five-axis map (`map --poses`) the rotary columns pick the part of each point's pose.
+    /// Interpolate (trilinear) in this field file; positions outside its grid are an error
+    /// unless --outside says otherwise. In a five-axis map (`map --poses`) the rotary columns
+    /// pick the part of each point's pose.
     #[arg(long, conflicts_with = "exact")]
     field: Option<PathBuf>,
+    /// A position outside the field's grid: `error` stops naming its line, `skip` leaves its
+    /// row out, `nan` answers NaN (a field is never extrapolated). Default: error.
+    #[arg(long, value_enum)]
+    outside: Option<OutsideArg>,
     /// Compute exactly from the machine model (the f64 reference) instead of a field.
     #[arg(long, requires = "machine")]
     exact: bool,
@@ -41,6 +50,53 @@ pub struct SampleArgs {
     device: DeviceArg,
 }
 
+/// `--outside`: what to do with a position outside the field's grid.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum OutsideArg {
+    Error,
+    Skip,
+    Nan,
+}
+
+/// Positions read, sampled and written at a time: memory holds one batch however many points
+/// the file has.
+const BATCH_POINTS: usize = 65_536;
+
+/// Where the values come from: a field (f32 values) or the model at a pose.
+enum Source<'a> {
+    Field(FieldSampler<'a>),
+    Exact(Machine, Command),
+}
+
+impl Source<'_> {
+    fn sample(&mut self, points: &[QueryPoint]) -> Result<Vec<Option<Sample>>, Failure> {
+        match self {
+            Source::Field(sampler) => Ok(sampler.sample(points)?),
+            Source::Exact(machine, pose) => {
+                // `--pose` sets the rotary axes the CSV has no column for.
+                let points: Vec<QueryPoint> = points
+                    .iter()
+                    .map(|p| {
+                        let mut p = p.clone();
+                        for ((value, given), posed) in
+                            p.command.iter_mut().zip(p.given).zip(*pose).skip(3)
+                        {
+                            if !given {
+                                *value = posed;
+                            }
+                        }
+                        p
+                    })
+                    .collect();
+                Ok(query::sample_exact(machine, &points)
+                    .into_iter()
+                    .map(Some)
+                    .collect())
+            }
+        }
+    }
+}
+
 pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     // The field's headers first: it must hold the inputs asked for.
     let file = args
@@ -52,41 +108,44 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     if let Some(file) = &file {
         args.inputs.check_field(file)?;
     }
-    // The points and the field are read side by side: both are mostly parsing.
+    // The first points and the field are read side by side: both are mostly parsing.
     // A five-axis map's parts are read later, one by one, as the points ask for them.
-    let (points, loaded) = rayon::join(
-        || points::read_points(&args.points),
+    let (first, loaded) = rayon::join(
+        || {
+            let mut reader = PointReader::open(&args.points)?;
+            let batch = reader.next_batch(BATCH_POINTS)?;
+            Ok::<_, PointsError>((reader, batch))
+        },
         || file.map(SampledField::of).transpose(),
     );
-    let points = points.flag("--points")?;
+    let (mut reader, mut batch) = first.flag("--points")?;
     let loaded = loaded.flag("--field")?;
-    let samples = match (&loaded, &args.machine.machine) {
+    let path = args.points.display().to_string();
+    let gpu;
+    let outside = match args.outside {
+        None | Some(OutsideArg::Error) => Outside::Error,
+        Some(OutsideArg::Skip) => Outside::Skip,
+        Some(OutsideArg::Nan) => Outside::Nan,
+    };
+    if loaded.is_none() && args.outside.is_some() {
+        return Err(Failure::input(
+            "--outside: only a field has a grid to be outside of; give --field FILE.exr",
+        ));
+    }
+    let (mut source, precision) = match (&loaded, &args.machine.machine) {
         (Some(loaded), _) => {
-            let path = args.points.display().to_string();
             let (sampler, note) = args.device.sampler()?;
             if let Some(note) = note {
                 eprintln!("note: {note}");
             }
-            query::sample_fields(loaded, &points, &path, sampler.as_ref())?
+            gpu = sampler;
+            let sampler = FieldSampler::new(loaded, gpu.as_ref(), &path, outside);
+            (Source::Field(sampler), Precision::F32)
         }
         (None, Some(machine)) if args.exact => {
             let (machine, _) = args.inputs.machine_at(&load_machine(machine)?)?;
             let pose = args.pose.on(&machine)?;
-            let points: Vec<QueryPoint> = points
-                .iter()
-                .map(|p| {
-                    let mut p = p.clone();
-                    for ((value, given), posed) in
-                        p.command.iter_mut().zip(p.given).zip(pose).skip(3)
-                    {
-                        if !given {
-                            *value = posed;
-                        }
-                    }
-                    p
-                })
-                .collect();
-            query::sample_exact(&machine, &points)
+            (Source::Exact(machine, pose), Precision::F64)
         }
         _ => {
             return Err(Failure::input(
@@ -94,17 +153,53 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             ))
         }
     };
-    match &args.out {
-        None => {
-            let stdout = std::io::stdout();
-            let mut out = std::io::BufWriter::new(stdout.lock());
-            points::write_samples(&mut out, &points, &samples)
-                .and_then(|()| out.flush())
-                .map_err(|e| Failure::work(e).context("writing to standard output"))?;
+    let mut file_out = args
+        .out
+        .as_deref()
+        .map(|path| AtomicFile::create(path, 1 << 20))
+        .transpose()
+        .flag("--out")?;
+    let stdout = std::io::stdout();
+    let mut stdout = std::io::BufWriter::with_capacity(1 << 20, stdout.lock());
+    let out: &mut dyn Write = match &mut file_out {
+        Some(file) => file,
+        None => &mut stdout,
+    };
+    let write_error = |e: std::io::Error| match &args.out {
+        Some(path) => Failure::from(FileError::write(path, e)).context("--out"),
+        None => Failure::work(e).context("writing to standard output"),
+    };
+    let writer = SampleWriter::start(out, reader.columns(), precision).map_err(write_error)?;
+    let (mut outside_count, mut first_outside) = (0usize, None);
+    while !batch.points.is_empty() {
+        // The next batch is read while this one is sampled.
+        let (samples, next) = rayon::join(
+            || source.sample(&batch.points),
+            || reader.next_batch(BATCH_POINTS),
+        );
+        let samples = samples?;
+        for (p, s) in batch.points.iter().zip(&samples) {
+            if s.is_none_or(|s| s[0].is_nan()) {
+                outside_count += 1;
+                first_outside.get_or_insert(p.line);
+            }
         }
-        Some(path) => {
-            write_file(path, |out| points::write_samples(out, &points, &samples)).flag("--out")?
-        }
+        writer.write(out, &batch, &samples).map_err(write_error)?;
+        batch = next.flag("--points")?;
+    }
+    out.flush().map_err(write_error)?;
+    if let Some(file) = file_out {
+        file.commit().flag("--out")?;
+    }
+    if let Some(line) = first_outside {
+        let done = match outside {
+            Outside::Skip => "left out",
+            _ => "answered NaN",
+        };
+        eprintln!(
+            "note: {outside_count} position(s) outside the field's grid {done} (--outside), \
+             the first at line {line} of {path}"
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -47,7 +47,7 @@ impl<'a> Csv<'a> {
             text.lines()
                 .enumerate()
                 .map(|(n, l)| (n + 1, l.trim()))
-                .filter(|(_, l)| !l.is_empty() && !l.starts_with('#')),
+                .filter(|(_, l)| !is_skipped(l)),
         );
         Csv { path, lines }
     }
@@ -67,24 +67,42 @@ impl<'a> Csv<'a> {
         let (line, text) = self.lines.next().ok_or_else(|| {
             self.error(1, format!("empty file: expected a header row {expected}"))
         })?;
-        Ok(Header {
-            line,
-            names: text.split(',').map(|n| n.trim().to_string()).collect(),
-        })
+        Ok(Header::parse(line, text))
     }
 
     /// The records after the header, in order.
     pub fn rows(&mut self) -> impl Iterator<Item = Row<'a>> + '_ {
         let path = self.path;
-        (&mut self.lines).map(move |(line, text)| Row {
+        (&mut self.lines).map(move |(line, text)| Row::parse(line, text, path))
+    }
+}
+
+/// Whether a (trimmed) line is one the grammar skips: blank, or a comment starting with `#`.
+/// For readers that take a file line by line rather than whole.
+pub fn is_skipped(line: &str) -> bool {
+    line.is_empty() || line.starts_with('#')
+}
+
+impl Header {
+    /// The header row `text` at `line`.
+    pub fn parse(line: usize, text: &str) -> Header {
+        Header {
             line,
-            fields: text.split(',').map(str::trim).collect(),
-            path,
-        })
+            names: text.split(',').map(|n| n.trim().to_string()).collect(),
+        }
     }
 }
 
 impl<'a> Row<'a> {
+    /// The record `text` at `line` of the file `path`.
+    pub fn parse(line: usize, text: &'a str, path: &'a str) -> Row<'a> {
+        Row {
+            line,
+            fields: text.split(',').map(str::trim).collect(),
+            path,
+        }
+    }
+
     /// An error at this row's line.
     pub fn error(&self, message: impl Into<String>) -> CsvError {
         CsvError {

@@ -1,14 +1,19 @@
 //! Points CSV: the commanded positions `volmap sample` is asked about, and the answers written
-//! back. One header row naming the columns `X Y Z` (mm) and, optionally, `A B C` (degrees); one
-//! position per row.
+//! back. One header row naming the columns `X Y Z` (mm) and, optionally, `A B C` (degrees), in
+//! either case; any other column (an `id`, a note) is carried through to the answer. One position
+//! per row.
+//!
+//! The file is read in batches ([`PointReader`]) and the answers written batch by batch
+//! ([`SampleWriter`]), so memory holds one batch whatever the number of points.
 
-use std::io::Write;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
 
-use super::csv::{Csv, CsvError};
-use super::{read_text, FileError};
+use super::csv::{is_skipped, CsvError, Header, Row};
+use super::FileError;
 use crate::error::input_errors;
 use crate::model::channels::{Sample, SAMPLE_COLUMNS};
 use crate::model::{AxisLetter, Command};
@@ -33,107 +38,238 @@ pub struct QueryPoint {
     pub given: [bool; 6],
 }
 
-/// Reads positions from CSV text; `path` names it in errors.
-pub fn parse_points(text: &str, path: &str) -> Result<Vec<QueryPoint>, PointsError> {
-    let mut csv = Csv::new(text, path);
-    let header = csv.header("naming X, Y, Z (and A, B, C)")?;
-    let mut columns = Vec::new();
-    let mut given = [false; 6];
-    for name in &header.names {
-        let letter = match name.chars().collect::<Vec<_>>()[..] {
-            [c] => AxisLetter::from_char(c),
-            _ => None,
-        }
-        .ok_or_else(|| {
-            csv.error(
-                header.line,
-                format!("unknown column `{name}` (the columns are X, Y, Z, A, B, C)"),
-            )
-        })?;
-        if std::mem::replace(&mut given[letter.index()], true) {
-            return Err(csv
-                .error(header.line, format!("column {letter} appears twice"))
-                .into());
-        }
-        columns.push(letter);
-    }
-    for letter in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z] {
-        if !given[letter.index()] {
-            return Err(csv
-                .error(
-                    header.line,
-                    format!("no column {letter}: X, Y and Z are required"),
-                )
-                .into());
-        }
-    }
-    let mut points = Vec::new();
-    for row in csv.rows() {
-        row.require_fields(columns.len())?;
-        let mut command = [0.0; 6];
-        for (n, letter) in columns.iter().enumerate() {
-            command[letter.index()] = row.number(n, &letter.to_string())?;
-        }
-        points.push(QueryPoint {
-            line: row.line,
-            command,
-            given,
-        });
-    }
-    Ok(points)
+/// The columns of a points file: the names as written, and the axis each one holds (`None`
+/// for a column carried through).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointColumns {
+    pub names: Vec<String>,
+    pub axes: Vec<Option<AxisLetter>>,
+    /// Which of the six axis columns are present.
+    pub given: [bool; 6],
 }
 
-pub fn read_points(path: &Path) -> Result<Vec<QueryPoint>, PointsError> {
-    parse_points(&read_text(path)?, &path.display().to_string())
-}
-
-/// Writes the positions with their samples as CSV: the position columns the input named, then
-/// [`SAMPLE_COLUMNS`]. Rows are formatted in parallel, written in order.
-pub fn write_samples(
-    out: &mut (impl Write + ?Sized),
-    points: &[QueryPoint],
-    samples: &[Sample],
-) -> std::io::Result<()> {
-    let given = points
-        .first()
-        .map_or([true, true, true, false, false, false], |p| p.given);
-    let letters: Vec<usize> = (0..6).filter(|&n| given[n]).collect();
-    let mut header: Vec<String> = letters
-        .iter()
-        .map(|&n| AxisLetter::ALL[n].to_string())
-        .collect();
-    header.extend(SAMPLE_COLUMNS.iter().map(|c| c.to_string()));
-    writeln!(out, "{}", header.join(","))?;
-    let blocks: Vec<Vec<u8>> = points
-        .par_chunks(16_384)
-        .zip(samples.par_chunks(16_384))
-        .map(|(points, samples)| {
-            let mut block = Vec::with_capacity(points.len() * 160);
-            let mut number = ryu::Buffer::new();
-            for (p, s) in points.iter().zip(samples) {
-                for (n, &letter) in letters.iter().enumerate() {
-                    if n > 0 {
-                        block.push(b',');
-                    }
-                    let value = p.command[letter];
-                    // Whole millimetres and degrees as integers, the way positions are written.
-                    if value.fract() == 0.0 && value.abs() < 1e15 {
-                        let _ = write!(block, "{}", value as i64);
-                    } else {
-                        block.extend_from_slice(number.format(value).as_bytes());
-                    }
-                }
-                for v in s {
-                    block.push(b',');
-                    block.extend_from_slice(number.format(*v).as_bytes());
-                }
-                block.push(b'\n');
+impl PointColumns {
+    fn of(header: &Header, path: &str) -> Result<PointColumns, CsvError> {
+        let error = |message: String| CsvError {
+            path: path.to_string(),
+            line: header.line,
+            message,
+        };
+        let mut axes = Vec::new();
+        let mut given = [false; 6];
+        for (n, name) in header.names.iter().enumerate() {
+            if name.is_empty() {
+                return Err(error(format!("column {} has no name", n + 1)));
             }
-            block
+            if SAMPLE_COLUMNS.iter().any(|c| c.eq_ignore_ascii_case(name)) {
+                return Err(error(format!(
+                    "column `{name}` is one the answer adds ({}): rename it",
+                    SAMPLE_COLUMNS.join(", ")
+                )));
+            }
+            let letter = match name.chars().collect::<Vec<_>>()[..] {
+                [c] => AxisLetter::from_char(c.to_ascii_uppercase()),
+                _ => None,
+            };
+            if let Some(letter) = letter {
+                if std::mem::replace(&mut given[letter.index()], true) {
+                    return Err(error(format!("column {letter} appears twice")));
+                }
+            }
+            axes.push(letter);
+        }
+        for letter in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z] {
+            if !given[letter.index()] {
+                return Err(error(format!(
+                    "no column {letter}: X, Y and Z are required"
+                )));
+            }
+        }
+        Ok(PointColumns {
+            names: header.names.clone(),
+            axes,
+            given,
         })
-        .collect();
-    for block in blocks {
-        out.write_all(&block)?;
     }
-    Ok(())
+}
+
+/// A batch of positions and, for each, its row's fields as written (trimmed, joined by commas),
+/// which the answer repeats.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PointBatch {
+    pub points: Vec<QueryPoint>,
+    pub rows: Vec<String>,
+}
+
+/// Reads a points file in batches: the header when opened, then [`PointReader::next_batch`].
+pub struct PointReader<R> {
+    input: R,
+    path: String,
+    line: usize,
+    columns: PointColumns,
+    text: String,
+}
+
+impl PointReader<BufReader<File>> {
+    /// Opens the file and reads its header.
+    pub fn open(path: &Path) -> Result<Self, PointsError> {
+        let file = File::open(path).map_err(|e| FileError::read(path, e))?;
+        PointReader::new(
+            BufReader::with_capacity(1 << 16, file),
+            &path.display().to_string(),
+        )
+    }
+}
+
+impl<R: BufRead> PointReader<R> {
+    /// Reads the header from `input`; `path` names the file in errors.
+    pub fn new(input: R, path: &str) -> Result<Self, PointsError> {
+        let mut reader = PointReader {
+            input,
+            path: path.to_string(),
+            line: 0,
+            columns: PointColumns {
+                names: Vec::new(),
+                axes: Vec::new(),
+                given: [false; 6],
+            },
+            text: String::new(),
+        };
+        let Some(line) = reader.next_record()? else {
+            return Err(CsvError {
+                path: reader.path,
+                line: 1,
+                message: "empty file: expected a header row naming X, Y, Z (and A, B, C)".into(),
+            }
+            .into());
+        };
+        let header = Header::parse(line, reader.text.trim());
+        reader.columns = PointColumns::of(&header, &reader.path)?;
+        Ok(reader)
+    }
+
+    pub fn columns(&self) -> &PointColumns {
+        &self.columns
+    }
+
+    /// Moves to the next line the grammar does not skip, into `self.text`; its line number, or
+    /// `None` at the end of the file.
+    fn next_record(&mut self) -> Result<Option<usize>, PointsError> {
+        loop {
+            self.text.clear();
+            let read = self
+                .input
+                .read_line(&mut self.text)
+                .map_err(|e| FileError::read(Path::new(&self.path), e))?;
+            if read == 0 {
+                return Ok(None);
+            }
+            self.line += 1;
+            if !is_skipped(self.text.trim()) {
+                return Ok(Some(self.line));
+            }
+        }
+    }
+
+    /// Up to `max` more positions; an empty batch at the end of the file.
+    pub fn next_batch(&mut self, max: usize) -> Result<PointBatch, PointsError> {
+        let mut batch = PointBatch::default();
+        while batch.points.len() < max {
+            let Some(line) = self.next_record()? else {
+                break;
+            };
+            let row = Row::parse(line, self.text.trim(), &self.path);
+            row.require_fields(self.columns.axes.len())?;
+            let mut command = [0.0; 6];
+            for (n, axis) in self.columns.axes.iter().enumerate() {
+                if let Some(letter) = axis {
+                    command[letter.index()] = row.number(n, &letter.to_string())?;
+                }
+            }
+            batch.points.push(QueryPoint {
+                line,
+                command,
+                given: self.columns.given,
+            });
+            batch.rows.push(row.fields.join(","));
+        }
+        Ok(batch)
+    }
+}
+
+/// Reads every position of CSV text; `path` names it in errors.
+pub fn parse_points(text: &str, path: &str) -> Result<Vec<QueryPoint>, PointsError> {
+    Ok(PointReader::new(text.as_bytes(), path)?
+        .next_batch(usize::MAX)?
+        .points)
+}
+
+/// Reads every position of a file (for few points: [`PointReader`] reads in batches).
+pub fn read_points(path: &Path) -> Result<Vec<QueryPoint>, PointsError> {
+    Ok(PointReader::open(path)?.next_batch(usize::MAX)?.points)
+}
+
+/// The precision of the values written: a field holds f32, so values interpolated in it are
+/// written as the shortest decimal that reads back to the same f32; exact values as the shortest
+/// that reads back to the same f64.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Precision {
+    F32,
+    F64,
+}
+
+/// Writes the answers: the input's columns as written, then [`SAMPLE_COLUMNS`].
+pub struct SampleWriter {
+    precision: Precision,
+}
+
+impl SampleWriter {
+    /// Writes the header row.
+    pub fn start(
+        out: &mut (impl Write + ?Sized),
+        columns: &PointColumns,
+        precision: Precision,
+    ) -> std::io::Result<SampleWriter> {
+        let mut header = columns.names.clone();
+        header.extend(SAMPLE_COLUMNS.iter().map(|c| c.to_string()));
+        writeln!(out, "{}", header.join(","))?;
+        Ok(SampleWriter { precision })
+    }
+
+    /// Writes one row per sample; a row without one (a position skipped) is left out. Rows are
+    /// formatted in parallel, written in order.
+    pub fn write(
+        &self,
+        out: &mut (impl Write + ?Sized),
+        batch: &PointBatch,
+        samples: &[Option<Sample>],
+    ) -> std::io::Result<()> {
+        let blocks: Vec<Vec<u8>> = batch
+            .rows
+            .par_chunks(8_192)
+            .zip(samples.par_chunks(8_192))
+            .map(|(rows, samples)| {
+                let mut block = Vec::with_capacity(rows.len() * 160);
+                let mut number = ryu::Buffer::new();
+                for (row, s) in rows.iter().zip(samples) {
+                    let Some(s) = s else { continue };
+                    block.extend_from_slice(row.as_bytes());
+                    for &v in s {
+                        block.push(b',');
+                        let text = match self.precision {
+                            Precision::F32 => number.format(v as f32),
+                            Precision::F64 => number.format(v),
+                        };
+                        block.extend_from_slice(text.as_bytes());
+                    }
+                    block.push(b'\n');
+                }
+                block
+            })
+            .collect();
+        for block in blocks {
+            out.write_all(&block)?;
+        }
+        Ok(())
+    }
 }

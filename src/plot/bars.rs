@@ -47,7 +47,7 @@ pub fn bar_chart(
     let step = if xt.len() > 1 { xt[1] - xt[0] } else { top };
     let sx = |v: f64| x0 + v / scale_end * (x1 - x0);
     let mut d = Drawing::new(WIDTH, height);
-    d.text(WIDTH / 2.0, 28.0, title, 15.0, Anchor::Middle);
+    d.title(title);
     for &t in &xt {
         d.line(vec![[sx(t), y0], [sx(t), y1]], Color::LIGHT, 1.0, false);
         d.text(sx(t), y0 + 16.0, tick_label(t, step), 11.0, Anchor::Middle);
@@ -129,7 +129,7 @@ pub fn histogram(
     let yt = ticks(0.0, y_top, 5);
     let sy = |c: f64| y0 - c / y_top * (y0 - y1);
     let mut d = Drawing::new(WIDTH, height);
-    d.text(WIDTH / 2.0, 28.0, title, 15.0, Anchor::Middle);
+    d.title(title);
     for &t in &yt {
         d.line(vec![[x0, sy(t)], [x1, sy(t)]], Color::LIGHT, 1.0, false);
         d.text(x0 - 6.0, sy(t) + 4.0, tick_label(t, 1.0), 11.0, Anchor::End);

@@ -48,6 +48,49 @@ pub struct Series {
     pub y: Vec<f64>,
     pub color: Color,
     pub dashed: bool,
+    /// A mark at every point (the targets of a positioning test).
+    pub marker: Marker,
+    /// Half-widths of a band about the curve at each point (ISO 230-2's ±2s), drawn as thin
+    /// lines above and below it.
+    pub band: Option<Vec<f64>>,
+}
+
+/// The mark drawn at each point of a curve: triangles pointing the way the axis approached.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Marker {
+    None,
+    Up,
+    Down,
+}
+
+/// A triangle of `size` px about `[x, y]`, pointing up or down.
+fn marker_shape(marker: Marker, [x, y]: [f64; 2], size: f64, color: Color) -> Option<Shape> {
+    let tip = match marker {
+        Marker::None => return None,
+        Marker::Up => -1.0,
+        Marker::Down => 1.0,
+    };
+    Some(Shape::Polyline {
+        points: vec![
+            [x, y + tip * size],
+            [x - 0.87 * size, y - 0.5 * tip * size],
+            [x + 0.87 * size, y - 0.5 * tip * size],
+        ],
+        color,
+        width: 1.5,
+        dashed: false,
+        closed: true,
+    })
+}
+
+/// Whether `b` is drawn on top of `a`: the same positions and values within a hair of the scale.
+fn coincide(a: &Series, b: &Series, scale: f64) -> bool {
+    a.x == b.x
+        && a.y.len() == b.y.len()
+        && a.y
+            .iter()
+            .zip(&b.y)
+            .all(|(p, q)| (p - q).abs() <= 2e-3 * scale)
 }
 
 pub(super) const MARGIN_LEFT: f64 = 80.0;
@@ -74,7 +117,27 @@ fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
     }
 }
 
-fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) {
+/// The legend's rows from `(x, y)` down, framed; the frame, `[x, y, w, h]`.
+fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64; 4] {
+    let wide = series
+        .iter()
+        .map(|s| 30.0 + super::text_width(&s.name, 12.0))
+        .fold(0.0, f64::max);
+    let frame = [
+        x - 6.0,
+        y - 16.0,
+        wide + 12.0,
+        18.0 * series.len() as f64 + 6.0,
+    ];
+    // A white frame: the curves pass behind the legend, not through its words.
+    d.shapes.push(Shape::Rect {
+        x: frame[0],
+        y: frame[1],
+        w: frame[2],
+        h: frame[3],
+        fill: Some(Color(255, 255, 255)),
+        stroke: Some(Color::LIGHT),
+    });
     for (n, s) in series.iter().enumerate() {
         let row = y + 18.0 * n as f64;
         d.line(
@@ -83,8 +146,11 @@ fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) {
             2.0,
             s.dashed,
         );
+        d.shapes
+            .extend(marker_shape(s.marker, [x + 12.0, row - 4.0], 4.0, s.color));
         d.text(x + 30.0, row, s.name.clone(), 12.0, Anchor::Start);
     }
+    frame
 }
 
 /// Curves over a common x axis, with round ticks, a grid, axis labels and a legend.
@@ -97,17 +163,21 @@ pub fn line_chart(
     let (width, height) = (900.0, 540.0);
     let xr = finite_range(series.iter().flat_map(|s| s.x.iter().copied()))
         .ok_or_else(|| PlotError::Empty(title.into()))?;
-    let yr = padded(
-        finite_range(series.iter().flat_map(|s| s.y.iter().copied()))
-            .ok_or_else(|| PlotError::Empty(title.into()))?,
-    );
+    let banded = series.iter().flat_map(|s| {
+        let band = s.band.clone().unwrap_or_default();
+        s.y.iter()
+            .zip(band.into_iter().chain(std::iter::repeat(0.0)))
+            .flat_map(|(&y, b)| [y - b, y + b])
+            .collect::<Vec<_>>()
+    });
+    let yr = padded(finite_range(banded).ok_or_else(|| PlotError::Empty(title.into()))?);
     let xr = if xr.1 > xr.0 { xr } else { padded(xr) };
     let (x0, x1) = (MARGIN_LEFT, width - MARGIN_RIGHT);
     let (y0, y1) = (height - MARGIN_BOTTOM, MARGIN_TOP);
     let sx = |x: f64| x0 + (x - xr.0) / (xr.1 - xr.0) * (x1 - x0);
     let sy = |y: f64| y0 + (y - yr.0) / (yr.1 - yr.0) * (y1 - y0);
     let mut d = Drawing::new(width, height);
-    d.text(width / 2.0, 28.0, title, 15.0, Anchor::Middle);
+    d.title(title);
     let xt = ticks(xr.0, xr.1, 8);
     let yt = ticks(yr.0, yr.1, 6);
     let step = |t: &[f64]| if t.len() > 1 { t[1] - t[0] } else { 1.0 };
@@ -155,15 +225,37 @@ pub fn line_chart(
         color: Color::BLACK,
         vertical: true,
     });
-    for s in series {
-        let points =
+    // A curve drawn exactly over an earlier one is dashed, so both show (with their markers).
+    let mut shown: Vec<Series> = series.to_vec();
+    for n in 1..shown.len() {
+        if series[..n]
+            .iter()
+            .any(|earlier| coincide(earlier, &series[n], yr.1 - yr.0))
+        {
+            shown[n].dashed = true;
+        }
+    }
+    for s in &shown {
+        let points: Vec<[f64; 2]> =
             s.x.iter()
                 .zip(&s.y)
                 .map(|(&x, &y)| [sx(x), sy(y)])
                 .collect();
-        d.line(points, s.color, 2.0, s.dashed);
+        if let Some(band) = &s.band {
+            for side in [-1.0, 1.0] {
+                let edge = s.x.iter().zip(&s.y).zip(band);
+                let edge = edge
+                    .map(|((&x, &y), b)| [sx(x), sy(y + side * b)])
+                    .collect();
+                d.line(edge, s.color, 0.8, false);
+            }
+        }
+        d.line(points.clone(), s.color, 2.0, s.dashed);
+        for p in points {
+            d.shapes.extend(marker_shape(s.marker, p, 5.0, s.color));
+        }
     }
-    legend(&mut d, series, x0 + 14.0, y1 + 20.0);
+    legend(&mut d, &shown, x0 + 14.0, y1 + 20.0);
     Ok(d)
 }
 
@@ -191,7 +283,7 @@ pub fn polar_chart(
         [cx + radius(dev) * c, cy - radius(dev) * s]
     };
     let mut d = Drawing::new(width, height);
-    d.text(width / 2.0, 28.0, title, 15.0, Anchor::Middle);
+    d.title(title);
     let rings = ((outer - inner) / step).round() as i64;
     for k in 0..=rings {
         let dev = inner + k as f64 * step;
@@ -254,11 +346,7 @@ pub fn polar_chart(
         12.0,
         Anchor::Middle,
     );
-    legend(
-        &mut d,
-        series,
-        24.0,
-        height - 30.0 - 18.0 * (series.len() as f64 - 1.0),
-    );
+    // Top left, clear of the rings and of the caption below them.
+    legend(&mut d, series, 16.0, 62.0);
     Ok(d)
 }

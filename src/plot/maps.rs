@@ -58,7 +58,7 @@ pub fn colour_map(
         .map(|(r, c)| colour((values[r * cols + c] - lo) / span))
         .collect();
     let mut d = Drawing::new(width, y0 + MARGIN_BOTTOM);
-    d.text(width / 2.0, 28.0, title, 15.0, Anchor::Middle);
+    d.title(title);
     d.shapes.push(Shape::Image {
         x: x0,
         y: y1,
@@ -190,7 +190,7 @@ pub fn deformed_grid(
         [ox + scale * x, oy + scale * y]
     };
     let mut d = Drawing::new(width, height);
-    d.text(width / 2.0, 28.0, title, 15.0, Anchor::Middle);
+    d.title(title);
     for line in nominal {
         d.line(line.iter().map(to_canvas).collect(), Color::GREY, 1.0, true);
     }
@@ -202,7 +202,60 @@ pub fn deformed_grid(
             false,
         );
     }
+    axis_labels(&mut d, nominal, to_canvas);
     d.text(width / 2.0, height - 40.0, note, 12.0, Anchor::Middle);
     d.text(width / 2.0, height - 20.0, "grey dashed: nominal grid; blue: the tool tip's actual positions, error magnified (isometric view, z up)", 11.0, Anchor::Middle);
     Ok(d)
+}
+
+/// Names the axes along the nominal grid's edges: X along the lower right front edge, Y along the
+/// lower left, Z up the left edge, each with its range in mm.
+fn axis_labels(
+    d: &mut Drawing,
+    nominal: &[Vec<[f64; 3]>],
+    to_canvas: impl Fn(&[f64; 3]) -> [f64; 2],
+) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in nominal.iter().flatten() {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if !lo[0].is_finite() {
+        return;
+    }
+    let mid = |k: usize| 0.5 * (lo[k] + hi[k]);
+    let range = |k: usize| {
+        format!(
+            "{} to {} mm",
+            tick_label(lo[k], 1.0),
+            tick_label(hi[k], 1.0)
+        )
+    };
+    let x = to_canvas(&[mid(0), lo[1], lo[2]]);
+    d.text(
+        x[0] + 14.0,
+        x[1] + 22.0,
+        format!("X {}", range(0)),
+        13.0,
+        Anchor::Start,
+    );
+    let y = to_canvas(&[lo[0], mid(1), lo[2]]);
+    d.text(
+        y[0] - 14.0,
+        y[1] + 22.0,
+        format!("Y {}", range(1)),
+        13.0,
+        Anchor::End,
+    );
+    let z = to_canvas(&[lo[0], hi[1], mid(2)]);
+    d.text(
+        z[0] - 12.0,
+        z[1] + 4.0,
+        format!("Z {}", range(2)),
+        13.0,
+        Anchor::End,
+    );
 }

@@ -20,7 +20,7 @@ mod png;
 mod svg;
 
 pub use bars::{bar_chart, histogram, stacked, Bar};
-pub use charts::{line_chart, polar_chart, ticks, Series};
+pub use charts::{line_chart, polar_chart, ticks, Marker, Series};
 pub use maps::{colour, colour_map, deformed_grid};
 
 #[derive(Debug, thiserror::Error)]
@@ -163,6 +163,19 @@ impl Drawing {
             color: Color::BLACK,
             vertical: false,
         });
+    }
+
+    /// The title, centred at the top: 15 px, or smaller where that would not fit the width with
+    /// a margin of 10 px each side (a long test title: the circular test's centre and radius).
+    pub fn title(&mut self, text: &str) {
+        let room = self.width - 20.0;
+        let wide = text_width(text, 15.0);
+        let size = if wide > room {
+            (15.0 * room / wide).floor().max(8.0)
+        } else {
+            15.0
+        };
+        self.text(self.width / 2.0, 28.0, text, size, Anchor::Middle);
     }
 
     /// Writes SVG or PNG by the file's extension, whole or not at all.

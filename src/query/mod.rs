@@ -9,7 +9,8 @@ mod slice;
 
 pub use deformed::{deformed_grid, DeformedGrid};
 pub use sample::{
-    open_sampler, sample_exact, sample_field, sample_field_gpu, sample_fields, SampledField,
+    open_sampler, sample_exact, sample_field, sample_field_gpu, sample_field_gpu_within,
+    sample_field_within, sample_fields, FieldSampler, Outside, SampledField,
 };
 pub use slice::{field_slice, field_slice_at_pose, FieldSlice, Quantity};
 

@@ -15,6 +15,18 @@ use crate::model::channels::Sample;
 use crate::model::Machine;
 use crate::reference::Twin;
 
+/// What to do with a position outside the field's grid.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Outside {
+    /// Stop with an error naming its line (a field is never extrapolated).
+    #[default]
+    Error,
+    /// Leave it out: its sample is `None`.
+    Skip,
+    /// Answer NaN for every value.
+    Nan,
+}
+
 /// Samples the field at every point, in parallel, visiting the points in grid order (a random
 /// order would miss the cache at nearly every corner). Rotary columns, where given, must name
 /// the field's own pose.
@@ -23,6 +35,20 @@ pub fn sample_field(
     points: &[QueryPoint],
     path: &str,
 ) -> Result<Vec<Sample>, QueryError> {
+    Ok(sample_field_within(field, points, path, Outside::Error)?
+        .into_iter()
+        .map(Option::unwrap_or_default)
+        .collect())
+}
+
+/// [`sample_field`] with a choice for positions outside the grid: `None` where
+/// [`Outside::Skip`] leaves one out. An error names the first line at fault.
+pub fn sample_field_within(
+    field: &LoadedField,
+    points: &[QueryPoint],
+    path: &str,
+    outside: Outside,
+) -> Result<Vec<Option<Sample>>, QueryError> {
     let grid = field.info.grid();
     // The number of the grid cell that holds each point (clamped: outliers fail later).
     let cell = |p: &QueryPoint| -> u64 {
@@ -45,16 +71,54 @@ pub fn sample_field(
         .map(|(n, p)| (cell(p), n))
         .collect();
     keyed.par_sort_unstable();
-    let order: Vec<usize> = keyed.into_iter().map(|(_, n)| n).collect();
-    let sorted: Vec<(usize, Sample)> = order
-        .par_iter()
-        .map(|&n| sample_one(field, &points[n], path).map(|s| (n, s)))
-        .collect::<Result<_, _>>()?;
-    let mut samples = vec![[0.0; 6]; points.len()];
-    for (n, s) in sorted {
-        samples[n] = s;
+    let sorted: Vec<(usize, Result<Option<Sample>, QueryError>)> = keyed
+        .into_par_iter()
+        .map(|(_, n)| {
+            let sample = locate_within(field, &points[n], path, outside)
+                .map(|cell| cell.map(|cell| field.blend(&cell)));
+            (n, sample)
+        })
+        .collect();
+    let mut samples = vec![None; points.len()];
+    let mut first_error: Option<(usize, QueryError)> = None;
+    for (n, sample) in sorted {
+        match sample {
+            Ok(sample) => samples[n] = sample,
+            Err(e) if first_error.as_ref().is_none_or(|(m, _)| n < *m) => {
+                first_error = Some((n, e))
+            }
+            Err(_) => {}
+        }
     }
-    Ok(samples)
+    match first_error {
+        Some((_, e)) => Err(e),
+        None => Ok(with_nan(samples, outside)),
+    }
+}
+
+/// Fills the samples [`Outside::Nan`] asks for with NaN.
+fn with_nan(samples: Vec<Option<Sample>>, outside: Outside) -> Vec<Option<Sample>> {
+    if outside != Outside::Nan {
+        return samples;
+    }
+    samples
+        .into_iter()
+        .map(|s| Some(s.unwrap_or([f64::NAN; 6])))
+        .collect()
+}
+
+/// [`locate`], with `None` for a position outside the grid where `outside` lets it pass.
+fn locate_within(
+    field: &LoadedField,
+    p: &QueryPoint,
+    path: &str,
+    outside: Outside,
+) -> Result<Option<GridCell>, QueryError> {
+    match locate(field, p, path) {
+        Ok(cell) => Ok(Some(cell)),
+        Err(QueryError::Outside { .. }) if outside != Outside::Error => Ok(None),
+        Err(e) => Err(e),
+    }
 }
 
 /// Checks a position against the field (its pose and its grid) and finds its cell.
@@ -79,10 +143,6 @@ fn locate(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<GridCell, Q
             lo,
             hi,
         })
-}
-
-fn sample_one(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<Sample, QueryError> {
-    Ok(field.blend(&locate(field, p, path)?))
 }
 
 /// A field file opened for sampling: a single-pose field read whole, or a five-axis map (one
@@ -118,28 +178,76 @@ pub fn sample_fields(
     path: &str,
     sampler: Option<&GpuSampler>,
 ) -> Result<Vec<Sample>, QueryError> {
-    let sample = |field: &LoadedField, points: &[QueryPoint]| match sampler {
-        Some(sampler) => sample_field_gpu(field, points, path, sampler),
-        None => sample_field(field, points, path),
-    };
-    let file = match field {
-        SampledField::One(field) => return sample(field, points),
-        SampledField::Parts(file) => file,
-    };
-    let parts = part_of_each(file, points, path)?;
-    let mut by_part: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
-    for (n, &part) in parts.iter().enumerate() {
-        by_part.entry(part).or_default().push(n);
-    }
-    let mut samples = vec![[0.0; 6]; points.len()];
-    for (part, indices) in by_part {
-        let field = LoadedField::open_part(file, part)?;
-        let subset: Vec<QueryPoint> = indices.iter().map(|&n| points[n].clone()).collect();
-        for (n, s) in indices.into_iter().zip(sample(&field, &subset)?) {
-            samples[n] = s;
+    Ok(FieldSampler::new(field, sampler, path, Outside::Error)
+        .sample(points)?
+        .into_iter()
+        .map(Option::unwrap_or_default)
+        .collect())
+}
+
+/// Samples a field file batch after batch, as [`sample_fields`] does for one: the part of a
+/// five-axis map read last is kept for the next batch, so points in the order of their poses
+/// read each part once.
+pub struct FieldSampler<'a> {
+    field: &'a SampledField,
+    gpu: Option<&'a GpuSampler>,
+    path: String,
+    outside: Outside,
+    part: Option<(usize, LoadedField)>,
+}
+
+impl<'a> FieldSampler<'a> {
+    /// `path` names the points file in errors; `outside` says what to do with positions outside
+    /// the grid.
+    pub fn new(
+        field: &'a SampledField,
+        gpu: Option<&'a GpuSampler>,
+        path: &str,
+        outside: Outside,
+    ) -> FieldSampler<'a> {
+        FieldSampler {
+            field,
+            gpu,
+            path: path.to_string(),
+            outside,
+            part: None,
         }
     }
-    Ok(samples)
+
+    /// The samples of a batch, `None` where [`Outside::Skip`] leaves a position out.
+    pub fn sample(&mut self, points: &[QueryPoint]) -> Result<Vec<Option<Sample>>, QueryError> {
+        let (gpu, path, outside) = (self.gpu, self.path.as_str(), self.outside);
+        let sample = |field: &LoadedField, points: &[QueryPoint]| match gpu {
+            Some(gpu) => sample_field_gpu_within(field, points, path, gpu, outside),
+            None => sample_field_within(field, points, path, outside),
+        };
+        let file = match self.field {
+            SampledField::One(field) => return sample(field, points),
+            SampledField::Parts(file) => file,
+        };
+        let parts = part_of_each(file, points, path)?;
+        let mut by_part: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        for (n, &part) in parts.iter().enumerate() {
+            by_part.entry(part).or_default().push(n);
+        }
+        // The part kept from the last batch goes first, so it is not read again.
+        let kept = self.part.as_ref().map(|(n, _)| *n);
+        let mut order: Vec<(usize, Vec<usize>)> = by_part.into_iter().collect();
+        order.sort_by_key(|(part, _)| Some(*part) != kept);
+        let mut samples = vec![None; points.len()];
+        for (part, indices) in order {
+            if self.part.as_ref().is_none_or(|(n, _)| *n != part) {
+                self.part = None;
+                self.part = Some((part, LoadedField::open_part(file, part)?));
+            }
+            let field = &self.part.as_ref().expect("the part was just read").1;
+            let subset: Vec<QueryPoint> = indices.iter().map(|&n| points[n].clone()).collect();
+            for (n, s) in indices.into_iter().zip(sample(field, &subset)?) {
+                samples[n] = s;
+            }
+        }
+        Ok(samples)
+    }
 }
 
 /// The part of a multi-part field each point's rotary columns pick.
@@ -235,15 +343,48 @@ pub fn sample_field_gpu(
     path: &str,
     sampler: &GpuSampler,
 ) -> Result<Vec<Sample>, QueryError> {
-    let located: Vec<GridCell> = points
+    Ok(
+        sample_field_gpu_within(field, points, path, sampler, Outside::Error)?
+            .into_iter()
+            .map(Option::unwrap_or_default)
+            .collect(),
+    )
+}
+
+/// [`sample_field_gpu`] with a choice for positions outside the grid, as
+/// [`sample_field_within`].
+pub fn sample_field_gpu_within(
+    field: &LoadedField,
+    points: &[QueryPoint],
+    path: &str,
+    sampler: &GpuSampler,
+    outside: Outside,
+) -> Result<Vec<Option<Sample>>, QueryError> {
+    // Collected in order, so the error is the first line's.
+    let located: Vec<Result<Option<GridCell>, QueryError>> = points
         .par_iter()
-        .map(|p| locate(field, p, path))
-        .collect::<Result<_, _>>()?;
-    let samples = sampler.sample(field.info.dims, field.values(), &located, None)?;
-    Ok(samples
-        .into_par_iter()
-        .map(|v| v.map(|x| x as f64))
-        .collect())
+        .map(|p| locate_within(field, p, path, outside))
+        .collect();
+    let located: Vec<Option<GridCell>> = located.into_iter().collect::<Result<_, _>>()?;
+    let inside: Vec<GridCell> = located.iter().flatten().copied().collect();
+    let values = if inside.is_empty() {
+        Vec::new()
+    } else {
+        sampler.sample(field.info.dims, field.values(), &inside, None)?
+    };
+    let mut values = values.into_iter();
+    let samples = located
+        .iter()
+        .map(|cell| {
+            cell.as_ref().map(|_| {
+                values
+                    .next()
+                    .expect("one value per cell inside")
+                    .map(|x| x as f64)
+            })
+        })
+        .collect();
+    Ok(with_nan(samples, outside))
 }
 
 /// The f64 reference at every point, in parallel.

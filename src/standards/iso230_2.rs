@@ -384,6 +384,10 @@ pub(crate) fn positioning_with(
             let (u, d) = m.means();
             vec![u, d]
         }),
+        measured_2s: measured.map(|m| {
+            let two_s = |runs: &[Vec<f64>]| runs.iter().map(|r| 2.0 * uncertainty(r)).collect();
+            vec![two_s(&m.up), two_s(&m.down)]
+        }),
         figures,
         polar: None,
         inputs: setup.describe_inputs(&[letter], "from the run (+ for ↑, − for ↓)"),

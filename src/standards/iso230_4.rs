@@ -200,6 +200,7 @@ pub(crate) fn circular_with(
         curve_names: vec!["radial deviation".into()],
         predicted: vec![predicted],
         measured: measured.map(|m| vec![m.columns[1].clone()]),
+        measured_2s: None,
         figures: vec![
             figure(
                 "G",

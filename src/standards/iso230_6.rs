@@ -210,6 +210,7 @@ pub(crate) fn diagonal_with(
         position_label: format!("position along {label} (mm)"),
         positions,
         curve_names: vec!["displacement error".into()],
+        measured_2s: None,
         figures: vec![
             figure(
                 "D",

@@ -319,6 +319,10 @@ pub struct TestResult {
     pub predicted: Vec<Vec<f64>>,
     /// `[curve][position]`, mm, where measured results were given.
     pub measured: Option<Vec<Vec<f64>>>,
+    /// `[curve][position]`, mm: twice the measured runs' standard uncertainty `s` (ISO 230-2's
+    /// ±2s about each mean), where measured runs give it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measured_2s: Option<Vec<Vec<f64>>>,
     pub figures: Vec<Figure>,
     /// Circular tests are drawn as polar plots: the plane's first and second axes.
     pub polar: Option<[char; 2]>,

@@ -169,6 +169,7 @@ pub(crate) fn rtest_with(
         curve_names: vec!["dX".into(), "dY".into(), "dZ".into()],
         predicted: curves,
         measured: measured_curves,
+        measured_2s: None,
         figures,
         polar: None,
         inputs: setup.describe_inputs(&moving, "from the sweep"),

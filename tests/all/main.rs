@@ -18,6 +18,7 @@ mod mesh;
 mod nc;
 mod nc_inputs;
 mod plot;
+mod plot_looks;
 mod profile_datums;
 mod query;
 mod reference;

@@ -5,7 +5,7 @@ use volmap::engine::map::{self, MapOptions};
 use volmap::engine::Engine;
 use volmap::io::embedded;
 use volmap::model::grid::Grid;
-use volmap::plot::{self, Color, Series, Shape};
+use volmap::plot::{self, Color, Marker, Series, Shape};
 
 fn series() -> Vec<Series> {
     let x: Vec<f64> = (0..50).map(|i| i as f64 * 10.0).collect();
@@ -16,6 +16,8 @@ fn series() -> Vec<Series> {
             x: x.clone(),
             color: Color::BLUE,
             dashed: false,
+            marker: Marker::None,
+            band: None,
         },
         Series {
             name: "measured".into(),
@@ -23,6 +25,8 @@ fn series() -> Vec<Series> {
             x,
             color: Color::RED,
             dashed: true,
+            marker: Marker::None,
+            band: None,
         },
     ]
 }
@@ -105,6 +109,8 @@ fn a_polar_chart_marks_its_scale() {
         x: angles,
         color: Color::BLUE,
         dashed: false,
+        marker: Marker::None,
+        band: None,
     };
     let drawing = plot::polar_chart("XY circle", ("X", "Y"), &[circle]).unwrap();
     let svg = drawing.svg().unwrap();

@@ -4,10 +4,10 @@ use volmap::engine::map::{self, MapOptions};
 use volmap::engine::Engine;
 use volmap::io::embedded;
 use volmap::io::field::LoadedField;
-use volmap::io::points::parse_points;
+use volmap::io::points::{parse_points, PointReader};
 use volmap::model::grid::Grid;
 use volmap::model::{AxisLetter, ErrorFunction, Machine};
-use volmap::query::{self, QueryError};
+use volmap::query::{self, Outside, QueryError};
 
 use super::common::{sampler, Rng};
 use AxisLetter::*;
@@ -163,8 +163,12 @@ fn bad_point_files_name_the_line() {
     let cases = [
         ("", "line 1: empty"),
         ("X,Y\n1,2\n", "no column Z"),
-        ("X,Y,Z,Q\n1,2,3,4\n", "unknown column `Q`"),
-        ("X,Y,Z,X\n1,2,3,4\n", "column X appears twice"),
+        (
+            "X,Y,Z,ve.x\n1,2,3,4\n",
+            "column `ve.x` is one the answer adds",
+        ),
+        ("X,Y,Z,x\n1,2,3,4\n", "column X appears twice"),
+        ("id,,X,Y,Z\n1,2,3,4,5\n", "column 2 has no name"),
         ("X,Y,Z\n1,2,3\n4,5\n", "line 3: 2 fields"),
         ("X,Y,Z\n1,2,abc\n", "line 2: `abc` in column Z"),
         ("X,Y,Z\n1,2,nan\n", "not a finite number"),
@@ -275,4 +279,84 @@ fn gpu_sampling_in_slabs_equals_one_slab() {
         .unwrap_err()
         .to_string();
     assert!(error.contains("two z planes"), "{error}");
+}
+
+#[test]
+fn the_reader_streams_batches_keeping_other_columns_and_either_case() {
+    let text =
+        "# export\nid, x,y ,Z,b,note\np1,1,2,3,15,first\n\np2, 4.5,5,6,15,\n# c\np3,7,8,9,15,x y\n";
+    let mut reader = PointReader::new(text.as_bytes(), "p.csv").unwrap();
+    let columns = reader.columns().clone();
+    assert_eq!(columns.names, ["id", "x", "y", "Z", "b", "note"]);
+    assert_eq!(
+        columns.axes,
+        [None, Some(X), Some(Y), Some(Z), Some(B), None]
+    );
+    assert_eq!(columns.given, [true, true, true, false, true, false]);
+    let first = reader.next_batch(2).unwrap();
+    assert_eq!(first.rows, ["p1,1,2,3,15,first", "p2,4.5,5,6,15,"]);
+    assert_eq!(
+        first.points.iter().map(|p| p.line).collect::<Vec<_>>(),
+        [3, 5]
+    );
+    assert_eq!(first.points[1].command, [4.5, 5.0, 6.0, 0.0, 15.0, 0.0]);
+    let second = reader.next_batch(2).unwrap();
+    assert_eq!(second.rows, ["p3,7,8,9,15,x y"]);
+    assert_eq!(second.points[0].line, 7);
+    assert!(reader.next_batch(2).unwrap().points.is_empty());
+    // The batches together are the file read whole.
+    let whole = parse_points(text, "p.csv").unwrap();
+    assert_eq!(whole, [first.points, second.points].concat());
+    // An error in a later batch names its line.
+    let mut reader = PointReader::new("X,Y,Z\n1,2,3\n4,5,6\n7,8,q\n".as_bytes(), "p.csv").unwrap();
+    assert_eq!(reader.next_batch(2).unwrap().points.len(), 2);
+    let error = reader.next_batch(2).unwrap_err().to_string();
+    assert!(error.contains("p.csv: line 4: `q` in column Z"), "{error}");
+}
+
+#[test]
+fn positions_outside_the_grid_are_skipped_or_nan_or_the_first_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = linear_machine();
+    let field = LoadedField::open(&mapped(dir.path(), &machine, [3, 3, 3], [0.0; 6])).unwrap();
+    let grid = field.info.grid();
+    let inside = grid.origin_mm.map(|o| o + 1.0);
+    let text = format!(
+        "X,Y,Z\n{},{},{}\n-5000,0,0\n0,0,-7000\n",
+        inside[0], inside[1], inside[2]
+    );
+    let points = parse_points(&text, "p.csv").unwrap();
+    let within = |outside| query::sample_field_within(&field, &points, "p.csv", outside);
+    let error = within(Outside::Error).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            QueryError::Outside {
+                line: 3,
+                axis: 'X',
+                ..
+            }
+        ),
+        "{error}"
+    );
+    let expected = query::sample_field(&field, &points[..1], "p.csv").unwrap()[0];
+    assert_eq!(within(Outside::Skip).unwrap(), [Some(expected), None, None]);
+    let nan = within(Outside::Nan).unwrap();
+    assert_eq!(nan[0], Some(expected));
+    assert!(nan[1..]
+        .iter()
+        .all(|s| s.unwrap().iter().all(|v| v.is_nan())));
+    if let Some(sampler) = sampler() {
+        let on_gpu =
+            query::sample_field_gpu_within(&field, &points, "p.csv", sampler, Outside::Skip)
+                .unwrap();
+        assert!(on_gpu[0].is_some() && on_gpu[1..] == [None, None]);
+        let error =
+            query::sample_field_gpu_within(&field, &points, "p.csv", sampler, Outside::Error)
+                .unwrap_err();
+        assert!(
+            matches!(error, QueryError::Outside { line: 3, .. }),
+            "{error}"
+        );
+    }
 }

@@ -9,6 +9,7 @@ mod map;
 mod plot;
 mod profile_datums;
 mod query;
+mod sample;
 mod standards;
 mod sweep;
 mod sweep_readers;
@@ -16,7 +17,7 @@ mod sweep_readers;
 use assert_cmd::Command;
 use predicates::prelude::*;
 
-pub(crate) fn volmap() -> Command {
+pub fn volmap() -> Command {
     Command::cargo_bin("volmap").unwrap()
 }
 

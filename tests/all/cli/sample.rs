@@ -1,0 +1,217 @@
+//! `volmap sample`: columns carried through, positions outside the grid, the digits written and
+//! memory that does not grow with the number of points.
+
+use std::io::Write;
+use std::path::Path;
+
+use predicates::prelude::*;
+use volmap::io::field::LoadedField;
+use volmap::io::points::parse_points;
+use volmap::query;
+
+use super::volmap;
+
+/// A 5×5×5 field of `vmc-li2015` (X 0 to 1000, Y 0 to 600, Z 0 to 500 mm).
+fn field(dir: &Path) -> std::path::PathBuf {
+    let field = dir.join("f.exr");
+    volmap()
+        .args(["map", "--machine", "vmc-li2015", "--grid", "5x5x5"])
+        .args(["--device", "cpu", "--out"])
+        .arg(&field)
+        .assert()
+        .success();
+    field
+}
+
+#[test]
+fn other_columns_pass_through_and_outside_positions_follow_outside() {
+    let dir = tempfile::tempdir().unwrap();
+    let field = field(dir.path());
+    let points = dir.path().join("p.csv");
+    std::fs::write(
+        &points,
+        "id,x,y,z,note\np1,500,300,250,first\n# a comment\np2,5000,0,0,far\np3,0.5,0,0,\n",
+    )
+    .unwrap();
+    let out = dir.path().join("s.csv");
+    let run = |outside: &str| {
+        volmap()
+            .args(["sample", "--device", "cpu", "--outside", outside, "--field"])
+            .arg(&field)
+            .arg("--points")
+            .arg(&points)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+    };
+    let rows = || -> Vec<Vec<String>> {
+        std::fs::read_to_string(&out)
+            .unwrap()
+            .lines()
+            .map(|l| l.split(',').map(String::from).collect())
+            .collect()
+    };
+    run("skip")
+        .success()
+        .stderr(predicate::str::contains("1 position(s)").and(predicate::str::contains("line 4")));
+    let skipped = rows();
+    assert_eq!(
+        skipped[0].join(","),
+        "id,x,y,z,note,VE.X,VE.Y,VE.Z,OE.X,OE.Y,OE.Z"
+    );
+    assert_eq!(skipped.len(), 3);
+    assert_eq!(skipped[1][..5].join(","), "p1,500,300,250,first");
+    assert_eq!(skipped[2][..5].join(","), "p3,0.5,0,0,");
+    run("nan").success();
+    let nan = rows();
+    assert_eq!(nan.len(), 4);
+    assert_eq!(nan[2][..5].join(","), "p2,5000,0,0,far");
+    assert!(nan[2][5..].iter().all(|v| v == "NaN"), "{:?}", nan[2]);
+    assert_eq!(nan[1], skipped[1]);
+    assert_eq!(nan[3], skipped[2]);
+    std::fs::remove_file(&out).unwrap();
+    run("error").code(2).stderr(predicate::str::contains(
+        "p.csv: line 4: X=5000 lies outside",
+    ));
+    // Nothing half written under the name asked for, nor a temporary file left.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    // Without --outside a position outside is an error too; with --exact there is no grid.
+    volmap()
+        .args(["sample", "--device", "cpu", "--field"])
+        .arg(&field)
+        .arg("--points")
+        .arg(&points)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("line 4"));
+    volmap()
+        .args([
+            "sample",
+            "--exact",
+            "--machine",
+            "vmc-li2015",
+            "--outside",
+            "skip",
+        ])
+        .arg("--points")
+        .arg(&points)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--outside"));
+}
+
+#[test]
+fn values_are_the_shortest_decimals_that_read_back_to_the_same_value() {
+    let dir = tempfile::tempdir().unwrap();
+    let field = field(dir.path());
+    let text = "X,Y,Z\n500,300,250\n123.25,77.5,401.125\n999.9,0.1,0.3\n";
+    let points = dir.path().join("p.csv");
+    std::fs::write(&points, text).unwrap();
+    let parsed = parse_points(text, "p.csv").unwrap();
+    let sampled =
+        query::sample_field(&LoadedField::open(&field).unwrap(), &parsed, "p.csv").unwrap();
+    let output = volmap()
+        .args(["sample", "--device", "cpu", "--field"])
+        .arg(&field)
+        .arg("--points")
+        .arg(&points)
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let text = String::from_utf8(output.stdout).unwrap();
+    for (line, expected) in text.lines().skip(1).zip(&sampled) {
+        for (value, &expected) in line.split(',').skip(3).zip(expected) {
+            let expected = expected as f32;
+            assert_eq!(value.parse::<f32>().unwrap(), expected, "{line}");
+            // An f32 needs at most 9 significant digits; f64's 17 are noise.
+            let digits = value
+                .trim_start_matches(['-', '0', '.'])
+                .split(['e', 'E'])
+                .next()
+                .unwrap()
+                .chars()
+                .filter(char::is_ascii_digit)
+                .count();
+            assert!(digits <= 9, "{value} in {line}");
+            // And none shorter reads back the same: one digit fewer changes the value.
+            if digits > 1 {
+                let shorter = format!("{:.*e}", digits - 2, expected);
+                assert_ne!(shorter.parse::<f32>().unwrap(), expected, "{value}");
+            }
+        }
+    }
+    assert_eq!(text.lines().count(), 4);
+    // Exact values keep f64's shortest round trip.
+    let exact = volmap()
+        .args(["sample", "--exact", "--machine", "vmc-li2015", "--points"])
+        .arg(&points)
+        .output()
+        .unwrap();
+    let machine = volmap::io::embedded::load("vmc-li2015").unwrap();
+    let expected = query::sample_exact(&machine, &parsed);
+    let text = String::from_utf8(exact.stdout).unwrap();
+    for (line, expected) in text.lines().skip(1).zip(&expected) {
+        let values: Vec<f64> = line
+            .split(',')
+            .skip(3)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        assert_eq!(values, expected, "{line}");
+    }
+}
+
+/// The peak resident memory of `volmap sample` on `count` generated points, in bytes.
+#[cfg(target_os = "linux")]
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which std's `wait` does not expose
+fn peak_memory_of_sample(dir: &Path, field: &Path, count: usize) -> u64 {
+    let points = dir.join(format!("p{count}.csv"));
+    let mut file = std::io::BufWriter::new(std::fs::File::create(&points).unwrap());
+    writeln!(file, "id,X,Y,Z").unwrap();
+    for n in 0..count {
+        let (x, y, z) = (n % 997, n / 997 % 499, n % 401);
+        writeln!(file, "{n},{x}.5,{y}.25,{z}.125").unwrap();
+    }
+    file.flush().unwrap();
+    drop(file);
+    let out = dir.join("s.csv");
+    let child = std::process::Command::new(assert_cmd::cargo::cargo_bin("volmap"))
+        .args(["sample", "--device", "cpu", "--field"])
+        .arg(field)
+        .arg("--points")
+        .arg(&points)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // wait4 gives this child's own peak, whatever other tests run beside it.
+    let mut status = 0;
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as libc::pid_t);
+    assert!(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0);
+    let written =
+        std::io::BufRead::lines(std::io::BufReader::new(std::fs::File::open(&out).unwrap()))
+            .count();
+    assert_eq!(written, count + 1);
+    std::fs::remove_file(&points).unwrap();
+    usage.ru_maxrss as u64 * 1024
+}
+
+/// Not timed: the same bound holds for 200,000 and 2,000,000 points. Holding every point, its
+/// row and its answer takes about 300 bytes a point, 600 MB for the larger file.
+#[cfg(target_os = "linux")]
+#[test]
+fn memory_stays_flat_in_the_number_of_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let field = field(dir.path());
+    let bound = 160 << 20;
+    for count in [200_000, 2_000_000] {
+        let peak = peak_memory_of_sample(dir.path(), &field, count);
+        assert!(
+            peak < bound,
+            "{count} points: {peak} bytes resident at the peak"
+        );
+    }
+}
