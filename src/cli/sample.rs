@@ -108,6 +108,11 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     if let Some(file) = &file {
         args.inputs.check_field(file)?;
     }
+    // What the answer was computed for (every output records its inputs): said on standard
+    // output beside a file written with --out; the CSV itself stays plain for its readers.
+    let mut record = file
+        .as_ref()
+        .map(|f| format!("from {} at {}", f.path().display(), f.inputs(0).describe()));
     // The first points and the field are read side by side: both are mostly parsing.
     // A five-axis map's parts are read later, one by one, as the points ask for them.
     let (first, loaded) = rayon::join(
@@ -143,7 +148,12 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             (Source::Field(sampler), Precision::F32)
         }
         (None, Some(machine)) if args.exact => {
-            let (machine, _) = args.inputs.machine_at(&load_machine(machine)?)?;
+            let (machine, inputs) = args.inputs.machine_at(&load_machine(machine)?)?;
+            record = Some(format!(
+                "exactly for {} at {}",
+                machine.name,
+                inputs.describe(&machine)
+            ));
             let pose = args.pose.on(&machine)?;
             (Source::Exact(machine, pose), Precision::F64)
         }
@@ -170,7 +180,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         None => Failure::work(e).context("writing to standard output"),
     };
     let writer = SampleWriter::start(out, reader.columns(), precision).map_err(write_error)?;
-    let (mut outside_count, mut first_outside) = (0usize, None);
+    let (mut outside_count, mut first_outside, mut sampled) = (0usize, None, 0usize);
     while !batch.points.is_empty() {
         // The next batch is read while this one is sampled.
         let (samples, next) = rayon::join(
@@ -185,11 +195,15 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             }
         }
         writer.write(out, &batch, &samples).map_err(write_error)?;
+        sampled += samples.iter().filter(|s| s.is_some()).count();
         batch = next.flag("--points")?;
     }
     out.flush().map_err(write_error)?;
     if let Some(file) = file_out {
         file.commit().flag("--out")?;
+        if let (Some(path), Some(record)) = (&args.out, &record) {
+            println!("{}: {sampled} position(s) sampled {record}", path.display());
+        }
     }
     if let Some(line) = first_outside {
         let done = match outside {

@@ -228,6 +228,33 @@ fn sample_exact_takes_the_inputs_and_a_field_must_hold_them() {
                     )),
             );
     }
+    // Beside a file written with --out, standard output says what the answer was computed for.
+    let out = dir.path().join("answer.csv");
+    for (source, said) in [
+        (vec!["--exact", "--machine", machine_arg], "exactly for"),
+        (vec!["--field", warm_arg], "from "),
+    ] {
+        volmap()
+            .arg("sample")
+            .args(&source)
+            .args(["--temperatures", "x_scale=25", "--approach", "Y=-"])
+            .arg("--points")
+            .arg(&points)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .success()
+            .stdout(
+                predicate::str::contains("2 position(s) sampled")
+                    .and(predicate::str::contains(said))
+                    .and(predicate::str::contains(
+                        "at approach X+ Y- Z+; temperatures x_scale=25 °C, spindle=20 °C",
+                    )),
+            );
+        assert!(std::fs::read_to_string(&out)
+            .unwrap()
+            .starts_with("X,Y,Z,VE.X"));
+    }
 }
 
 #[test]
