@@ -59,6 +59,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    volmap::gpu::device::quiet_window_system();
     let result = match Cli::parse().command {
         Command::Map(args) => cli::map::run(args),
         Command::Machines(args) => cli::machines::run(args),

@@ -7,6 +7,7 @@ mod machines;
 mod map;
 mod plot;
 mod query;
+mod robust;
 mod standards;
 mod sweep;
 mod sweep_readers;
