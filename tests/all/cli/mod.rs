@@ -3,6 +3,7 @@
 mod compensate;
 mod design;
 mod inputs;
+mod interrupt;
 mod machines;
 mod map;
 mod plot;
