@@ -3,7 +3,7 @@
 //! Exit codes: 0 success; 1 a failure while working (GPU, file system); 2 bad input (machine
 //! file, grid, pose, field file, part file, CSV, command-line values); 3 `features` found a
 //! feature the machine is unfit for; 4 `--check` found the field further from the f64 reference
-//! than the tolerance.
+//! than the tolerance; 130 and 143 interrupted by SIGINT or SIGTERM (its temporary files removed).
 
 mod cli;
 
@@ -59,6 +59,8 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    volmap::gpu::device::quiet_window_system();
+    cli::interrupt::install();
     let result = match Cli::parse().command {
         Command::Map(args) => cli::map::run(args),
         Command::Machines(args) => cli::machines::run(args),

@@ -17,15 +17,43 @@ use volmap::query::{self, QueryError};
 
 use super::failure::{Failure, FlagContext};
 
-/// `--machine` where a command has a default machine.
+/// `--machine` where a command changes or judges something real (compensates a program, fits
+/// measurements, predicts tests, budgets a design): the machine must be named, since a program
+/// compensated for an example machine is wrong on every real one.
 #[derive(clap::Args)]
 pub struct MachineArg {
+    /// The machine (required): an embedded machine's name (see `volmap machines`) or a machine
+    /// file (TOML).
+    #[arg(long)]
+    pub machine: Option<String>,
+}
+
+impl MachineArg {
+    pub fn load(&self) -> Result<Machine, Failure> {
+        match &self.machine {
+            Some(name) => load_machine(name),
+            None => Err(missing_machine()),
+        }
+    }
+}
+
+/// The failure of a command that needs a machine and was given none.
+pub fn missing_machine() -> Failure {
+    Failure::input(
+        "no machine named: give --machine NAME (an embedded machine) or --machine FILE.toml (a machine file); `volmap machines` lists the embedded ones",
+    )
+}
+
+/// `--machine` where a command only shows a machine's error (`map`, `plot grid`): a first look
+/// at an embedded example needs no machine file.
+#[derive(clap::Args)]
+pub struct DefaultMachineArg {
     /// An embedded machine's name (see `volmap machines`) or a machine file (TOML).
     #[arg(long, default_value = embedded::DEFAULT_MACHINE)]
     pub machine: String,
 }
 
-impl MachineArg {
+impl DefaultMachineArg {
     pub fn load(&self) -> Result<Machine, Failure> {
         load_machine(&self.machine)
     }

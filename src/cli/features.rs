@@ -96,7 +96,17 @@ fn open_part(file: &FieldFile, part: &PartFile) -> Result<LoadedField, FieldErro
     LoadedField::open_part(file, file.part_at(degrees, &words)?)
 }
 
+/// Neither `--field` nor `--machine`: checked before the part is read.
+fn no_error_source() -> Failure {
+    Failure::input(
+        "say where the machine's error comes from: --field FILE.exr, or --machine NAME or FILE.toml (`volmap machines` lists the embedded ones)",
+    )
+}
+
 pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
+    if args.field.is_none() && args.machine.machine.is_none() {
+        return Err(no_error_source());
+    }
     let part_name = args.part.display().to_string();
     let part = PartFile::read(&args.part).flag("--part")?;
     if let (Some(tolerances), Some(name)) = (&args.tolerances, &args.machine.machine) {
@@ -113,11 +123,7 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             machine = args.inputs.machine_at(&load_machine(name)?)?.0;
             ErrorSource::Exact(&machine)
         }
-        (None, None) => {
-            return Err(Failure::input(
-                "say where the machine's error comes from: --field FILE.exr or --machine M",
-            ))
-        }
+        (None, None) => return Err(no_error_source()),
     };
     let at = match &source {
         ErrorSource::Exact(machine) => inputs_words(machine),

@@ -10,7 +10,9 @@ use volmap::gpu::GpuError;
 use volmap::io::field::FieldInfo;
 use volmap::model::Machine;
 
-use super::args::{sweep_grids, DeviceArg, GridArg, InputsArg, MachineArg, PoseArg, PosesArg};
+use super::args::{
+    sweep_grids, DefaultMachineArg, DeviceArg, GridArg, InputsArg, PoseArg, PosesArg,
+};
 use super::failure::Failure;
 use super::output::progress;
 use super::sweep;
@@ -18,7 +20,7 @@ use super::sweep;
 #[derive(clap::Args)]
 pub struct MapArgs {
     #[command(flatten)]
-    machine: MachineArg,
+    machine: DefaultMachineArg,
     #[command(flatten)]
     grid: GridArg,
     #[command(flatten)]

@@ -11,6 +11,7 @@ pub mod failure;
 pub mod features;
 pub mod fit;
 pub mod info;
+pub mod interrupt;
 pub mod machines;
 pub mod map;
 pub mod output;

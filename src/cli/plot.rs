@@ -11,7 +11,7 @@ use volmap::plot::{self, Color, Marker, Series};
 use volmap::query::{self, Quantity, QueryError};
 use volmap::standards::TestResult;
 
-use super::args::{full_travel, GridArg, MachineArg, PoseArg};
+use super::args::{full_travel, DefaultMachineArg, GridArg, PoseArg};
 use super::failure::{Failure, FlagContext};
 use super::output::{check_plot_paths, write_plot};
 
@@ -109,7 +109,7 @@ enum PlotKind {
     #[command(mut_arg("grid", |a| a.default_value("5x5x5").help("Grid lines along X, Y and Z, `NXxNYxNZ`")))]
     Grid {
         #[command(flatten)]
-        machine: MachineArg,
+        machine: DefaultMachineArg,
         #[command(flatten)]
         grid: GridArg,
         #[command(flatten)]

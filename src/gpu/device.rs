@@ -106,6 +106,30 @@ pub struct Readback<'a> {
     pub bytes: u64,
 }
 
+/// Keeps the Vulkan loader from loading Mesa's device-selection layer where no Wayland
+/// compositor can be reached (no usable `XDG_RUNTIME_DIR`, as on a server or in a container):
+/// the layer asks Wayland for the default device while wgpu lists adapters, and libwayland then
+/// prints `error: XDG_RUNTIME_DIR is invalid or not set` on standard error of a run that went
+/// well. Without a compositor the layer has nothing to select by, and wgpu picks the adapter
+/// itself, so nothing is lost. A choice the user made (`NODEVICE_SELECT`,
+/// `MESA_VK_DEVICE_SELECT`) is kept. Changes the process's environment: call it before any
+/// other thread starts (the command line does, first thing).
+pub fn quiet_window_system() {
+    let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
+    if set("NODEVICE_SELECT") || set("MESA_VK_DEVICE_SELECT") || set("WAYLAND_SOCKET") {
+        return;
+    }
+    let runtime_dir_usable = std::env::var_os("XDG_RUNTIME_DIR")
+        .map(std::path::PathBuf::from)
+        .is_some_and(|dir| dir.is_absolute() && dir.is_dir());
+    let display_is_path = std::env::var_os("WAYLAND_DISPLAY")
+        .is_some_and(|display| std::path::Path::new(&display).is_absolute());
+    if !runtime_dir_usable && !display_is_path {
+        // The layer's manifest names this variable as the one that disables it.
+        std::env::set_var("NODEVICE_SELECT", "1");
+    }
+}
+
 impl Gpu {
     /// Opens the best adapter there is. `Ok(None)` when the system has no adapter at all.
     pub fn open() -> Result<Option<Gpu>, GpuError> {

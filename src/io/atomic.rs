@@ -2,10 +2,16 @@
 //! folder (`.NAME.PID.part`, so two runs never share one) and is renamed into place only when it
 //! is complete and on disk. Until then dropping it removes the temporary file, so a failed or
 //! interrupted run never leaves half a file under the name asked for.
+//!
+//! Every temporary file alive is registered here, so that a signal handler (which runs no
+//! destructors) can remove them all ([`remove_live_temporaries`]); and a run that starts writing
+//! `NAME` first removes the temporary files of `NAME` left by runs whose process is gone (killed
+//! beyond any handler, or a power cut), keeping those of runs still alive.
 
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use super::FileError;
 
@@ -24,8 +30,10 @@ impl AtomicFile {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let temp = path.with_file_name(format!(".{name}.{}.part", std::process::id()));
+        remove_stale_temporaries(path, &name);
+        let temp = path.with_file_name(temporary_name(&name, std::process::id()));
         let file = File::create(&temp).map_err(|e| FileError::write(path, e))?;
+        live().push(temp.clone());
         Ok(AtomicFile {
             out: BufWriter::with_capacity(buffer_bytes, file),
             temp,
@@ -53,6 +61,7 @@ impl AtomicFile {
         })();
         result.map_err(|e| self.error(e))?;
         self.committed = true;
+        forget(&self.temp);
         Ok(())
     }
 }
@@ -83,6 +92,7 @@ impl Drop for AtomicFile {
     fn drop(&mut self) {
         if !self.committed {
             let _ = std::fs::remove_file(&self.temp);
+            forget(&self.temp);
         }
     }
 }
@@ -95,4 +105,72 @@ pub fn write_atomically(
     let mut file = AtomicFile::create(path, 1 << 16)?;
     write(&mut file).map_err(|e| file.error(e))?;
     file.commit()
+}
+
+/// The temporary name of `name` written by process `pid`.
+fn temporary_name(name: &str, pid: u32) -> String {
+    format!(".{name}.{pid}.part")
+}
+
+/// The temporary files being written now.
+fn live() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+    // A writer that panicked holding the lock left the list whole: keep using it.
+    LIVE.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Takes a temporary file off the list of live ones (committed or removed).
+fn forget(temp: &Path) {
+    live().retain(|t| t != temp);
+}
+
+/// Removes every temporary file being written: for a signal handler, before the process exits
+/// without running destructors.
+pub fn remove_live_temporaries() {
+    for temp in live().drain(..) {
+        let _ = std::fs::remove_file(temp);
+    }
+}
+
+/// Removes the temporary files of `name` (beside `path`) whose writing process is gone.
+fn remove_stale_temporaries(path: &Path, name: &str) {
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let Ok(entries) = std::fs::read_dir(folder) else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let Some(pid) = file_name
+            .to_str()
+            .and_then(|f| f.strip_prefix(&prefix))
+            .and_then(|rest| rest.strip_suffix(".part"))
+            .and_then(|pid| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid != std::process::id() && process_is_gone(pid) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
+/// Whether no process `pid` exists (signal 0 checks without sending anything).
+#[cfg(unix)]
+fn process_is_gone(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else {
+        return false;
+    };
+    // SAFETY: kill with signal 0 sends nothing; it only reports whether the process exists.
+    let result = unsafe { libc::kill(pid, 0) };
+    result == -1 && std::io::Error::last_os_error().raw_os_error() == Some(libc::ESRCH)
+}
+
+/// Elsewhere no temporary file is taken for stale: each is left to its writer.
+#[cfg(not(unix))]
+fn process_is_gone(_pid: u32) -> bool {
+    false
 }

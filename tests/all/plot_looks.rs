@@ -277,6 +277,8 @@ fn positioning_plots_mark_targets_and_the_measured_bands() {
         .args([
             "test",
             "positioning",
+            "--machine",
+            "vmc-li2015",
             "--axis",
             "X",
             "--targets",

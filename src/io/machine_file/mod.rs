@@ -19,8 +19,12 @@ use crate::model::inputs::{Dependent, Inputs, Thermal};
 use crate::model::perturbation::{ErrorTarget, SPINDLE_NAMES};
 use crate::model::{Axis, Machine, MachineSource, COMPONENT_NAMES};
 
+mod plausible;
 mod values;
 
+pub use plausible::{MAX_PLAUSIBLE_ANGLE_RAD, PLAUSIBLE_TEMPERATURE_CHANGE_K};
+
+use plausible::AngularValue;
 use values::{ValueKind, ValueSpec};
 
 /// What is wrong with a machine file. Each message names the file and the key.
@@ -30,7 +34,7 @@ pub enum MachineError {
     File(#[from] FileError),
     #[error("{file}: {message}")]
     Toml { file: String, message: String },
-    #[error("{file}: chain: {source}")]
+    #[error("{file}: {source}")]
     Chain {
         file: String,
         #[source]
@@ -156,6 +160,7 @@ impl Machine {
                 .as_ref()
                 .map_or(Vec::new(), |t: &Thermal| t.inputs.clone()),
             dependent: Vec::new(),
+            angular: Vec::new(),
         };
 
         for section in raw.axes.keys() {
@@ -201,8 +206,17 @@ impl Machine {
             })?;
             let spec = reader.error_value(None, key, &path, value, ValueKind::Constant)?;
             spindle[index] = spec.value.eval(0.0);
+            if index >= 3 {
+                reader.angular.push(AngularValue {
+                    key: path.clone(),
+                    axis: None,
+                    spec: spec.clone(),
+                });
+            }
             reader.keep(ErrorTarget::Spindle { index }, spec);
         }
+
+        plausible::check_angles(file, &reader.angular, &axes)?;
 
         Ok(Machine {
             name: raw.name,
@@ -231,6 +245,8 @@ struct Reader {
     thermal_inputs: Vec<String>,
     /// The error values read so far that depend on the evaluation inputs.
     dependent: Vec<Dependent>,
+    /// The angular error values read so far, checked once every travel is known.
+    angular: Vec<AngularValue>,
 }
 
 /// `[thermal]` checked: inputs named once each.
@@ -402,8 +418,25 @@ impl Reader {
             .position(|&c| c == chars[1])
             .unwrap_or(0);
         let letter = axis.letter;
+        let spec = self.error_value(
+            Some(letter),
+            key,
+            path,
+            value,
+            if chars.len() == 4 {
+                ValueKind::Constant
+            } else {
+                ValueKind::Component
+            },
+        )?;
+        if n >= 3 {
+            self.angular.push(AngularValue {
+                key: path.to_string(),
+                axis: Some(letter),
+                spec: spec.clone(),
+            });
+        }
         if chars.len() == 4 {
-            let spec = self.error_value(Some(letter), key, path, value, ValueKind::Constant)?;
             axis.location[n] = spec.value.eval(0.0);
             self.keep(
                 ErrorTarget::Location {
@@ -413,7 +446,6 @@ impl Reader {
                 spec,
             );
         } else {
-            let spec = self.error_value(Some(letter), key, path, value, ValueKind::Component)?;
             axis.components[n] = Some(spec.value.clone());
             self.keep(
                 ErrorTarget::Component {

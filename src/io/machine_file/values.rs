@@ -11,6 +11,7 @@ use crate::model::AxisLetter;
 
 /// What an error value says: its value at the default inputs, its reverse form and its
 /// per-kelvin forms (by input index).
+#[derive(Clone)]
 pub(super) struct ValueSpec {
     pub value: ErrorFunction,
     pub reverse: Option<ErrorFunction>,

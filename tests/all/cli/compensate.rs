@@ -38,7 +38,7 @@ fn compensate_writes_a_new_program_and_never_the_input() {
     let program = dir.path().join("p.nc");
     std::fs::write(&program, "G0 X10 Y10 Z10\nG1 X20\n").unwrap();
     volmap()
-        .args(["compensate", "--program"])
+        .args(["compensate", "--machine", "vmc-li2015", "--program"])
         .arg(&program)
         .arg("--out")
         .arg(&program)
@@ -53,7 +53,7 @@ fn compensate_writes_a_new_program_and_never_the_input() {
     std::fs::write(&program, "G0 X10 Y10 Z10\nG2 X20 Y20\n").unwrap();
     let never = dir.path().join("never.nc");
     volmap()
-        .args(["compensate", "--program"])
+        .args(["compensate", "--machine", "vmc-li2015", "--program"])
         .arg(&program)
         .arg("--out")
         .arg(&never)
@@ -64,7 +64,7 @@ fn compensate_writes_a_new_program_and_never_the_input() {
         ));
     std::fs::write(&program, [0u8, 159, 146, 150]).unwrap();
     volmap()
-        .args(["compensate", "--program"])
+        .args(["compensate", "--machine", "vmc-li2015", "--program"])
         .arg(&program)
         .arg("--out")
         .arg(&never)

@@ -3,12 +3,14 @@
 mod compensate;
 mod design;
 mod inputs;
+mod interrupt;
 mod machine_files;
 mod machines;
 mod map;
 mod plot;
 mod profile_datums;
 mod query;
+mod robust;
 mod sample;
 mod standards;
 mod sweep;

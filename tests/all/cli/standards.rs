@@ -8,7 +8,16 @@ use super::volmap;
 fn standard_tests_print_figures_compare_measurements_and_plot() {
     let dir = tempfile::tempdir().unwrap();
     volmap()
-        .args(["test", "positioning", "--axis", "X", "--targets", "6"])
+        .args([
+            "test",
+            "positioning",
+            "--machine",
+            "vmc-li2015",
+            "--axis",
+            "X",
+            "--targets",
+            "6",
+        ])
         .assert()
         .success()
         .stdout(
@@ -34,6 +43,8 @@ fn standard_tests_print_figures_compare_measurements_and_plot() {
         .args([
             "test",
             "circular",
+            "--machine",
+            "vmc-li2015",
             "--plane",
             "XY",
             "--radius",
@@ -64,18 +75,35 @@ fn standard_tests_print_figures_compare_measurements_and_plot() {
     assert_eq!(report["figures"][0]["name"], "G");
     // Bad input: exit code 2 with the reason; nothing written.
     volmap()
-        .args(["test", "diagonal", "--from", "0,0,0", "--to", "2000,0,0"])
+        .args([
+            "test",
+            "diagonal",
+            "--machine",
+            "vmc-li2015",
+            "--from",
+            "0,0,0",
+            "--to",
+            "2000,0,0",
+        ])
         .assert()
         .code(2)
         .stderr(predicate::str::contains("outside the travel of X"));
     volmap()
-        .args(["test", "circular", "--plane", "XY", "--plot"])
+        .args([
+            "test",
+            "circular",
+            "--machine",
+            "vmc-li2015",
+            "--plane",
+            "XY",
+            "--plot",
+        ])
         .arg(dir.path().join("c.gif"))
         .assert()
         .code(2)
         .stderr(predicate::str::contains(".svg or .png"));
     volmap()
-        .args(["test", "rtest", "--axis", "C"])
+        .args(["test", "rtest", "--machine", "vmc-li2015", "--axis", "C"])
         .assert()
         .code(2)
         .stderr(predicate::str::contains("has no C axis"));

@@ -1,0 +1,96 @@
+//! An interrupted command leaves no temporary file; a later run removes those of gone processes.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use super::volmap;
+
+/// The temporary files (`.NAME.PID.part`) in `dir`.
+fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".part"))
+        .collect()
+}
+
+/// Starts a map large enough to be interrupted, waits for its temporary file, sends `signal`
+/// and returns the exit code.
+fn interrupted_map(dir: &Path, signal: &str) -> Option<i32> {
+    let mut child = Command::new(assert_cmd::cargo::cargo_bin("volmap"))
+        .args(["map", "--grid", "400x400x400", "--device", "cpu", "--out"])
+        .arg(dir.join("big.exr"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while temporaries(dir).is_empty() {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no temporary file appeared"
+        );
+        assert!(child.try_wait().unwrap().is_none(), "the map ended early");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let killed = Command::new("kill")
+        .args([signal, &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    child.wait().unwrap().code()
+}
+
+#[test]
+fn sigterm_removes_the_temporary_file_and_exits_143() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_eq!(interrupted_map(dir.path(), "-TERM"), Some(143));
+    assert!(
+        temporaries(dir.path()).is_empty(),
+        "{:?}",
+        temporaries(dir.path())
+    );
+    assert!(!dir.path().join("big.exr").exists());
+}
+
+#[test]
+fn sigint_removes_the_temporary_file_and_exits_130() {
+    let dir = tempfile::tempdir().unwrap();
+    assert_eq!(interrupted_map(dir.path(), "-INT"), Some(130));
+    assert!(
+        temporaries(dir.path()).is_empty(),
+        "{:?}",
+        temporaries(dir.path())
+    );
+    assert!(!dir.path().join("big.exr").exists());
+}
+
+#[test]
+fn a_later_run_removes_stale_temporaries_of_gone_processes_only() {
+    let dir = tempfile::tempdir().unwrap();
+    // A process that has ended: its id names no process now.
+    let mut gone = Command::new("true").spawn().unwrap();
+    let gone_pid = gone.id();
+    gone.wait().unwrap();
+    let stale = dir.path().join(format!(".f.exr.{gone_pid}.part"));
+    // This test's own process is alive: its temporary is some other run's work in progress.
+    let alive = dir
+        .path()
+        .join(format!(".f.exr.{}.part", std::process::id()));
+    // Another output's temporary is not this run's to judge.
+    let other = dir.path().join(format!(".g.exr.{gone_pid}.part"));
+    for path in [&stale, &alive, &other] {
+        std::fs::write(path, "half a field").unwrap();
+    }
+    volmap()
+        .args(["map", "--grid", "4x4x4", "--device", "cpu", "--out"])
+        .arg(dir.path().join("f.exr"))
+        .assert()
+        .success();
+    assert!(!stale.exists());
+    assert!(alive.exists());
+    assert!(other.exists());
+    assert!(dir.path().join("f.exr").exists());
+}
