@@ -298,12 +298,6 @@ const TERMS_ALL: u32 = 0u;
 const TERMS_ALONG_X: u32 = 1u;
 const TERMS_ACROSS_X: u32 = 2u;
 
-// Error function `index` at own position q with every axis at `c`: each term of a sum reads its
-// own argument.
-fn eval_function_at(index: u32, q: f32, c: Command) -> f32 {
-    return eval_terms_at(index, q, c, 0u, TERMS_ALL);
-}
-
 // Whether term `f` of an error of the axis with letter index `own` varies along X: it reads X's
 // commanded position, as its (first) argument, or as a two-axis table's second.
 fn term_varies_along_x(f: Function, own: u32) -> bool {
@@ -319,7 +313,8 @@ fn term_varies_along_x(f: Function, own: u32) -> bool {
     return first == 0u;
 }
 
-// eval_function_at over the terms `which` selects (TERMS_*), of an error of axis `own`.
+// Error function `index` of an error of axis `own` at its own position q with every axis at
+// `c`, over the terms `which` selects (TERMS_*): each term of a sum reads its own argument.
 fn eval_terms_at(index: u32, q: f32, c: Command, own: u32, which: u32) -> f32 {
     var total = 0.0;
     var next = index;
@@ -374,15 +369,7 @@ fn component_terms_at(a: AxisData, q: f32, command: Command, which: u32) -> arra
 
 // An axis's six component errors at q with every axis at `command`.
 fn component_errors_at(a: AxisData, q: f32, command: Command) -> array<vec3<f32>, 2> {
-    return array<vec3<f32>, 2>(
-        vec3<f32>(
-            eval_function_at(a.functions_a.x, q, command),
-            eval_function_at(a.functions_a.y, q, command),
-            eval_function_at(a.functions_a.z, q, command)),
-        vec3<f32>(
-            eval_function_at(a.functions_a.w, q, command),
-            eval_function_at(a.functions_b.x, q, command),
-            eval_function_at(a.functions_b.y, q, command)));
+    return component_terms_at(a, q, command, TERMS_ALL);
 }
 
 // A tolerance's deviation of shape `shape` and amplitude s at q over the travel [a, b].

@@ -9,6 +9,7 @@
 mod mapper;
 pub mod pack;
 mod per_point;
+mod positions;
 mod sampled;
 
 pub use mapper::GpuMapper;

@@ -3,7 +3,7 @@
 //! factors and X polynomials computed on the host in f64. The per-map passes run once per batch
 //! with a sample index; the point pass reduces each sample's field to its statistics
 //! (`points_reduce_main`), so nothing per point leaves the device; the positions pass
-//! (`positions_main`) gives VE and OE at arbitrary positions for every sample.
+//! (`positions_main`, in `positions.rs`) gives VE and OE at arbitrary positions for every sample.
 
 use std::sync::Arc;
 
@@ -19,21 +19,17 @@ use crate::gpu::layout::{
     SHAPE_LINE, TERM_NO_AXIS, WORKGROUP_SIZE,
 };
 use crate::gpu::GpuError;
-use crate::model::channels::Sample;
 use crate::model::grid::Grid;
 use crate::model::perturbation::{ErrorTarget, Perturbation, Shape};
 use crate::model::statistics::FieldStats;
-use crate::model::{AxisLetter, Command, Machine};
+use crate::model::{AxisLetter, Machine};
 use crate::reference::{self, Twin};
 
-/// The device's output per sample of the positions pass: six channels per position.
-const POSITION_VALUES: u64 = 6;
-
 /// What the kernels take of a base machine and its perturbations, the same for every batch.
-struct Base {
-    packed: Packed,
+pub(super) struct Base {
+    pub(super) packed: Packed,
     /// The axes in product order, with the index of each in `machine.axes`.
-    order: Vec<usize>,
+    pub(super) order: Vec<usize>,
     /// X's six errors of the base machine as polynomials in the grid index (f64), where each is
     /// one; [0; 4] for the others (their table is used).
     x_polynomials: [[f64; 4]; 6],
@@ -46,7 +42,7 @@ struct Base {
 }
 
 impl Base {
-    fn new(machine: &Machine, perturbations: &[Perturbation], grid: &Grid) -> Base {
+    pub(super) fn new(machine: &Machine, perturbations: &[Perturbation], grid: &Grid) -> Base {
         let packed = pack(machine, grid);
         let product = machine.chain.product_order();
         let order: Vec<usize> = product
@@ -115,7 +111,7 @@ impl Base {
 }
 
 /// The per-sample data of one batch.
-struct BatchData {
+pub(super) struct BatchData {
     amplitudes: Vec<f32>,
     locations: Vec<Location>,
     constants: Vec<DevData>,
@@ -140,7 +136,7 @@ impl GpuMapper {
 
     /// The rows of one batch: each sample's amplitudes, axis locations, constant factors and X
     /// polynomials, in f64 on the host and stored in f32.
-    fn batch_data(
+    pub(super) fn batch_data(
         &self,
         machine: &Machine,
         perturbations: &[Perturbation],
@@ -234,7 +230,7 @@ impl GpuMapper {
 
     /// The largest batch of samples the device holds at once for a grid whose per-sample tables
     /// and statistics take `bytes_per_sample`.
-    fn batch_size(&self, bytes_per_sample: u64) -> usize {
+    pub(super) fn batch_size(&self, bytes_per_sample: u64) -> usize {
         let binding = self.gpu.max_storage_binding_bytes();
         let budget = if self.gpu.is_software() {
             1 << 26
@@ -247,17 +243,17 @@ impl GpuMapper {
 }
 
 /// The machine's buffers on the device, and those of one batch sized for the largest batch.
-struct Buffers {
-    axes: Buffer,
-    functions: Buffer,
-    pieces: Buffer,
-    coefficients: Buffer,
+pub(super) struct Buffers {
+    pub(super) axes: Buffer,
+    pub(super) functions: Buffer,
+    pub(super) pieces: Buffer,
+    pub(super) coefficients: Buffer,
     groups: Buffer,
     factors: Buffer,
-    terms: Buffer,
-    amplitudes: Buffer,
-    locations: Buffer,
-    constants: Buffer,
+    pub(super) terms: Buffer,
+    pub(super) amplitudes: Buffer,
+    pub(super) locations: Buffer,
+    pub(super) constants: Buffer,
     x_polys: Buffer,
     axis_values: Buffer,
     group_values: Buffer,
@@ -265,7 +261,13 @@ struct Buffers {
 }
 
 impl Buffers {
-    fn new(mapper: &GpuMapper, base: &Base, terms: usize, batch: usize, nx: u64) -> Buffers {
+    pub(super) fn new(
+        mapper: &GpuMapper,
+        base: &Base,
+        terms: usize,
+        batch: usize,
+        nx: u64,
+    ) -> Buffers {
         let gpu = &mapper.gpu;
         let packed = &base.packed;
         let [entries, group_entries, _, _] = packed.params.counts.map(u64::from);
@@ -299,7 +301,7 @@ impl Buffers {
         }
     }
 
-    fn write(&self, mapper: &GpuMapper, data: &BatchData) {
+    pub(super) fn write(&self, mapper: &GpuMapper, data: &BatchData) {
         let gpu = &mapper.gpu;
         gpu.write(&self.amplitudes, bytemuck::cast_slice(&data.amplitudes));
         gpu.write(&self.locations, bytemuck::cast_slice(&data.locations));
@@ -309,7 +311,7 @@ impl Buffers {
 }
 
 /// Workgroups for `count` invocations in one dispatch dimension.
-fn workgroups(count: u64) -> u32 {
+pub(super) fn workgroups(count: u64) -> u32 {
     count.div_ceil(WORKGROUP_SIZE as u64).max(1) as u32
 }
 
@@ -491,111 +493,5 @@ impl GpuMapper {
             on_batch(done);
         }
         Ok(stats)
-    }
-
-    /// VE and OE (in [`crate::model::channels::SAMPLE_COLUMNS`] order) of each sampled machine
-    /// (as [`GpuMapper::variant_stats`]) at each commanded position; every position stands at
-    /// the rotary positions of the first. `on_batch(samples done)` is called after each batch.
-    pub fn variant_values(
-        &self,
-        machine: &Machine,
-        perturbations: &[Perturbation],
-        rows: &[Vec<f64>],
-        commands: &[Command],
-        mut on_batch: impl FnMut(usize),
-    ) -> Result<Vec<Vec<Sample>>, GpuError> {
-        let mut pose = commands.first().copied().unwrap_or([0.0; 6]);
-        pose[..3].fill(0.0);
-        let grid = Grid {
-            dims: [1, 1, 1],
-            origin_mm: [0.0; 3],
-            spacing_mm: [0.0; 3],
-            pose,
-        };
-        let base = Base::new(machine, perturbations, &grid);
-        let terms = perturbations.len().max(1);
-        let positions: Vec<[f32; 4]> = commands
-            .iter()
-            .map(|c| [c[0] as f32, c[1] as f32, c[2] as f32, 0.0])
-            .collect();
-        let count = positions.len().max(1) as u64;
-        let max_groups = self.gpu.max_workgroups_per_dimension() as u64;
-        if count > max_groups * WORKGROUP_SIZE as u64 {
-            return Err(self.error(format!(
-                "{count} positions exceed one dispatch of the positions pass"
-            )));
-        }
-        let value_bytes = count * POSITION_VALUES * 4;
-        let per_sample = value_bytes + base.order.len() as u64 * 80 + 2 * 96 + terms as u64 * 4;
-        let batch = self
-            .batch_size(per_sample)
-            .min(rows.len().max(1))
-            .min((self.gpu.max_storage_binding_bytes() / value_bytes).max(1) as usize);
-        let buffers = Buffers::new(self, &base, terms, batch, 1);
-        let position_buffer = self.gpu.storage("positions", &positions);
-        let output = self
-            .gpu
-            .output("position values", batch as u64 * value_bytes);
-        let staging = self
-            .gpu
-            .staging("position values staging", batch as u64 * value_bytes);
-        let params_buffer = self
-            .gpu
-            .uniform("positions params", bytemuck::bytes_of(&base.packed.params));
-        let kernel = self.sampled_kernel(SampledKernel::Positions)?;
-        let b = &buffers;
-        let bindings = self.gpu.bind(
-            &kernel,
-            &[
-                (0, &params_buffer),
-                (1, &b.axes),
-                (2, &b.functions),
-                (3, &b.pieces),
-                (4, &b.coefficients),
-                (11, &b.constants),
-                (12, &b.terms),
-                (13, &b.amplitudes),
-                (14, &b.locations),
-                (17, &position_buffer),
-                (18, &output),
-            ],
-        );
-        let mut values = Vec::with_capacity(rows.len());
-        for batch_rows in rows.chunks(batch) {
-            let data = self.batch_data(machine, perturbations, &base, batch_rows, &grid)?;
-            buffers.write(self, &data);
-            let samples = batch_rows.len() as u32;
-            let mut params = base.packed.params;
-            params.counts[2] = terms as u32;
-            params.counts[3] = samples;
-            self.gpu.write(&params_buffer, bytemuck::bytes_of(&params));
-            let bytes = samples as u64 * value_bytes;
-            let submission = self.gpu.submit(
-                &[Pass {
-                    kernel: &kernel,
-                    bindings: &bindings,
-                    workgroups: [workgroups(count), samples, 1],
-                }],
-                Some(Readback {
-                    from: &output,
-                    to: &staging,
-                    bytes,
-                }),
-            );
-            self.gpu.read(submission, &staging, bytes, |bytes| {
-                let all: &[f32] = bytemuck::cast_slice(bytes);
-                for sample in all.chunks_exact((count * POSITION_VALUES) as usize) {
-                    values.push(
-                        sample
-                            .chunks_exact(POSITION_VALUES as usize)
-                            .take(commands.len())
-                            .map(|v| [v[3], v[4], v[5], v[0], v[1], v[2]].map(f64::from))
-                            .collect(),
-                    );
-                }
-            })?;
-            on_batch(values.len());
-        }
-        Ok(values)
     }
 }
