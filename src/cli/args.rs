@@ -5,9 +5,8 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
-use volmap::design::DesignError;
 use volmap::engine::{DeviceChoice, Engine, EngineError};
-use volmap::gpu::{GpuError, GpuSampler};
+use volmap::gpu::GpuSampler;
 use volmap::io::embedded;
 use volmap::io::field::FieldFile;
 use volmap::model::grid::{self, Grid};
@@ -151,22 +150,6 @@ fn no_gpu(failure: Failure, no_adapter: bool) -> Failure {
     let failure = failure.context("--device gpu");
     if no_adapter {
         failure.hint("--device auto or --device cpu computes on the CPU")
-    } else {
-        failure
-    }
-}
-
-/// A failure of a design study (budget, Monte Carlo, allocation, conformance), with the way round
-/// a machine whose errors read other axes' positions, which the GPU's sampled-machine kernels
-/// refuse for now.
-pub fn design_failure(error: DesignError) -> Failure {
-    let cross_axis = matches!(
-        error,
-        DesignError::Engine(EngineError::Gpu(GpuError::CrossAxis { .. }))
-    );
-    let failure = Failure::from(error);
-    if cross_axis {
-        failure.hint("--device cpu computes it")
     } else {
         failure
     }

@@ -16,8 +16,7 @@ use volmap::model::poses::pose_name;
 use volmap::model::Machine;
 
 use super::args::{
-    design_failure, sweep_grids, DeviceArg, GridArg, InputsArg, JsonArg, MachineArg, PoseArg,
-    PosesArg,
+    sweep_grids, DeviceArg, GridArg, InputsArg, JsonArg, MachineArg, PoseArg, PosesArg,
 };
 use super::budget_report::{self, axis_positions};
 use super::failure::{Failure, FlagContext};
@@ -99,7 +98,7 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         bar.set_position(n as u64)
     });
     bar.finish_and_clear();
-    let budget = result.map_err(design_failure)?;
+    let budget = result?;
     print_budget(&machine, &args, &grids, &budget);
     let mut json = json!({
         "machine": machine.name,
@@ -127,7 +126,7 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         let ones = vec![1.0; tolerances.len()];
         let stats = study.sample_stats(&engine, samples, &ones, |n| bar.set_position(n as u64));
         bar.finish_and_clear();
-        let stats = stats.map_err(design_failure)?;
+        let stats = stats?;
         let monte_carlo = MonteCarlo::of(&stats, args.seed, spec);
         let inputs = machine.inputs.describe(&machine);
         budget_report::print_monte_carlo(&monte_carlo, engine.name(), &inputs);
@@ -292,7 +291,7 @@ fn run_allocation(
         |n| bar.set_position(n as u64),
     );
     bar.finish_and_clear();
-    let allocation = result.map_err(design_failure)?;
+    let allocation = result?;
     let w = allocation.within.fraction;
     println!(
         "  largest factor {:.6}: {:.2}% of the machines within (95% CI {:.2}% to {:.2}%), {} Monte Carlo runs on the same draws",

@@ -12,9 +12,7 @@ use volmap::design::conformance::conformance;
 use volmap::design::monte_carlo::{check_confidence, Study};
 use volmap::io::tolerance_file::ToleranceFile;
 
-use super::args::{
-    design_failure, load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg,
-};
+use super::args::{load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg};
 use super::failure::{Failure, FlagContext};
 use super::output::{progress, write_json};
 
@@ -203,7 +201,7 @@ fn run_conformance(
         bar.set_position(n as u64)
     });
     bar.finish_and_clear();
-    let rows = rows.map_err(design_failure)?;
+    let rows = rows?;
     println!(
         "{} ({} features) on {samples} machines built to {} around {} at {} (seed {}), VE and OE on the {}; fit where at least {:.1}% conform",
         part.name,

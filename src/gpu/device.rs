@@ -29,9 +29,9 @@ pub enum GpuError {
         limit_rad: f64,
     },
     /// An error value of the machine reads the position of another axis (`of`, `table2d`),
-    /// which the GPU's statistics of sampled machines over a grid do not evaluate yet (maps and
-    /// values at positions do); the CPU engine does.
-    #[error("{machine}: {key} depends on the position of another axis (`of` or `table2d`), which the GPU's statistics of sampled machines do not evaluate yet; the CPU engine does")]
+    /// which the folded chain kernel (each axis tabulated at its own grid values) cannot hold;
+    /// maps and statistics of such machines take the per-point kernels instead.
+    #[error("{machine}: {key} depends on the position of another axis (`of` or `table2d`), which the folded chain kernel does not evaluate; the per-point map does")]
     CrossAxis { machine: String, key: String },
 }
 
