@@ -299,7 +299,12 @@ pub(crate) fn positioning_with(
     let (lo, hi) = setup.travel_box()?;
     let at = spec.at_mm.map_or((lo + hi) / 2.0, Vector3::from);
     let targets: Vec<f64> = match measured {
-        Some(data) => data.targets_mm.clone(),
+        // Targets rounded a little beyond the travel's ends are read as the ends.
+        Some(data) => data
+            .targets_mm
+            .iter()
+            .map(|&t| super::clamp_to_ends(t, axis.range[0], axis.range[1]).unwrap_or(t))
+            .collect(),
         None => {
             let [a, b] = axis.range;
             let count = spec
@@ -329,8 +334,21 @@ pub(crate) fn positioning_with(
         p[d] = t;
         let command = setup.command(p);
         setup.check_travel(&command, &format!("positioning of {letter}, target {t}"))?;
-        up.push(setup.deviation(&command, &up_directions).volumetric_mm[d]);
-        down.push(setup.deviation(&command, &down_directions).volumetric_mm[d]);
+        // The laser lies along the way the tool moves relative to the workpiece when the axis
+        // moves: e_k at zero pose, turned with a work-side rotary axis.
+        let laser = setup.ideal_direction(&command, Vector3::ith(d, 1.0));
+        up.push(
+            setup
+                .deviation(&command, &up_directions)
+                .volumetric_mm
+                .dot(&laser),
+        );
+        down.push(
+            setup
+                .deviation(&command, &down_directions)
+                .volumetric_mm
+                .dot(&laser),
+        );
     }
     // The laser is zeroed at the first target of the first (↑) run.
     let zero = up[0];

@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Vector2, Vector3};
 use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
@@ -91,6 +91,57 @@ pub fn least_squares_circle(
     Ok(([solution[0], solution[1], solution[2]], residuals))
 }
 
+/// The geometric least-squares circle of a ballbar's readings: the points
+/// `q_i = (r + dr_i)(cos θ_i, sin θ_i)` about the centre ball, and the circle (centre `(a, b)`,
+/// radius `r + ρ`) minimising `Σ (|q_i − (a, b)| − (r + ρ))²`, by Gauss–Newton steps from the
+/// linearised circle of [`least_squares_circle`]. Returns `(ρ, a, b)` and the residuals
+/// `|q_i − (a, b)| − (r + ρ)`.
+pub fn geometric_circle(
+    angles_deg: &[f64],
+    radial: &[f64],
+    radius: f64,
+) -> Result<([f64; 3], Vec<f64>), StandardsError> {
+    let ([rho, a, b], _) = least_squares_circle(angles_deg, radial)?;
+    let points: Vec<Vector2<f64>> = angles_deg
+        .iter()
+        .zip(radial)
+        .map(|(&t, &r)| {
+            let (s, c) = t.to_radians().sin_cos();
+            (radius + r) * Vector2::new(c, s)
+        })
+        .collect();
+    let residuals_about = |x: &Vector3<f64>| -> Vec<f64> {
+        let centre = Vector2::new(x[1], x[2]);
+        points
+            .iter()
+            .map(|q| (q - centre).norm() - (radius + x[0]))
+            .collect()
+    };
+    let mut x = Vector3::new(rho, a, b);
+    for _ in 0..50 {
+        let centre = Vector2::new(x[1], x[2]);
+        let mut normal = Matrix3::zeros();
+        let mut rhs = Vector3::zeros();
+        for q in &points {
+            let offset = q - centre;
+            let distance = offset.norm();
+            // d residual / d (ρ, a, b)
+            let row = Vector3::new(-1.0, -offset.x / distance, -offset.y / distance);
+            normal += row * row.transpose();
+            rhs += row * (distance - (radius + x[0]));
+        }
+        let Some(step) = normal.cholesky().map(|c| c.solve(&rhs)) else {
+            break;
+        };
+        x -= step;
+        if step.norm() <= 1e-15 * (1.0 + radius) {
+            break;
+        }
+    }
+    let residuals = residuals_about(&x);
+    Ok(([x[0], x[1], x[2]], residuals))
+}
+
 pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, StandardsError> {
     circular_with(setup, spec, read_circular(spec)?.as_ref())
 }
@@ -168,6 +219,11 @@ pub(crate) fn circular_with(
     e1[u] = 1.0;
     e2[v] = 1.0;
     let letters = [AxisLetter::X, AxisLetter::Y, AxisLetter::Z];
+    // The centre ball sits where the machine put the tool tip when the set-up was made: the
+    // ideal tip at the commanded centre plus VE there, every axis approaching as the inputs say.
+    let centre_command = setup.command(centre);
+    let centre_ball =
+        setup.ideal_tip(&centre_command) + setup.twin().deviation(&centre_command).volumetric_mm;
     let mut predicted = Vec::with_capacity(angles.len());
     for &t in &angles {
         let (s, c) = t.to_radians().sin_cos();
@@ -179,10 +235,12 @@ pub(crate) fn circular_with(
         directions[letters[u].index()] = Some(du);
         directions[letters[v].index()] = Some(dv);
         let ve = setup.deviation(&command, &directions).volumetric_mm;
-        predicted.push((p + ve - centre).norm() - radius);
+        // The tool ball: the ideal tip in the workpiece frame plus VE.
+        let tool_ball = setup.ideal_tip(&command) + ve;
+        predicted.push((tool_ball - centre_ball).norm() - radius);
     }
     let figures_of = |radial: &[f64]| -> Result<[f64; 3], StandardsError> {
-        let (_, residuals) = least_squares_circle(&angles, radial)?;
+        let (_, residuals) = geometric_circle(&angles, radial, radius)?;
         let max = radial.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let min = radial.iter().copied().fold(f64::INFINITY, f64::min);
         Ok([range_of(&residuals), max, min])
@@ -204,19 +262,19 @@ pub(crate) fn circular_with(
         figures: vec![
             figure(
                 "G",
-                "circular deviation (about the least-squares centre)",
+                "circular deviation: range of the radial deviation from the geometric least-squares circle",
                 p[0],
                 m.map(|m| m[0]),
             ),
             figure(
                 "F max",
-                "largest radial deviation from the nominal circle",
+                "largest radial deviation from the nominal radius, about the centre ball",
                 p[1],
                 m.map(|m| m[1]),
             ),
             figure(
                 "F min",
-                "smallest radial deviation from the nominal circle",
+                "smallest radial deviation from the nominal radius, about the centre ball",
                 p[2],
                 m.map(|m| m[2]),
             ),

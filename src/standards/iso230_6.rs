@@ -8,7 +8,8 @@ use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
 use super::{
-    default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError, TestResult,
+    clamp_to_ends, default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError,
+    TestResult, END_TOLERANCE_MM,
 };
 use crate::model::AxisLetter;
 
@@ -161,15 +162,20 @@ pub(crate) fn diagonal_with(
     }
     let positions: Vec<f64> = match measured {
         Some(m) => {
+            // Positions rounded a little beyond an end (a CSV written to the µm) are that end.
+            let mut positions = Vec::with_capacity(m.len());
             for (row, &s) in m.columns[0].iter().enumerate() {
-                if s < -1e-9 || s > length + 1e-9 {
-                    return Err(m.error(
+                positions.push(clamp_to_ends(s, 0.0, length).ok_or_else(|| {
+                    m.error(
                         row,
-                        format!("position {s} lies off the diagonal (0 to {length:.3} mm)"),
-                    ));
-                }
+                        format!(
+                            "position {s} lies off the diagonal (0 to {length:.6} mm, \
+                             {END_TOLERANCE_MM} mm beyond an end read as the end)"
+                        ),
+                    )
+                })?);
             }
-            m.columns[0].clone()
+            positions
         }
         None => {
             if spec.points < 2 {
@@ -191,11 +197,14 @@ pub(crate) fn diagonal_with(
             moving.push(letter);
         }
     }
+    // The laser lies along the way the tool moves relative to the workpiece on the commanded
+    // diagonal: the diagonal itself at zero pose, turned with a work-side rotary axis.
+    let laser = setup.ideal_direction(&setup.command(from), direction);
     let along = |s: f64| {
         setup
             .deviation(&setup.command(from + s * direction), &directions)
             .volumetric_mm
-            .dot(&direction)
+            .dot(&laser)
     };
     // The laser is zeroed at the start of the diagonal.
     let zero = along(0.0);

@@ -3,18 +3,28 @@
 //! tests (ballbar) and the R-test of a rotary axis (Hwang et al. 2014, Figs. 14–15).
 //!
 //! Every test commands positions, asks the model for `VE` there (the f64 reference of
-//! docs/model.md, workpiece frame), and turns it into what the test's instrument reads:
+//! docs/model.md, workpiece frame), and turns it into what the test's instrument reads. The
+//! instruments sit between tool and workpiece, so they see the ideal tool tip `p_w(q)` in the
+//! workpiece frame and the direction `d_w = normalise(∂p_w/∂q · v)` in which it moves when the
+//! linear axes move along `v`; at zero pose (and without work-side rotary axes) `p_w` is the
+//! commanded position plus constant offsets and `d_w = v`, with a work-side rotary axis turned
+//! both turn with it:
 //!
-//! - positioning of axis `k` (laser along `k`, zeroed at the first target `t0` of the ↑ run):
-//!   `x↑(t) = VE↑(t)·e_k − VE↑(t0)·e_k` with `k` approaching `+`, `x↓(t) = VE↓(t)·e_k −
-//!   VE↑(t0)·e_k` with `k` approaching `−`; the model has no scatter, so the runs of one direction
-//!   repeat exactly, and a reversal (`reverse`) error gives `B`, `R` and the bidirectional figures;
-//! - diagonal from `p0` to `p1` (laser along the diagonal `d = (p1 − p0)/|p1 − p0|`, zeroed at
-//!   `p0`): the displacement error `VE(p0 + s·d)·d − VE(p0)·d` at distance `s` along it;
-//! - circular test about centre `c` with radius `r` in a plane (ballbar between a ball at `c` on
-//!   the table and one at the tool tip): the radial deviation `|p + VE(p) − c| − r` at
+//! - positioning of axis `k` (laser along the tool's motion `d_w` of `e_k`, zeroed at the first
+//!   target `t0` of the ↑ run): `x↑(t) = VE↑(t)·d_w − VE↑(t0)·d_w` with `k` approaching `+`,
+//!   `x↓(t) = VE↓(t)·d_w − VE↑(t0)·d_w` with `k` approaching `−`; the model has no scatter, so the
+//!   runs of one direction repeat exactly, and a reversal (`reverse`) error gives `B`, `R` and the
+//!   bidirectional figures;
+//! - diagonal from `p0` to `p1` (commanded; laser along the tool's motion `d_w` of
+//!   `d = (p1 − p0)/|p1 − p0|`, zeroed at `p0`): the displacement error
+//!   `VE(p0 + s·d)·d_w − VE(p0)·d_w` at distance `s` along it;
+//! - circular test about the commanded centre `c` with radius `r` in a plane (ballbar between a
+//!   ball on the table and one at the tool tip): the centre ball sits where the set-up put the tool
+//!   tip, `b = p_w(c) + VE(c)` (every axis approaching as the inputs say), the tool ball at
+//!   `p_w(p) + VE(p)`, and the reading is `|p_w(p) + VE(p) − b| − r` at
 //!   `p = c + r(cos θ e1 + sin θ e2)`, `θ` from the plane's first axis towards its second
-//!   (XY: from +X to +Y; YZ: from +Y to +Z; ZX: from +Z to +X);
+//!   (XY: from +X to +Y; YZ: from +Y to +Z; ZX: from +Z to +X); F max and F min are its extremes
+//!   (about the centre ball), G the range of its residuals from the geometric least-squares circle;
 //! - R-test of rotary axis `k` (a sphere fixed on the workpiece side at `s`, a nest of three
 //!   probes in the spindle, the linear axes commanded to follow the sphere): at each angle the
 //!   linear axes are where the ideal machine puts the tool tip at `s`, and the probes read the
@@ -35,7 +45,7 @@ pub mod measured;
 pub mod rtest;
 
 pub use iso230_2::{positioning, read_positioning, PositioningSpec};
-pub use iso230_4::{circular, least_squares_circle, plane_axes, CircularSpec};
+pub use iso230_4::{circular, geometric_circle, least_squares_circle, plane_axes, CircularSpec};
 pub use iso230_6::{diagonal, diagonal_ends, read_profile, DiagonalSpec};
 pub use rtest::{rtest, RTestSpec};
 
@@ -281,6 +291,19 @@ impl Setup {
         Ok(())
     }
 
+    /// Where the ideal machine puts the tool tip at `command` (workpiece frame, mm): where an
+    /// instrument between tool and workpiece sees the tool when the machine makes no error.
+    pub fn ideal_tip(&self, command: &Command) -> Vector3<f64> {
+        self.twin().ideal_tip(command)
+    }
+
+    /// The unit direction (workpiece frame) in which the ideal tool tip moves when the linear axes
+    /// at `command` move along `commanded` (X Y Z): `d ideal(q)/ds`, normalised. With a work-side
+    /// rotary axis turned it is not `commanded`; at zero pose it is.
+    pub fn ideal_direction(&self, command: &Command, commanded: Vector3<f64>) -> Vector3<f64> {
+        (self.twin().ideal_jacobian(command) * commanded).normalize()
+    }
+
     /// The commanded X Y Z at which the ideal machine puts the tool tip at `tip` (workpiece
     /// frame), rotary axes as in `command`.
     pub fn nominal_command_for_tip(
@@ -345,6 +368,20 @@ fn range_of(values: &[f64]) -> f64 {
     let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let min = values.iter().copied().fold(f64::INFINITY, f64::min);
     max - min
+}
+
+/// Measured positions this close to an end of a test's range (mm) are read as that end: a CSV
+/// rounded to the µm may put the last position of a diagonal a few nm beyond its exact length.
+pub const END_TOLERANCE_MM: f64 = 1e-3;
+
+/// `value` clamped to `[lo, hi]` where it lies within [`END_TOLERANCE_MM`] beyond an end;
+/// `None` where it lies further out.
+pub(crate) fn clamp_to_ends(value: f64, lo: f64, hi: f64) -> Option<f64> {
+    if value < lo - END_TOLERANCE_MM || value > hi + END_TOLERANCE_MM || value.is_nan() {
+        None
+    } else {
+        Some(value.clamp(lo, hi))
+    }
 }
 
 fn default_pose() -> String {

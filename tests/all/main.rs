@@ -24,6 +24,7 @@ mod query;
 mod reference;
 mod shaders;
 mod standards;
+mod standards_frames;
 mod standards_inputs;
 mod tolerance;
 mod variants;

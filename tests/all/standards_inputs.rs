@@ -190,10 +190,14 @@ fn a_ballbar_steps_where_a_backlashed_axis_reverses() {
 
 #[test]
 fn an_axis_the_circle_does_not_move_approaches_as_the_inputs_say() {
-    // EXZ = w while Z approaches −: an XY circle with Z standing at `−` is shifted by w along X
-    // at every point; at `+` it is not.
-    let (w, r) = (0.002, 120.0);
-    let m = machine("", "EXZ = { value = 0.0, reverse = 0.002 }");
+    // EXZ = k·X while Z approaches −: an XY circle with Z standing at `−` moves the tool ball
+    // by k·(X − X_centre) = k·r·cos θ along X from the centre ball (which the set-up put at
+    // k·X_centre), a stretch of X: |(r(1 + k) cos θ, r sin θ)| − r; at `+` it is not.
+    let (k, r) = (2.0e-5, 120.0);
+    let m = machine(
+        "",
+        "EXZ = { value = 0.0, reverse = { poly = [0.0, 2.0e-5], of = \"X\" } }",
+    );
     let down = Inputs::parse("", "Z=-", &m).unwrap();
     let result = standards::circular(
         &Setup::with_inputs(&m, "", &down).unwrap(),
@@ -201,8 +205,14 @@ fn an_axis_the_circle_does_not_move_approaches_as_the_inputs_say() {
     )
     .unwrap();
     for (t, dr) in result.positions.iter().zip(&result.predicted[0]) {
-        assert!((dr - shifted(r, w, *t)).abs() < 1e-12, "θ = {t}");
+        let (s, c) = t.to_radians().sin_cos();
+        let expected = (r * (1.0 + k) * c).hypot(r * s) - r;
+        assert!(
+            (dr - expected).abs() < 1e-12,
+            "θ = {t}: {dr} against {expected}"
+        );
     }
+    assert!(result.figures[1].predicted_mm > 0.9 * k * r);
     assert!(result.inputs.contains("Z-"), "{}", result.inputs);
     let up = standards::circular(&Setup::new(&m, "").unwrap(), &circular_spec("XY", r)).unwrap();
     assert!(up.predicted[0].iter().all(|dr| dr.abs() < 1e-12));
