@@ -13,6 +13,7 @@ mod query;
 mod robust;
 mod sample;
 mod standards;
+mod standards_frames;
 mod sweep;
 mod sweep_readers;
 
