@@ -5,12 +5,15 @@
 pub mod build;
 pub mod fit;
 mod fit_file;
+mod tables;
 mod unknowns;
 
 use crate::error::input_errors;
 use crate::io::csv::CsvError;
 use crate::io::FileError;
 use crate::standards::StandardsError;
+
+pub use tables::rebase_tables;
 
 /// What is wrong with the measurements, the fit file or the estimates asked for.
 #[derive(Debug, thiserror::Error)]

@@ -8,7 +8,7 @@ use volmap::io::embedded;
 use volmap::model::AxisLetter;
 
 use super::failure::{Failure, FlagContext};
-use super::output::{write_file, written_by};
+use super::output::{out_folder, write_file, written_by};
 
 #[derive(clap::Args)]
 pub struct BuildArgs {
@@ -76,12 +76,10 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
             ),
         ],
     );
-    // The new file must read back as a machine before it replaces anything.
-    let folder = args
-        .out
-        .parent()
-        .map(std::path::Path::to_path_buf)
-        .unwrap_or_default();
+    // The base's CSV tables are named relative to its own folder; the new file's names them
+    // from its folder, and must read back as a machine before it replaces anything.
+    let folder = out_folder(&args.out);
+    let text = calibrate::rebase_tables(&text, &base, &folder)?;
     volmap::model::Machine::from_toml(&text, &args.out.display().to_string(), Some(&folder))?;
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
     println!(

@@ -8,7 +8,7 @@ use volmap::calibrate::{self, fit};
 
 use super::args::{JsonArg, MachineArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{write_file, write_json, written_by};
+use super::output::{out_folder, write_file, write_json, written_by};
 
 const UM_PER_MM: f64 = 1000.0;
 
@@ -78,6 +78,9 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
                 "Each estimate written to a thousandth of its standard uncertainty.".to_string(),
             ],
         );
+        let folder = out_folder(path);
+        let text = calibrate::rebase_tables(&text, &machine, &folder)?;
+        volmap::model::Machine::from_toml(&text, &path.display().to_string(), Some(&folder))?;
         write_file(path, |out| out.write_all(text.as_bytes())).flag("--out")?;
         println!("  machine with the estimates: {}", path.display());
     }

@@ -90,6 +90,9 @@ pub struct MachineSource {
     pub toml: String,
     /// Each CSV file the machine reads, as `(path as written in the file, text)`.
     pub csv_files: Vec<(String, String)>,
+    /// The folder its CSV paths are relative to (`None`: a machine read from text, like the
+    /// embedded ones, whose tables are inline).
+    pub folder: Option<std::path::PathBuf>,
 }
 
 /// A complete machine: what docs/model.md's chain needs.

@@ -231,6 +231,7 @@ impl Machine {
             source: MachineSource {
                 toml: text.to_string(),
                 csv_files: reader.csv_files,
+                folder: csv_base.map(Path::to_path_buf),
             },
         })
     }

@@ -5,6 +5,7 @@ mod design;
 mod inputs;
 mod interrupt;
 mod machine_files;
+mod machine_files_tables;
 mod machines;
 mod map;
 mod plot;
