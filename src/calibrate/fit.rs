@@ -17,6 +17,8 @@
 use nalgebra::{DMatrix, DVector};
 
 pub use super::fit_file::{Entry, FitFile};
+use super::identifiability::identifiability;
+pub use super::identifiability::Identifiability;
 pub use super::unknowns::Unknown;
 use super::CalibrateError;
 use crate::model::inputs::Inputs;
@@ -51,6 +53,8 @@ pub struct FitReport {
     /// RMS of the residuals with the machine as given, and with the estimates, mm.
     pub rms_before_mm: f64,
     pub rms_after_mm: f64,
+    /// What the measurements can see of each estimate (figures in the order of `estimates`).
+    pub identifiability: Identifiability,
     #[serde(skip)]
     pub machine: Machine,
 }
@@ -141,6 +145,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
         .map(|u| u.step(temperature_span(u, &tests, machine)))
         .collect();
     let (current, r, j) = gauss_newton(machine, &tests, &unknowns, &steps, before.clone())?;
+    let identifiability = identifiability(&j, &unknowns, machine)?;
     let sigma2 = r.norm_squared() / dof as f64;
     let normal = j.transpose() * &j;
     let covariance = normal
@@ -164,6 +169,7 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
         degrees_of_freedom: dof,
         rms_before_mm: rms(&before),
         rms_after_mm: rms(r.as_slice()),
+        identifiability,
         machine: current,
     })
 }
@@ -254,7 +260,7 @@ fn gauss_newton(
     let mut r = DVector::from_vec(before);
     let mut j = jacobian_at(&current)?;
     for _ in 0..10 {
-        check_observable(&j, unknowns)?;
+        identifiability(&j, unknowns, machine)?;
         let step = j
             .clone()
             .svd(true, true)
@@ -275,54 +281,6 @@ fn gauss_newton(
         }
     }
     Ok((current, r, j))
-}
-
-/// Every unknown must move the measurements, and no two the same way.
-fn check_observable(j: &DMatrix<f64>, unknowns: &[Unknown]) -> Result<(), CalibrateError> {
-    let norms: Vec<f64> = (0..j.ncols()).map(|c| j.column(c).norm()).collect();
-    let largest = norms.iter().copied().fold(0.0, f64::max);
-    for (c, u) in unknowns.iter().enumerate() {
-        if norms[c] <= 1e-12 * largest.max(1e-300) || norms[c] == 0.0 {
-            let how = match &u.per_kelvin {
-                Some((_, input)) => {
-                    format!("measure tests at temperatures of {input} away from reference_C")
-                }
-                None => "measure a test that sees it".to_string(),
-            };
-            return Err(CalibrateError::Parameter(format!(
-                "{} does not change any of the given measurements: {how}, or leave it out",
-                u.name()
-            )));
-        }
-    }
-    let mut scaled = j.clone();
-    for (c, n) in norms.iter().enumerate() {
-        scaled.column_mut(c).scale_mut(1.0 / n);
-    }
-    let singular = scaled.clone().svd(false, true);
-    let values = &singular.singular_values;
-    let (max, min) = (values.max(), values.min());
-    if min < 1e-6 * max {
-        let v_t = singular.v_t.as_ref().expect("asked for V");
-        let row = values.imin();
-        let involved: Vec<&Unknown> = unknowns
-            .iter()
-            .enumerate()
-            .filter(|(c, _)| v_t[(row, *c)].abs() > 0.1)
-            .map(|(_, u)| u)
-            .collect();
-        let names: Vec<String> = involved.iter().map(|u| u.name()).collect();
-        let how = if involved.iter().any(|u| u.per_kelvin.is_some()) {
-            "add a test that separates them (a thermal coefficient needs tests at two or more temperatures of its input)"
-        } else {
-            "add a test that separates them"
-        };
-        return Err(CalibrateError::Parameter(format!(
-            "{} cannot be told apart from these measurements (they move them alike): {how}",
-            names.join(" and ")
-        )));
-    }
-    Ok(())
 }
 
 /// The machine file with the estimates written in: the original file, comments, order and all,

@@ -5,6 +5,7 @@
 pub mod build;
 pub mod fit;
 mod fit_file;
+pub mod identifiability;
 mod tables;
 mod unknowns;
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use volmap::calibrate::{self, fit};
+use volmap::calibrate::{self, fit, identifiability};
 
 use super::args::{JsonArg, MachineArg};
 use super::failure::{Failure, FlagContext};
@@ -54,6 +54,7 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
             e.name, e.initial, e.value, e.uncertainty, e.unit
         );
     }
+    print_identifiability(&report, width);
     println!(
         "  RMS residual: {:.3} µm with the machine as given, {:.3} µm with the estimates",
         report.rms_before_mm * UM_PER_MM,
@@ -88,4 +89,46 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
         write_json(path, &report)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// What the tests can see of each estimate: figures of the model and the tests' positions, not of
+/// the measured values.
+fn print_identifiability(report: &fit::FitReport, width: usize) {
+    let figures = &report.identifiability;
+    println!(
+        "  what the tests see (from the model and the tests' positions, not the measured values):"
+    );
+    println!(
+        "  {:<width$} {:>20} {:>12} {:>10}",
+        "error", "sensitivity", "independence", "valuation"
+    );
+    for (c, e) in report.estimates.iter().enumerate() {
+        let weak = if figures.valuation[c] < identifiability::VALUATION_WEAK {
+            "  weak: the tests barely resolve it"
+        } else {
+            ""
+        };
+        println!(
+            "  {:<width$} {:>20} {:>12.4} {:>10.3}{weak}",
+            e.name,
+            format!("{:.3e} mm/({})", figures.sensitivity[c], e.unit),
+            figures.independence[c],
+            figures.valuation[c],
+        );
+    }
+    println!(
+        "  condition number {:.3} (of the readings' Jacobian, columns scaled to unit norm)",
+        figures.condition_number
+    );
+    if report.estimates.len() > 1 {
+        println!("  correlations of the estimates:");
+        for (a, row) in figures.correlation.iter().enumerate() {
+            let cells: Vec<String> = row.iter().map(|r| format!("{r:+7.4}")).collect();
+            println!("  {:<width$} {}", report.estimates[a].name, cells.join(" "));
+        }
+    }
+    println!(
+        "  (sensitivity: RMS change of the readings per unit of the error; independence: the part of it no other estimate imitates, 0 to 1; valuation: 1 µm of a length or 10 µrad of an angle, per K for a coefficient, in standard uncertainties were the instruments to scatter 1 µm; below {} the tests barely resolve it)",
+        identifiability::VALUATION_WEAK
+    );
 }

@@ -225,7 +225,10 @@ fn fit_says_what_the_measurements_cannot_see() {
     let error = volmap::calibrate::fit::fit(&machine, &file("\"EA0Z\""))
         .unwrap_err()
         .to_string();
-    assert!(error.contains("EA0Z does not change"), "{error}");
+    assert!(
+        error.contains("EA0Z cannot be told from zero") && error.contains("YZ plane"),
+        "{error}"
+    );
     let error = volmap::calibrate::fit::fit(&machine, &file("\"EQ0Z\""))
         .unwrap_err()
         .to_string();
@@ -521,7 +524,7 @@ fn a_fit_file_naming_an_undeclared_input_names_the_file_and_the_key() {
         .unwrap_err()
         .to_string();
     assert!(
-        error.contains("does not change") && error.contains("hall"),
+        error.contains("cannot be told from zero") && error.contains("hall"),
         "{error}"
     );
     let same = thermal_measurements(&dir, truth, &[26.0], "\"EC0Y\", \"EC0Y.per_kelvin.hall\"");
@@ -530,6 +533,32 @@ fn a_fit_file_naming_an_undeclared_input_names_the_file_and_the_key() {
         .to_string();
     assert!(
         error.contains("cannot be told apart") && error.contains("two or more temperatures"),
+        "{error}"
+    );
+}
+
+#[test]
+fn a_value_and_its_coefficient_from_nearly_one_temperature_are_refused_by_name() {
+    // Circles at 26 and 26.05 °C: the coefficient moves the readings as the value does, times
+    // 6 or 6.05 K; the estimates correlate within 1e-3 of ±1.
+    let dir = tempfile::tempdir().unwrap();
+    let given = Machine::from_toml(THERMAL_TOML, "thermal.toml", None).unwrap();
+    let near = thermal_measurements(
+        &dir,
+        (2.0e-5, 1.0e-6, -1.0e-5),
+        &[26.0, 26.05],
+        "\"EC0Y\", \"EC0Y.per_kelvin.hall\"",
+    );
+    let error = volmap::calibrate::fit::fit(
+        &given,
+        &volmap::calibrate::fit::FitFile::read(&near).unwrap(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("EC0Y and EC0Y.per_kelvin.hall cannot be told apart")
+            && error.contains("correlate")
+            && error.contains("two or more temperatures of hall"),
         "{error}"
     );
 }

@@ -12,6 +12,7 @@ mod field;
 mod field_inputs;
 mod golden;
 mod gpu;
+mod identifiability;
 mod inputs;
 mod machine_file;
 mod mesh;

@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use predicates::prelude::*;
 use volmap::model::Machine;
 use volmap::reference::deviation;
 
@@ -140,9 +141,22 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
             "fit.toml",
             "--out",
             "out/fitted.toml",
+            "--json",
+            "out/fit.json",
         ])
         .assert()
-        .success();
+        .success()
+        .stdout(
+            predicates::str::contains("valuation")
+                .and(predicates::str::contains("condition number")),
+        );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/fit.json")).unwrap())
+            .unwrap();
+    let figures = &json["identifiability"];
+    assert!(figures["valuation"][0].as_f64().unwrap() > 2.0, "{figures}");
+    assert_eq!(figures["correlation"][0][0].as_f64(), Some(1.0));
+    assert!(figures["sensitivity"][0].as_f64().unwrap() > 0.0);
     let written = std::fs::read_to_string(dir.path().join("out/fitted.toml")).unwrap();
     assert!(
         written.contains("csv = \"../base/tables/y.csv\""),
