@@ -29,8 +29,8 @@ use crate::standards::iso230_6::{diagonal_with, read_diagonal};
 use crate::standards::measured::Measured;
 use crate::standards::rtest::{read_rtest, rtest_with};
 use crate::standards::{
-    least_squares_circle, read_positioning, CircularSpec, DiagonalSpec, PositioningSpec, RTestSpec,
-    Setup, StandardsError, TestResult,
+    least_squares_circle, read_positioning_of, CircularSpec, DiagonalSpec, PositioningSpec,
+    RTestSpec, Setup, StandardsError, TestResult,
 };
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -190,8 +190,8 @@ fn read_tests<'a>(file: &'a FitFile, machine: &Machine) -> Result<Vec<Test<'a>>,
     let missing = |key: &str| file.key_error(key, "give the measured results (`csv = \"...\"`)");
     let mut tests: Vec<Test> = Vec::new();
     for e in &file.positioning {
-        let csv = e.spec.csv.as_deref().ok_or_else(|| missing(&e.key))?;
-        let kind = Kind::Positioning(&e.spec, read_positioning(csv)?);
+        let data = read_positioning_of(&e.spec)?.ok_or_else(|| missing(&e.key))?;
+        let kind = Kind::Positioning(&e.spec, data);
         tests.push(Test {
             kind,
             inputs: file.inputs_of(e, machine)?,

@@ -24,7 +24,11 @@ pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> 
     let mut series = Vec::new();
     for (n, name) in result.curve_names.iter().enumerate() {
         let colour = CURVE_COLOURS[n % CURVE_COLOURS.len()];
-        let scale = if result.polar.is_some() { 1.0 } else { 1000.0 };
+        let scale = if result.polar.is_some() {
+            1.0
+        } else {
+            result.unit.shown().0
+        };
         let marker = if name.contains('↑') {
             Marker::Up
         } else if name.contains('↓') {
@@ -70,7 +74,12 @@ pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> 
             (&first.to_string(), &second.to_string()),
             &series,
         ),
-        None => plot::line_chart(&result.title, &result.position_label, "error (µm)", &series),
+        None => plot::line_chart(
+            &result.title,
+            &result.position_label,
+            &format!("error ({})", result.unit.shown().1),
+            &series,
+        ),
     }?;
     write_plot(&drawing, path)
 }

@@ -59,13 +59,15 @@ does not move; --temperatures hold for every point.";
 
 #[derive(clap::Subcommand)]
 enum TestKind {
-    /// ISO 230-2 positioning of one linear axis: figures A, B, E, M, R.
+    /// ISO 230-2 positioning of one axis: figures A, B, E, M, R (µm; arc-seconds for a rotary
+    /// axis, against an angle reference).
     #[command(after_help = DIRECTIONS)]
     Positioning {
-        /// The axis: X, Y or Z.
+        /// The axis: X, Y or Z; A, B or C for a rotary axis.
         #[arg(long)]
         axis: String,
-        /// Targets evenly over the travel (default: 5 per metre, at least 5).
+        /// Targets evenly over the travel (default: 5 per metre, at least 5; a rotary axis every
+        /// 30° at most, at least 5).
         #[arg(long)]
         targets: Option<usize>,
         /// Runs per approach direction.
@@ -266,10 +268,12 @@ fn run_on_machine(
     Ok(result)
 }
 
-const UM_PER_MM: f64 = 1000.0;
-
-/// The point-by-point table (µm) and the figures, predicted and measured side by side.
+/// The point-by-point table (µm, or arc-seconds for a rotary axis) and the figures, predicted
+/// and measured side by side.
 fn print_result(result: &TestResult) {
+    let (factor, unit) = result.unit.shown();
+    let predicted_label = format!("predicted {unit}");
+    let measured_label = format!("measured {unit}");
     println!("{}", result.title);
     println!("  inputs: {}", result.inputs);
     let width = result.position_label.chars().count().max(10);
@@ -278,20 +282,20 @@ fn print_result(result: &TestResult) {
     let mut units = format!("  {:>width$}", "");
     for name in &result.curve_names {
         header += &format!(" | {name:>cell$}");
-        units += &format!(" | {:>cell$}", "predicted µm");
+        units += &format!(" | {predicted_label:>cell$}");
         if result.measured.is_some() {
             header += &format!(" {:>cell$} {:>cell$}", "", "");
-            units += &format!(" {:>cell$} {:>cell$}", "measured µm", "difference");
+            units += &format!(" {measured_label:>cell$} {:>cell$}", "difference");
         }
     }
     println!("{header}\n{units}");
     for (n, position) in result.positions.iter().enumerate() {
         let mut row = format!("  {position:>width$.3}");
         for (c, curve) in result.predicted.iter().enumerate() {
-            let p = curve[n] * UM_PER_MM;
+            let p = curve[n] * factor;
             row += &format!(" | {p:>cell$.3}");
             if let Some(m) = &result.measured {
-                let v = m[c][n] * UM_PER_MM;
+                let v = m[c][n] * factor;
                 row += &format!(" {v:>cell$.3} {:>cell$.3}", v - p);
             }
         }
@@ -305,24 +309,24 @@ fn print_result(result: &TestResult) {
         .max()
         .unwrap_or(6)
         .max(6);
-    let mut header = format!("  {:<name_width$} {:>cell$}", "figure", "predicted µm");
+    let mut header = format!("  {:<name_width$} {predicted_label:>cell$}", "figure");
     if result.measured.is_some() {
-        header += &format!(" {:>cell$} {:>cell$}", "measured µm", "difference");
+        header += &format!(" {measured_label:>cell$} {:>cell$}", "difference");
     }
     println!("{header}  meaning");
     for f in &result.figures {
-        let p = f.predicted_mm * UM_PER_MM;
+        let p = f.predicted * factor;
         let mut row = format!("  {:<name_width$} {p:>cell$.3}", f.name);
-        if let Some(m) = f.measured_mm {
-            let m = m * UM_PER_MM;
+        if let Some(m) = f.measured {
+            let m = m * factor;
             row += &format!(" {m:>cell$.3} {:>cell$.3}", m - p);
         }
         println!("{row}  {}", f.meaning);
     }
     if let Some(d) = standards::largest_difference(result) {
         println!(
-            "\n  largest |measured − predicted|: {:.3} µm",
-            d * UM_PER_MM
+            "\n  largest |measured − predicted|: {:.3} {unit}",
+            d * factor
         );
     }
 }

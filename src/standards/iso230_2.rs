@@ -141,7 +141,7 @@ impl PositioningData {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PositioningSpec {
-    /// The axis under test: X, Y or Z.
+    /// The axis under test: X, Y or Z; A, B or C (see [`super::iso230_2_rotary`]).
     pub axis: String,
     /// Target positions, evenly spaced over the travel (ends included); default: 5 per metre
     /// of travel, at least 5 (the standard's minimum).
@@ -156,7 +156,8 @@ pub struct PositioningSpec {
     #[serde(default = "default_pose")]
     pub pose: String,
     /// Measured results: columns `target_mm, direction, run, deviation_mm` (direction `+` or
-    /// `-`; lengths may be `_um`).
+    /// `-`; lengths may be `_um`); for a rotary axis `target_deg, direction, run,
+    /// deviation_arcsec` (or `_urad`).
     pub csv: Option<PathBuf>,
 }
 
@@ -164,15 +165,19 @@ fn default_runs() -> usize {
     5
 }
 
-fn parse_linear(name: &str) -> Result<AxisLetter, StandardsError> {
-    match name.trim() {
-        "X" | "x" => Ok(AxisLetter::X),
-        "Y" | "y" => Ok(AxisLetter::Y),
-        "Z" | "z" => Ok(AxisLetter::Z),
-        other => Err(parameter(format!(
-            "`{other}` is not a linear axis (X, Y or Z)"
-        ))),
+/// The axis under test: linear (X Y Z) or rotary (A B C).
+fn parse_axis(name: &str) -> Result<AxisLetter, StandardsError> {
+    let mut chars = name.trim().chars();
+    match (chars.next().map(|c| c.to_ascii_uppercase()), chars.next()) {
+        (Some(c), None) => AxisLetter::from_char(c),
+        _ => None,
     }
+    .ok_or_else(|| {
+        parameter(format!(
+            "`{}` is not an axis (X, Y or Z; A, B or C for a rotary axis)",
+            name.trim()
+        ))
+    })
 }
 
 /// Reads a positioning test's measured results: for each (direction, run) the targets in the
@@ -190,11 +195,26 @@ pub fn read_positioning(path: &Path) -> Result<PositioningData, StandardsError> 
     positioning_from(&m)
 }
 
+/// The measured runs a spec names, read in the units of its axis: [`read_positioning`] for a
+/// linear axis, `target_deg, direction, run, deviation_arcsec` for a rotary one.
+pub fn read_positioning_of(
+    spec: &PositioningSpec,
+) -> Result<Option<PositioningData>, StandardsError> {
+    let Some(path) = spec.csv.as_deref() else {
+        return Ok(None);
+    };
+    if !parse_axis(&spec.axis)?.is_linear() {
+        super::iso230_2_rotary::read_rotary_positioning(path).map(Some)
+    } else {
+        read_positioning(path).map(Some)
+    }
+}
+
 /// One run of a positioning test: its direction (`true`: positive), its label and its
 /// `(target, deviation)` pairs in the order of approach.
 type Run = (bool, String, Vec<(f64, f64)>);
 
-fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
+pub(super) fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
     let mut groups: Vec<Run> = Vec::new();
     for row in 0..m.len() {
         let up = match m.text[1][row].as_str() {
@@ -283,7 +303,7 @@ fn positioning_from(m: &Measured) -> Result<PositioningData, StandardsError> {
 }
 
 pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, StandardsError> {
-    let measured = spec.csv.as_deref().map(read_positioning).transpose()?;
+    let measured = read_positioning_of(spec)?;
     positioning_with(setup, spec, measured.as_ref())
 }
 
@@ -293,7 +313,10 @@ pub(crate) fn positioning_with(
     spec: &PositioningSpec,
     measured: Option<&PositioningData>,
 ) -> Result<TestResult, StandardsError> {
-    let letter = parse_linear(&spec.axis)?;
+    let letter = parse_axis(&spec.axis)?;
+    if !letter.is_linear() {
+        return super::iso230_2_rotary::rotary_positioning_with(setup, spec, letter, measured);
+    }
     let axis = setup.linear_axis(letter)?;
     let d = letter.direction_index();
     let (lo, hi) = setup.travel_box()?;
@@ -350,6 +373,29 @@ pub(crate) fn positioning_with(
                 .dot(&laser),
         );
     }
+    let title = format!("ISO 230-2 positioning of {letter}");
+    Ok(positioning_result(
+        setup,
+        spec,
+        letter,
+        (targets, up, down),
+        measured,
+        (title, format!("target {letter} (mm)")),
+        super::ErrorUnit::Mm,
+    ))
+}
+
+/// The test's result from the predicted deviations at each target, `(targets, up, down)` (↑ and
+/// ↓, before the zero), zeroed at the first target of the first (↑) run.
+pub(super) fn positioning_result(
+    setup: &Setup,
+    spec: &PositioningSpec,
+    letter: AxisLetter,
+    (targets, up, down): (Vec<f64>, Vec<f64>, Vec<f64>),
+    measured: Option<&PositioningData>,
+    (title, position_label): (String, String),
+    unit: super::ErrorUnit,
+) -> TestResult {
     // The laser is zeroed at the first target of the first (↑) run.
     let zero = up[0];
     let runs = |x: &f64| vec![x - zero; spec.runs];
@@ -379,22 +425,25 @@ pub(crate) fn positioning_with(
         .into_iter()
         .enumerate()
         .map(|(n, (name, value))| {
-            figure(
+            let mut figure = figure(
                 name,
                 meanings[n],
                 value,
                 measured_figures.map(|f| f.named()[n].1),
-            )
+            );
+            figure.unit = unit;
+            figure
         })
         .collect();
     let (up, down) = predicted.means();
-    Ok(TestResult {
+    TestResult {
+        unit,
         title: format!(
-            "ISO 230-2 positioning of {letter} ({} targets, {} runs each way)",
+            "{title} ({} targets, {} runs each way)",
             targets.len(),
             measured.map_or(spec.runs, |m| m.up[0].len())
         ),
-        position_label: format!("target {letter} (mm)"),
+        position_label,
         positions: targets,
         curve_names: vec!["mean deviation ↑".into(), "mean deviation ↓".into()],
         predicted: vec![up, down],
@@ -410,5 +459,5 @@ pub(crate) fn positioning_with(
         polar: None,
         inputs: setup.describe_inputs(&[letter], "from the run (+ for ↑, − for ↓)"),
         moving_axes: vec![letter.as_char()],
-    })
+    }
 }

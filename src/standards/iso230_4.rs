@@ -248,6 +248,7 @@ pub(crate) fn circular_with(
     let p = figures_of(&predicted)?;
     let m = measured.map(|m| figures_of(&m.columns[1])).transpose()?;
     Ok(TestResult {
+        unit: super::ErrorUnit::Mm,
         title: format!(
             "ISO 230-4 circular test in {plane}, {}: centre ({:.1}, {:.1}, {:.1}) mm, radius {radius} mm",
             if sense > 0.0 { "counter-clockwise" } else { "clockwise" },

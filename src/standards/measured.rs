@@ -16,6 +16,8 @@ pub enum Unit {
     Length,
     /// degrees (`_deg`).
     Angle,
+    /// A small angle: arc-seconds (`_arcsec`), or µrad (`_urad`) converted to arc-seconds.
+    SmallAngle,
     /// A plain count or label (no suffix).
     None,
 }
@@ -25,7 +27,7 @@ pub enum Unit {
 pub struct Measured {
     pub path: String,
     pub lines: Vec<usize>,
-    /// `[column][row]`, lengths in mm, angles in degrees.
+    /// `[column][row]`, lengths in mm, angles in degrees, small angles in arc-seconds.
     pub columns: Vec<Vec<f64>>,
     /// The raw text of text columns (`None` unit), `[column][row]`; empty for numeric columns.
     pub text: Vec<Vec<String>>,
@@ -49,6 +51,7 @@ impl Measured {
             .map(|(c, u)| match u {
                 Unit::Length => format!("{c}_mm (or {c}_um)"),
                 Unit::Angle => format!("{c}_deg"),
+                Unit::SmallAngle => format!("{c}_arcsec (or {c}_urad)"),
                 Unit::None => c.to_string(),
             })
             .collect::<Vec<_>>()
@@ -64,6 +67,10 @@ impl Measured {
                     Unit::Length if *column == format!("{c}_mm") => Some(1.0),
                     Unit::Length if *column == format!("{c}_um") => Some(1e-3),
                     Unit::Angle if *column == format!("{c}_deg") => Some(1.0),
+                    Unit::SmallAngle if *column == format!("{c}_arcsec") => Some(1.0),
+                    Unit::SmallAngle if *column == format!("{c}_urad") => {
+                        Some(1e-6 * super::ARCSEC_PER_RAD)
+                    }
                     Unit::None if column == c => Some(1.0),
                     _ => None,
                 };

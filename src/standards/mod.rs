@@ -39,12 +39,13 @@
 //! Measured curves are compared as they come: zero them where the prediction is zeroed.
 
 pub mod iso230_2;
+mod iso230_2_rotary;
 pub mod iso230_4;
 pub mod iso230_6;
 pub mod measured;
 pub mod rtest;
 
-pub use iso230_2::{positioning, read_positioning, PositioningSpec};
+pub use iso230_2::{positioning, read_positioning, read_positioning_of, PositioningSpec};
 pub use iso230_4::{circular, geometric_circle, least_squares_circle, plane_axes, CircularSpec};
 pub use iso230_6::{diagonal, diagonal_ends, read_profile, DiagonalSpec};
 pub use rtest::{rtest, RTestSpec};
@@ -319,13 +320,58 @@ impl Setup {
     }
 }
 
-/// One figure of a test, predicted and (where given) measured, mm.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+/// Arc-seconds in a radian.
+pub const ARCSEC_PER_RAD: f64 = 180.0 * 3600.0 / std::f64::consts::PI;
+
+/// The unit of a test's curves and figures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ErrorUnit {
+    /// Lengths, mm (shown in µm).
+    Mm,
+    /// Angles, arc-seconds: the positioning of a rotary axis (ISO 230-2).
+    Arcsec,
+}
+
+impl ErrorUnit {
+    /// The factor to the unit values are shown in, and its name.
+    pub fn shown(self) -> (f64, &'static str) {
+        match self {
+            ErrorUnit::Mm => (1000.0, "µm"),
+            ErrorUnit::Arcsec => (1.0, "arcsec"),
+        }
+    }
+
+    fn suffix(self) -> &'static str {
+        match self {
+            ErrorUnit::Mm => "mm",
+            ErrorUnit::Arcsec => "arcsec",
+        }
+    }
+}
+
+/// One figure of a test, predicted and (where given) measured, in `unit`; written to JSON as
+/// `predicted_mm` and `measured_mm` (`predicted_arcsec`, … for a rotary axis).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Figure {
     pub name: String,
     pub meaning: String,
-    pub predicted_mm: f64,
-    pub measured_mm: Option<f64>,
+    pub predicted: f64,
+    pub measured: Option<f64>,
+    pub unit: ErrorUnit,
+}
+
+impl serde::Serialize for Figure {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = serializer.serialize_map(Some(4))?;
+        map.serialize_entry("name", &self.name)?;
+        map.serialize_entry("meaning", &self.meaning)?;
+        let suffix = self.unit.suffix();
+        map.serialize_entry(&format!("predicted_{suffix}"), &self.predicted)?;
+        map.serialize_entry(&format!("measured_{suffix}"), &self.measured)?;
+        map.end()
+    }
 }
 
 /// A test's result: the error curve(s) at each position, predicted and measured, and the
@@ -338,11 +384,14 @@ pub struct TestResult {
     pub positions: Vec<f64>,
     /// One name per curve: `deviation`, `radial deviation`, `dX`.
     pub curve_names: Vec<String>,
-    /// `[curve][position]`, mm.
+    /// `[curve][position]`, in `unit`.
     pub predicted: Vec<Vec<f64>>,
-    /// `[curve][position]`, mm, where measured results were given.
+    /// `[curve][position]`, in `unit`, where measured results were given.
     pub measured: Option<Vec<Vec<f64>>>,
-    /// `[curve][position]`, mm: twice the measured runs' standard uncertainty `s` (ISO 230-2's
+    /// The unit of the curves and the figures: mm, or arc-seconds for a rotary axis's
+    /// positioning.
+    pub unit: ErrorUnit,
+    /// `[curve][position]`, in `unit`: twice the measured runs' standard uncertainty `s` (ISO 230-2's
     /// ±2s about each mean), where measured runs give it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub measured_2s: Option<Vec<Vec<f64>>>,
@@ -359,8 +408,9 @@ fn figure(name: &str, meaning: &str, predicted: f64, measured: Option<f64>) -> F
     Figure {
         name: name.to_string(),
         meaning: meaning.to_string(),
-        predicted_mm: predicted,
-        measured_mm: measured,
+        predicted,
+        measured,
+        unit: ErrorUnit::Mm,
     }
 }
 

@@ -27,6 +27,7 @@ mod shaders;
 mod standards;
 mod standards_frames;
 mod standards_inputs;
+mod standards_rotary;
 mod tolerance;
 mod variants;
 mod vtk;

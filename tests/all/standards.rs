@@ -58,11 +58,7 @@ fn a_squareness_alone_draws_the_known_ellipse() {
         );
     }
     let g = result.figures.iter().find(|f| f.name == "G").unwrap();
-    assert!(
-        (g.predicted_mm - s * r).abs() < 1e-7,
-        "G = {}",
-        g.predicted_mm
-    );
+    assert!((g.predicted - s * r).abs() < 1e-7, "G = {}", g.predicted);
     // Clockwise from 90°, the same circle in the other order: the model has no reversal error.
     let cw = CircularSpec {
         direction: "cw".into(),
@@ -79,7 +75,7 @@ fn a_squareness_alone_draws_the_known_ellipse() {
             .unwrap();
         assert!((dr - result.predicted[0][k]).abs() < 1e-12);
     }
-    assert!((clockwise.figures[0].predicted_mm - g.predicted_mm).abs() < 1e-12);
+    assert!((clockwise.figures[0].predicted - g.predicted).abs() < 1e-12);
     // A clockwise measurement comes with falling angles.
     let dir = tempfile::tempdir().unwrap();
     let rising = CircularSpec {
@@ -95,7 +91,7 @@ fn a_squareness_alone_draws_the_known_ellipse() {
     for plane in ["YZ", "ZX"] {
         let other = standards::circular(&setup, &circular_spec(plane, r)).unwrap();
         assert!(
-            other.figures[0].predicted_mm < 1e-9,
+            other.figures[0].predicted < 1e-9,
             "{plane}: {:?}",
             other.figures[0]
         );
@@ -131,7 +127,7 @@ fn a_scale_error_shows_in_the_diagonal_as_a_straight_line() {
         }
         let length = (to - from).norm();
         let d = result.figures.iter().find(|f| f.name == "D").unwrap();
-        assert!((d.predicted_mm - k * length * direction.x.powi(2)).abs() < 1e-12);
+        assert!((d.predicted - k * length * direction.x.powi(2)).abs() < 1e-12);
     }
 }
 
@@ -161,7 +157,7 @@ fn positioning_reads_the_axis_own_scale_error() {
             .iter()
             .find(|f| f.name == name)
             .unwrap()
-            .predicted_mm
+            .predicted
     };
     let span = 500.0 * k.abs();
     for name in ["A", "E", "M", "E↑", "A↓"] {
@@ -248,8 +244,8 @@ fn iso230_2_figures_of_a_worked_example() {
     assert!((measured[0][0] - 0.002).abs() < 1e-15 && (measured[1][1] - 0.003).abs() < 1e-15);
     assert!((standards::largest_difference(&result).unwrap() - 0.004).abs() < 1e-15);
     let m = result.figures.iter().find(|f| f.name == "M").unwrap();
-    assert_eq!(m.predicted_mm, 0.0);
-    assert!((m.measured_mm.unwrap() - 0.0045).abs() < 1e-12);
+    assert_eq!(m.predicted, 0.0);
+    assert!((m.measured.unwrap() - 0.0045).abs() < 1e-12);
 }
 
 #[test]

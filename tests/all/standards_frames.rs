@@ -108,7 +108,7 @@ fn positioning_at_a_turned_table_reads_the_axis_own_scale_error() {
                 }
                 let e = result.figures.iter().find(|f| f.name == "E").unwrap();
                 let travel = m.axis(letter).unwrap().range;
-                assert!((e.predicted_mm - k * (travel[1] - travel[0])).abs() < 1e-12);
+                assert!((e.predicted - k * (travel[1] - travel[0])).abs() < 1e-12);
             }
         }
     }
@@ -255,7 +255,7 @@ fn a_constant_offset_moves_both_balls_alike() {
         assert!(ve.norm() > 0.02, "{pose}: {ve}");
         let result = standards::circular(&setup, &xy_circle(centre.into(), 150.0, pose)).unwrap();
         for f in &result.figures {
-            assert!(f.predicted_mm.abs() < 1e-11, "{pose}: {f:?}");
+            assert!(f.predicted.abs() < 1e-11, "{pose}: {f:?}");
         }
         let range = result.predicted[0].iter().fold(0f64, |a, v| a.max(v.abs()));
         assert!(range < 1e-11, "{pose}: {range}");
@@ -279,7 +279,7 @@ fn a_squareness_gives_f_and_g_about_the_centre_ball() {
             .iter()
             .find(|f| f.name == name)
             .unwrap()
-            .predicted_mm
+            .predicted
     };
     assert!(
         (value("F max") - s * r / 2.0).abs() < 1e-7,

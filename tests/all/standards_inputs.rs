@@ -39,7 +39,7 @@ fn figure(result: &standards::TestResult, name: &str) -> f64 {
         .iter()
         .find(|f| f.name == name)
         .unwrap_or_else(|| panic!("no figure {name}"))
-        .predicted_mm
+        .predicted
 }
 
 fn positioning_of_x() -> PositioningSpec {
@@ -212,7 +212,7 @@ fn an_axis_the_circle_does_not_move_approaches_as_the_inputs_say() {
             "θ = {t}: {dr} against {expected}"
         );
     }
-    assert!(result.figures[1].predicted_mm > 0.9 * k * r);
+    assert!(result.figures[1].predicted > 0.9 * k * r);
     assert!(result.inputs.contains("Z-"), "{}", result.inputs);
     let up = standards::circular(&Setup::new(&m, "").unwrap(), &circular_spec("XY", r)).unwrap();
     assert!(up.predicted[0].iter().all(|dr| dr.abs() < 1e-12));
