@@ -119,6 +119,10 @@ enum TestKind {
         /// Where the run starts, degrees from the plane's first axis.
         #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
         start: f64,
+        /// The pitch of the axes' cyclic error (a ballscrew's lead), mm: the ballbar diagnostics
+        /// then give its amplitude per axis.
+        #[arg(long)]
+        pitch: Option<f64>,
         #[command(flatten)]
         common: Common,
     },
@@ -199,6 +203,7 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
             points,
             direction,
             start,
+            pitch,
             common,
         } => {
             let spec = standards::CircularSpec {
@@ -210,6 +215,7 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
                 start_deg: start,
                 pose: common.pose.pose.clone(),
                 csv: common.measured.clone(),
+                pitch_mm: pitch,
             };
             let result = run_on_machine(&common, |setup| standards::circular(setup, &spec))?;
             (common, result)
@@ -323,10 +329,75 @@ fn print_result(result: &TestResult) {
         }
         println!("{row}  {}", f.meaning);
     }
+    if let Some(report) = &result.ballbar {
+        print_ballbar(report);
+    }
     if let Some(d) = standards::largest_difference(result) {
         println!(
             "\n  largest |measured − predicted|: {:.3} {unit}",
             d * factor
         );
+    }
+}
+
+/// A circle's ballbar diagnostics, predicted and measured side by side.
+fn print_ballbar(report: &standards::ballbar::BallbarReport) {
+    let [u, v] = report.axes;
+    println!("\n  ballbar diagnostics (radius {} mm)", report.radius_mm);
+    let rows = |d: &standards::ballbar::Diagnostics| -> Vec<(String, f64)> {
+        let mut rows = vec![
+            (
+                format!("squareness {u}{v} (µrad; angle − 90°)"),
+                d.squareness_urad,
+            ),
+            (
+                format!("scale mismatch {u} − {v} (µm/m)"),
+                d.scale_mismatch_ppm,
+            ),
+            (
+                format!("scale mismatch over the radius (µm)"),
+                d.scale_mismatch_um,
+            ),
+            (format!("backlash {u} (µm)"), d.backlash_um[0]),
+            (format!("backlash {v} (µm)"), d.backlash_um[1]),
+        ];
+        for r in &d.reversals {
+            rows.push((
+                format!("reversal of {} at {}°: step (µm)", r.axis, r.angle_deg),
+                r.step_um,
+            ));
+            rows.push((
+                format!("reversal of {} at {}°: spike (µm)", r.axis, r.angle_deg),
+                r.spike_um,
+            ));
+        }
+        if let Some([cu, cv]) = d.cyclic_um {
+            rows.push((format!("cyclic error {u} (µm)"), cu));
+            rows.push((format!("cyclic error {v} (µm)"), cv));
+        }
+        rows.push(("left by the figures, RMS (µm)".to_string(), d.residual_um));
+        rows
+    };
+    let predicted = rows(&report.predicted);
+    let measured = report.measured.as_ref().map(rows);
+    let width = predicted
+        .iter()
+        .map(|(n, _)| n.chars().count())
+        .max()
+        .unwrap_or(0);
+    let mut header = format!("  {:<width$} {:>12}", "figure", "predicted");
+    if measured.is_some() {
+        header += &format!(" {:>12}", "measured");
+    }
+    println!("{header}");
+    for (n, (name, value)) in predicted.iter().enumerate() {
+        let mut row = format!("  {name:<width$} {value:>12.3}");
+        if let Some(m) = measured.as_ref().and_then(|m| m.get(n)) {
+            row += &format!(" {:>12.3}", m.1);
+        }
+        println!("{row}");
+    }
+    if report.pitch_mm.is_none() {
+        println!("  (cyclic error: give --pitch, the ballscrew's lead)");
     }
 }

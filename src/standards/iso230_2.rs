@@ -458,6 +458,7 @@ pub(super) fn positioning_result(
         figures,
         polar: None,
         inputs: setup.describe_inputs(&[letter], "from the run (+ for ↑, − for ↓)"),
+        ballbar: None,
         moving_axes: vec![letter.as_char()],
     }
 }

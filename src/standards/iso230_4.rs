@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use nalgebra::{Matrix3, Vector2, Vector3};
 use serde::Deserialize;
 
+use super::ballbar::{diagnose, BallbarReport, Circle};
 use super::measured::{Measured, Unit};
 use super::{
     default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError, TestResult,
@@ -40,6 +41,9 @@ pub struct CircularSpec {
     /// Measured results: columns `angle_deg, deviation_mm` (radial deviation, angles in the
     /// order of the run: rising counter-clockwise, falling clockwise).
     pub csv: Option<PathBuf>,
+    /// The pitch of the axes' cyclic error (a ballscrew's lead), mm: the ballbar diagnostics
+    /// then give its amplitude per axis.
+    pub pitch_mm: Option<f64>,
 }
 
 fn default_direction() -> String {
@@ -247,6 +251,25 @@ pub(crate) fn circular_with(
     };
     let p = figures_of(&predicted)?;
     let m = measured.map(|m| figures_of(&m.columns[1])).transpose()?;
+    if let Some(pitch) = spec.pitch_mm {
+        if !(pitch > 0.0 && pitch.is_finite()) {
+            return Err(parameter(format!("pitch {pitch} mm: it must be positive")));
+        }
+    }
+    let circle = Circle {
+        axes: [['X', 'Y', 'Z'][u], ['X', 'Y', 'Z'][v]],
+        radius_mm: radius,
+        centre_mm: [centre[u], centre[v]],
+        sense,
+        pitch_mm: spec.pitch_mm,
+    };
+    let ballbar = diagnose(&angles, &predicted, &circle).map(|predicted| BallbarReport {
+        axes: circle.axes,
+        radius_mm: radius,
+        pitch_mm: spec.pitch_mm,
+        predicted,
+        measured: measured.and_then(|m| diagnose(&angles, &m.columns[1], &circle)),
+    });
     Ok(TestResult {
         unit: super::ErrorUnit::Mm,
         title: format!(
@@ -283,5 +306,6 @@ pub(crate) fn circular_with(
         polar: Some([['X', 'Y', 'Z'][u], ['X', 'Y', 'Z'][v]]),
         inputs: setup.describe_inputs(&[letters[u], letters[v]], "from the path"),
         moving_axes: vec![letters[u].as_char(), letters[v].as_char()],
+        ballbar,
     })
 }

@@ -212,6 +212,7 @@ pub(crate) fn diagonal_with(
     let measured_values = measured.map(|m| m.columns[1].clone());
     let end = |v: &[f64]| v[v.len() - 1] - v[0];
     Ok(TestResult {
+        ballbar: None,
         unit: super::ErrorUnit::Mm,
         title: format!(
             "ISO 230-6 diagonal {label}: ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) mm, {length:.1} mm",

@@ -38,6 +38,7 @@
 //!
 //! Measured curves are compared as they come: zero them where the prediction is zeroed.
 
+pub mod ballbar;
 pub mod iso230_2;
 mod iso230_2_rotary;
 pub mod iso230_4;
@@ -402,6 +403,9 @@ pub struct TestResult {
     pub inputs: String,
     /// The axes the test moves: their directions come from the path, not from the inputs.
     pub moving_axes: Vec<char>,
+    /// A circular test's ballbar diagnostics.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ballbar: Option<ballbar::BallbarReport>,
 }
 
 fn figure(name: &str, meaning: &str, predicted: f64, measured: Option<f64>) -> Figure {

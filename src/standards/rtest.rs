@@ -160,6 +160,7 @@ pub(crate) fn rtest_with(
         })
         .collect();
     Ok(TestResult {
+        ballbar: None,
         unit: super::ErrorUnit::Mm,
         title: format!(
             "R-test of {letter}: sphere at ({:.1}, {:.1}, {:.1}) mm (workpiece frame)",

@@ -1,6 +1,7 @@
 //! volmap's integration tests, one binary. GPU tests skip only where no adapter exists; with
 //! `VOLMAP_REQUIRE_GPU=1` (set by CI) a missing adapter is a failure.
 
+mod ballbar;
 mod calibrate;
 mod citations;
 mod cli;

@@ -34,6 +34,7 @@ pub(super) fn circular_spec(plane: &str, radius: f64) -> CircularSpec {
         start_deg: 0.0,
         pose: String::new(),
         csv: None,
+        pitch_mm: None,
     }
 }
 

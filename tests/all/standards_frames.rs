@@ -195,6 +195,7 @@ fn diagonals_and_circles_at_poses_are_the_ideal_tip_plus_ve() {
             start_deg: 0.0,
             pose: pose.to_string(),
             csv: None,
+            pitch_mm: None,
         };
         let result = standards::circular(&setup, &circle).unwrap();
         let centre = (lo + hi) / 2.0;
@@ -234,6 +235,7 @@ fn xy_circle(centre: [f64; 3], r: f64, pose: &str) -> CircularSpec {
         start_deg: 0.0,
         pose: pose.into(),
         csv: None,
+        pitch_mm: None,
     }
 }
 

@@ -1,0 +1,104 @@
+//! Ballbar diagnostics of circular tests: squareness, scale mismatch, backlash and reversal
+//! steps from machines with known errors, cyclic error and spikes from synthetic runs.
+
+use volmap::model::Machine;
+use volmap::standards::ballbar::{diagnose, Circle, Diagnostics};
+use volmap::standards::{self, Setup};
+
+use super::standards::circular_spec;
+
+fn three_axis_with(errors: &str) -> Machine {
+    let text = format!(
+        "name = \"b\"\nchain = \"FYXFZ\"\n[axes.X]\nrange = [-400.0, 400.0]\n{}\n[axes.Y]\nrange = [-300.0, 300.0]\n{}\n[axes.Z]\nrange = [-250.0, 250.0]\n",
+        errors.split('|').next().unwrap(),
+        errors.split('|').nth(1).unwrap_or("")
+    );
+    Machine::from_toml(&text, "b.toml", None).unwrap()
+}
+
+fn diagnostics(machine: &Machine, direction: &str) -> Diagnostics {
+    let setup = Setup::new(machine, "").unwrap();
+    let spec = standards::CircularSpec {
+        points: 360,
+        direction: direction.into(),
+        ..circular_spec("XY", 100.0)
+    };
+    let result = standards::circular(&setup, &spec).unwrap();
+    result.ballbar.unwrap().predicted
+}
+
+#[test]
+fn a_squareness_is_read_as_the_angle_between_the_axes() {
+    // EC0Y > 0: the angle between +X and +Y is 90° + EC0Y (docs/model.md).
+    let machine = three_axis_with("|EC0Y = 2.0e-5");
+    for direction in ["ccw", "cw"] {
+        let d = diagnostics(&machine, direction);
+        assert!((d.squareness_urad - 20.0).abs() < 0.01, "{d:?}");
+        assert!(d.scale_mismatch_ppm.abs() < 0.01, "{d:?}");
+        assert!(d.backlash_um.iter().all(|b| b.abs() < 0.01), "{d:?}");
+        assert!(d.residual_um < 0.001, "{d:?}");
+    }
+}
+
+#[test]
+fn scale_errors_give_their_mismatch() {
+    // X long by 30 µm/m, Y by 10: 20 µm/m, 2 µm over the 100 mm radius.
+    let machine = three_axis_with("EXX = { poly = [0.0, 3.0e-5] }|EYY = { poly = [0.0, 1.0e-5] }");
+    let d = diagnostics(&machine, "ccw");
+    assert!((d.scale_mismatch_ppm - 20.0).abs() < 0.01, "{d:?}");
+    assert!((d.scale_mismatch_um - 2.0).abs() < 0.001, "{d:?}");
+    assert!(d.squareness_urad.abs() < 0.01, "{d:?}");
+}
+
+#[test]
+fn a_backlash_is_a_step_where_its_axis_turns() {
+    // X's ↑ error 0, ↓ error −4 µm: B = +4 µm. X turns at 0° (at its largest, from + to −)
+    // and at 180° (from − to +); both steps of dr are −4 µm (dr ≈ VE_x cos θ).
+    let machine = three_axis_with("EXX = { poly = [0.0], reverse = { poly = [-0.004] } }|");
+    for direction in ["ccw", "cw"] {
+        let d = diagnostics(&machine, direction);
+        assert!((d.backlash_um[0] - 4.0).abs() < 0.01, "{direction}: {d:?}");
+        assert!(d.backlash_um[1].abs() < 0.01, "{d:?}");
+        for r in &d.reversals {
+            let expected = if r.axis == 'X' { -4.0 } else { 0.0 };
+            assert!(
+                (r.step_um - expected).abs() < 0.01,
+                "{direction}: {r:?} against {expected}"
+            );
+            assert!(r.spike_um.abs() < 0.01, "{r:?}");
+        }
+        assert!(d.squareness_urad.abs() < 0.01, "{d:?}");
+    }
+}
+
+#[test]
+fn a_cyclic_error_and_a_servo_spike_are_found_in_a_synthetic_run() {
+    // A 2 µm cyclic error of pitch 8 mm along Y, and a 1.5 µm spike at 180° where X turns.
+    let circle = Circle {
+        axes: ['X', 'Y'],
+        radius_mm: 100.0,
+        centre_mm: [10.0, -20.0],
+        sense: 1.0,
+        pitch_mm: Some(8.0),
+    };
+    let angles: Vec<f64> = (0..720).map(|i| i as f64 * 0.5).collect();
+    let radial: Vec<f64> = angles
+        .iter()
+        .map(|&t| {
+            let (s, _) = t.to_radians().sin_cos();
+            let y = -20.0 + 100.0 * s;
+            let cyclic = 0.002 * (std::f64::consts::TAU * y / 8.0 + 0.3).sin() * s;
+            let spike = if t == 180.5 { 0.0015 } else { 0.0 };
+            cyclic + spike
+        })
+        .collect();
+    let d = diagnose(&angles, &radial, &circle).unwrap();
+    let [cx, cy] = d.cyclic_um.unwrap();
+    assert!((cy - 2.0).abs() < 0.01 && cx < 0.01, "{d:?}");
+    let spike = d
+        .reversals
+        .iter()
+        .find(|r| r.axis == 'X' && r.angle_deg == 180.0)
+        .unwrap();
+    assert!((spike.spike_um - 1.5).abs() < 0.05, "{spike:?}");
+}
