@@ -16,6 +16,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+use super::ballbar_figures::BallbarFigures;
 pub use super::fit_file::{Entry, FitFile};
 use super::identifiability::identifiability;
 pub use super::identifiability::Identifiability;
@@ -71,6 +72,7 @@ enum Kind<'a> {
     Diagonal(&'a DiagonalSpec, Measured),
     Circular(&'a CircularSpec, Measured),
     Rotary(&'a RTestSpec, Measured),
+    Ballbar(&'a BallbarFigures),
 }
 
 impl Test<'_> {
@@ -80,6 +82,7 @@ impl Test<'_> {
             Kind::Diagonal(s, _) => &s.pose,
             Kind::Circular(s, _) => &s.pose,
             Kind::Rotary(s, _) => &s.pose,
+            Kind::Ballbar(s) => &s.pose,
         };
         let setup = Setup::with_inputs(machine, pose, &self.inputs)?;
         match &self.kind {
@@ -87,13 +90,16 @@ impl Test<'_> {
             Kind::Diagonal(s, m) => diagonal_with(&setup, s, Some(m)),
             Kind::Circular(s, m) => circular_with(&setup, s, Some(m)),
             Kind::Rotary(s, m) => rtest_with(&setup, s, Some(m)),
+            Kind::Ballbar(s) => s.run(&setup),
         }
     }
 
-    /// The nuisance parameters taken out of each curve: 3 for a circle, else 1.
+    /// The nuisance parameters taken out of each curve: 3 for a circle, none for ballbar
+    /// figures (the diagnostics took the ballbar's length and centring out already), else 1.
     fn nuisance_per_curve(&self) -> usize {
         match self.kind {
             Kind::Circular(..) => 3,
+            Kind::Ballbar(..) => 0,
             _ => 1,
         }
     }
@@ -115,6 +121,8 @@ fn residuals(tests: &[Test], machine: &Machine) -> Result<(Vec<f64>, usize), Cal
             let difference: Vec<f64> = m.iter().zip(p).map(|(a, b)| a - b).collect();
             if test.nuisance_per_curve() == 3 {
                 all.extend(least_squares_circle(&result.positions, &difference)?.1);
+            } else if test.nuisance_per_curve() == 0 {
+                all.extend(difference);
             } else {
                 let mean = difference.iter().sum::<f64>() / difference.len() as f64;
                 all.extend(difference.iter().map(|d| d - mean));
@@ -221,9 +229,21 @@ fn read_tests<'a>(file: &'a FitFile, machine: &Machine) -> Result<Vec<Test<'a>>,
             inputs: file.inputs_of(e, machine)?,
         });
     }
+    for e in &file.ballbar {
+        if e.spec.is_empty() {
+            return Err(file.key_error(
+                &e.key,
+                "give a figure to fit: squareness_urad, scale_mismatch_ppm or backlash_um",
+            ));
+        }
+        tests.push(Test {
+            kind: Kind::Ballbar(&e.spec),
+            inputs: file.inputs_of(e, machine)?,
+        });
+    }
     if tests.is_empty() {
         return Err(CalibrateError::Parameter(format!(
-            "{}: no measurements: add [[diagonal]], [[circular]], [[rtest]] or [[positioning]] tables",
+            "{}: no measurements: add [[diagonal]], [[circular]], [[ballbar]], [[rtest]] or [[positioning]] tables",
             file.file
         )));
     }

@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use super::ballbar_figures::BallbarFigures;
 use super::unknowns::{declared_inputs, Unknown};
 use super::CalibrateError;
 use crate::io::read_text;
@@ -31,6 +32,8 @@ pub struct FitFile {
     pub diagonal: Vec<Entry<DiagonalSpec>>,
     pub circular: Vec<Entry<CircularSpec>>,
     pub rtest: Vec<Entry<RTestSpec>>,
+    /// Circles given by their ballbar diagnostics.
+    pub ballbar: Vec<Entry<BallbarFigures>>,
 }
 
 /// One measured test of the fit file: its parameters and the temperatures it was measured at.
@@ -57,6 +60,8 @@ struct RawFitFile {
     circular: Vec<toml::Table>,
     #[serde(default)]
     rtest: Vec<toml::Table>,
+    #[serde(default)]
+    ballbar: Vec<toml::Table>,
 }
 
 fn key_error(file: &str, key: String, message: String) -> CalibrateError {
@@ -99,20 +104,26 @@ fn temperatures(
 
 /// A test's parameters, with the path of its measured results.
 trait Spec: serde::de::DeserializeOwned {
-    fn csv(&mut self) -> &mut Option<PathBuf>;
+    fn csv(&mut self) -> Option<&mut PathBuf>;
 }
 
 macro_rules! spec {
     ($($t:ty),*) => {$(
         impl Spec for $t {
-            fn csv(&mut self) -> &mut Option<PathBuf> {
-                &mut self.csv
+            fn csv(&mut self) -> Option<&mut PathBuf> {
+                self.csv.as_mut()
             }
         }
     )*};
 }
 
 spec!(PositioningSpec, DiagonalSpec, CircularSpec, RTestSpec);
+
+impl Spec for BallbarFigures {
+    fn csv(&mut self) -> Option<&mut PathBuf> {
+        None
+    }
+}
 
 /// The tests of one kind, each read into its spec with its CSV path resolved against `folder`.
 fn entries<S: Spec>(
@@ -159,6 +170,7 @@ impl FitFile {
             diagonal: entries(&name, folder, "diagonal", raw.diagonal)?,
             circular: entries(&name, folder, "circular", raw.circular)?,
             rtest: entries(&name, folder, "rtest", raw.rtest)?,
+            ballbar: entries(&name, folder, "ballbar", raw.ballbar)?,
             file: name,
         })
     }

@@ -355,7 +355,7 @@ fn print_ballbar(report: &standards::ballbar::BallbarReport) {
                 d.scale_mismatch_ppm,
             ),
             (
-                format!("scale mismatch over the radius (µm)"),
+                "scale mismatch over the radius (µm)".to_string(),
                 d.scale_mismatch_um,
             ),
             (format!("backlash {u} (µm)"), d.backlash_um[0]),

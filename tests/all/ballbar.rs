@@ -102,3 +102,64 @@ fn a_cyclic_error_and_a_servo_spike_are_found_in_a_synthetic_run() {
         .unwrap();
     assert!((spike.spike_um - 1.5).abs() < 0.05, "{spike:?}");
 }
+
+#[test]
+fn fit_takes_ballbar_figures() {
+    // A ballbar's software reports XY squareness 25 µrad (by hand: EC0Y = 25 µrad) and the ZX
+    // figures of a machine with EB0Z = −15 µrad; the fit recovers both from the figures alone.
+    let dir = tempfile::tempdir().unwrap();
+    let truth = {
+        let text = "name = \"t\"\nchain = \"FYXFZ\"\n[axes.X]\nrange = [-400.0, 400.0]\n[axes.Y]\nrange = [-300.0, 300.0]\nEC0Y = 2.5e-5\n[axes.Z]\nrange = [-250.0, 250.0]\nEB0Z = -1.5e-5\n";
+        Machine::from_toml(text, "t.toml", None).unwrap()
+    };
+    let setup = Setup::new(&truth, "").unwrap();
+    let zx = standards::circular(
+        &setup,
+        &standards::CircularSpec {
+            points: 360,
+            ..circular_spec("ZX", 100.0)
+        },
+    )
+    .unwrap()
+    .ballbar
+    .unwrap()
+    .predicted;
+    let text = format!(
+        "estimate = [\"EC0Y\", \"EB0Z\"]\n[[ballbar]]\nplane = \"XY\"\nradius_mm = 100.0\nsquareness_urad = 25.0\nscale_mismatch_ppm = 0.0\n[[ballbar]]\nplane = \"ZX\"\nradius_mm = 100.0\nsquareness_urad = {}\nscale_mismatch_ppm = {}\nbacklash_um = [0.0, 0.0]\n",
+        zx.squareness_urad, zx.scale_mismatch_ppm
+    );
+    let path = dir.path().join("fit.toml");
+    std::fs::write(&path, text).unwrap();
+    let given = three_axis_with("|");
+    let report = volmap::calibrate::fit::fit(
+        &given,
+        &volmap::calibrate::fit::FitFile::read(&path).unwrap(),
+    )
+    .unwrap();
+    let value = |name: &str| {
+        report
+            .estimates
+            .iter()
+            .find(|e| e.name == name)
+            .unwrap()
+            .value
+    };
+    assert!((value("EC0Y") - 2.5e-5).abs() < 1e-9, "{report:?}");
+    assert!((value("EB0Z") + 1.5e-5).abs() < 1e-9, "{report:?}");
+    // An entry without a figure names itself.
+    std::fs::write(
+        &path,
+        "estimate = [\"EC0Y\"]\n[[ballbar]]\nplane = \"XY\"\nradius_mm = 100.0\n",
+    )
+    .unwrap();
+    let error = volmap::calibrate::fit::fit(
+        &given,
+        &volmap::calibrate::fit::FitFile::read(&path).unwrap(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("[[ballbar]] number 1") && error.contains("squareness_urad"),
+        "{error}"
+    );
+}
