@@ -7,13 +7,16 @@ use std::cell::Cell;
 use nalgebra::Vector3;
 
 use super::approach::{line_directions, segment_at, segments, Directions, Segment};
+use super::cycles::expand_cycles;
 use super::kinematics::{Compensator, Kinematics};
 use super::parse::{parse_program, Line};
-use super::program::{end_position, starting_position, take_line, Motion, State, Step, XY};
+use super::program::{
+    end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
+};
 use super::toolpath::{arc_path, arc_through, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
-use super::{NcError, NcOption, Options, Report, ReportInputs};
+use super::{NcError, NcOption, Options, PassedBlock, Report, ReportInputs};
 use crate::model::inputs::Approach;
 use crate::model::{Command, Machine};
 
@@ -26,8 +29,12 @@ fn begin<'a>(
     program: &[u8],
     path: &'a str,
     options: &'a Options,
-) -> Result<(Vec<Line>, State, Compensator<'a>), NcError> {
-    let lines = parse_program(program, path, options.pass_unknown)?;
+) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
+    let (lines, holes) = expand_cycles(
+        parse_program(program, path, options.pass_unknown)?,
+        path,
+        options.pass_unknown,
+    )?;
     let start = starting_position(&lines, machine, path, options)?;
     let state = State {
         motion: Motion::Rapid,
@@ -43,7 +50,12 @@ fn begin<'a>(
         approach: options.inputs.approach,
         programmed: options.inputs.approach,
     };
-    Ok((lines, state, Compensator::new(path, options, machine)))
+    Ok((
+        lines,
+        state,
+        Compensator::new(path, options, machine),
+        holes,
+    ))
 }
 
 /// A compensated program.
@@ -81,8 +93,9 @@ pub fn compensate_with_progress(
             message: "it must be positive".into(),
         });
     }
-    let (lines, mut state, mut compensator) = begin(machine, program, path, options)?;
+    let (lines, mut state, mut compensator, holes) = begin(machine, program, path, options)?;
     let mut report = Report {
+        cycle_holes_expanded: holes,
         inputs: ReportInputs::of(&options.inputs, machine),
         ..Report::default()
     };
@@ -94,6 +107,14 @@ pub fn compensate_with_progress(
             on_progress(index, lines.len());
         }
         let before = out.len();
+        if let Some(code) = unknown_code(line).filter(|_| options.pass_unknown) {
+            if report.not_compensated.last().map(|p| p.line) != Some(line.number) {
+                report.not_compensated.push(PassedBlock {
+                    line: line.number,
+                    code,
+                });
+            }
+        }
         let emitted = process_line(
             &lines,
             index,
@@ -145,7 +166,7 @@ pub fn trace(
     path: &str,
     options: &Options,
 ) -> Result<Vec<TracePoint>, NcError> {
-    let (lines, mut state, mut compensator) = begin(machine, program, path, options)?;
+    let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
     let mut points = Vec::new();
     for (index, line) in lines.iter().enumerate() {
         if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {

@@ -29,6 +29,7 @@
 
 mod approach;
 mod compensate;
+mod cycles;
 mod kinematics;
 pub mod parse;
 mod program;
@@ -250,8 +251,21 @@ pub struct Report {
     /// reversal error: the machine approaches them the other way than they were compensated for
     /// (only where a reversal error makes a reversing move shorter than the programmed one).
     pub against_direction: usize,
+    /// Canned cycle blocks (holes, modal repeats included) expanded into their rapid and feed
+    /// moves, each compensated like any move.
+    pub cycle_holes_expanded: usize,
+    /// Blocks passed as they are with `pass_unknown` (codes volmap does not follow): not
+    /// compensated, and outside the error figures above, which cover compensated moves only.
+    pub not_compensated: Vec<PassedBlock>,
     /// The evaluation inputs the program was compensated for.
     pub inputs: ReportInputs,
+}
+
+/// A block passed uncompensated: its line and the code volmap does not follow.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PassedBlock {
+    pub line: usize,
+    pub code: String,
 }
 
 /// The evaluation inputs of a compensation as a report records them.

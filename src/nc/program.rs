@@ -164,11 +164,21 @@ pub(super) fn is_dwell(line: &Line) -> bool {
     line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0)
 }
 
-/// G28: to the reference point through the intermediate point its axis words give.
+/// G28 (to the reference point through the intermediate point its axis words give) or G53 (a
+/// move in machine coordinates, a home or a tool-change position): where the axes it names go is
+/// not a point of the program.
 pub(super) fn is_reference_return(line: &Line) -> bool {
     line.words
         .iter()
-        .any(|w| w.letter == 'G' && w.value == 28.0)
+        .any(|w| w.letter == 'G' && (w.value == 28.0 || w.value == 53.0))
+}
+
+/// G41/G42 (and G41.1/G42.1): cutter radius compensation, refused with why.
+fn cutter_compensation(line: &Line) -> Option<&str> {
+    line.words
+        .iter()
+        .find(|w| w.letter == 'G' && (41.0..43.0).contains(&w.value))
+        .map(|w| w.text.as_str())
 }
 
 /// Where axis `d` is next set absolutely after line `from` (for an axis the program sent to
@@ -235,12 +245,15 @@ pub(super) fn is_understood(line: &Line, pass_unknown: bool) -> bool {
 }
 
 pub(super) fn unknown_code(line: &Line) -> Option<String> {
+    if let Some(code) = &line.unknown {
+        return Some(code.clone());
+    }
     for w in &line.words {
         match w.letter {
             'G' => {
                 let g = w.value;
                 let known = g.fract() == 0.0
-                    && matches!(g as u32, 0..=4 | 17..=21 | 28 | 90 | 91 | 54..=59)
+                    && matches!(g as u32, 0..=4 | 17..=21 | 28 | 53 | 90 | 91 | 54..=59)
                     || PASSIVE_G.contains(&(g as u32)) && g.fract() == 0.0;
                 if !known {
                     return Some(format!("G{}", w.text));
@@ -278,6 +291,13 @@ pub(super) fn take_line(
     if line.words.is_empty() {
         return Ok(Step::Pass);
     }
+    if let Some(code) = cutter_compensation(line) {
+        return Err(NcError::line(
+            path,
+            line.number,
+            format!("G{code}: cutter radius compensation is not supported: the path the control computes from it is not in the program, so it cannot be compensated; post the program for the tool's centre path (G40)"),
+        ));
+    }
     if let Some(code) = unknown_code(line) {
         if !pass_unknown {
             return Err(NcError::Unsupported {
@@ -296,6 +316,25 @@ pub(super) fn take_line(
     }
     apply_modals(line, state, path)?;
     if is_reference_return(line) {
+        let machine_coordinates = line
+            .words
+            .iter()
+            .any(|w| w.letter == 'G' && w.value == 53.0);
+        if machine_coordinates && state.motion != Motion::Rapid {
+            return Err(NcError::line(
+                path,
+                line.number,
+                "G53 with a feed move: only rapid (G0) moves in machine coordinates are passed (homes and tool-change positions, whose path the control does not hold)".into(),
+            ));
+        }
+        // The block passes as it is: the output reads its motion code too.
+        if line
+            .words
+            .iter()
+            .any(|w| w.letter == 'G' && (w.value as u32) < 4 && w.value.fract() == 0.0)
+        {
+            state.written_motion = state.motion;
+        }
         reference_return(lines, index, state, path)?;
         return Ok(Step::Pass);
     }
