@@ -13,6 +13,7 @@ use super::parse::{parse_program, Line};
 use super::program::{
     end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
 };
+use super::subprograms::expand_subprograms;
 use super::toolpath::{arc_path, arc_through, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
@@ -31,7 +32,11 @@ fn begin<'a>(
     options: &'a Options,
 ) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
     let (lines, holes) = expand_cycles(
-        parse_program(program, path, options.pass_unknown)?,
+        expand_subprograms(
+            parse_program(program, path, options.pass_unknown)?,
+            path,
+            options.pass_unknown,
+        )?,
         path,
         options.pass_unknown,
     )?;

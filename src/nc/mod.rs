@@ -26,6 +26,10 @@
 //! directions before its first). Where an axis with a reversal error reverses, at the start of
 //! a move or at an arc's turning point, a take-up piece moves the command from the point
 //! compensated for the old direction to the same point compensated for the new one.
+//!
+//! Before any of this the program is read as the control runs it: subprogram calls whose body
+//! is in the file are run in place (`subprograms`) and canned drilling cycles become the rapid
+//! and feed moves the control makes of them (`cycles`), each then compensated like any move.
 
 mod approach;
 mod compensate;
@@ -33,6 +37,7 @@ mod cycles;
 mod kinematics;
 pub mod parse;
 mod program;
+mod subprograms;
 mod toolpath;
 mod walk;
 mod write;
@@ -81,7 +86,7 @@ pub enum NcError {
         message: String,
     },
     /// A block with a code volmap does not follow.
-    #[error("{path}: line {line}: {code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G49 G54–G59 G61 G64 G80 G90 G91 G94 G95 G98)")]
+    #[error("{path}: line {line}: {code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G49 G53 G54–G59 G61 G64 G73 G80–G83 G85 G89 G90 G91 G94 G95 G98 G99, M98 and G65 with their body in the file)")]
     Unsupported {
         path: String,
         line: usize,

@@ -58,6 +58,33 @@ M30
 %
 ";
 
+/// A Mastercam style program: holes of a G81 in a subprogram, a contour subprogram called twice,
+/// the subprograms after the program end.
+const MASTERCAM: &str = "%
+O0100 (MASTERCAM STYLE)
+G21 G0 G17 G40 G49 G80 G90
+T1 M6
+G0 G90 G54 X0. Y0. S1000 M3
+G43 H1 Z10.
+G98 G81 X0. Y0. Z-3. R1. F150.
+M98 P1001
+G80
+G0 Z10.
+G1 Z-1. F300.
+M98 P1002 L2
+G0 Z10.
+M30
+O1001 (HOLES)
+X20. Y0.
+X20. Y20.
+M99
+O1002 (CONTOUR)
+G1 X30. Y30.
+G1 X0. Y0.
+M99
+%
+";
+
 fn options() -> Options {
     Options {
         decimals: Some(4),
@@ -190,13 +217,52 @@ fn a_haas_style_program_dwells_and_feeds_out_of_its_holes() {
 }
 
 #[test]
+fn a_mastercam_style_program_runs_its_subprograms_in_place() {
+    let machine = embedded::load("vmc-li2015").unwrap();
+    let options = options();
+    let meant = nc::trace(&machine, MASTERCAM.as_bytes(), "in.nc", &options).unwrap();
+    // The holes of O1001 under the caller's G98 G81, from the initial level Z10.
+    assert_eq!(
+        moves_of(&meant, 16),
+        [
+            [20., 0., 10.],
+            [20., 0., 1.],
+            [20., 0., -3.],
+            [20., 0., 10.]
+        ]
+    );
+    assert_eq!(moves_of(&meant, 17).len(), 4);
+    // O1002 runs twice (L2).
+    assert_eq!(moves_of(&meant, 20), [[30., 30., -1.], [30., 30., -1.]]);
+    assert_eq!(moves_of(&meant, 21), [[0., 0., -1.], [0., 0., -1.]]);
+    let out = nc::compensate(&machine, MASTERCAM.as_bytes(), "mc.nc", &options).unwrap();
+    assert_eq!(out.report.cycle_holes_expanded, 3);
+    // The bodies stand unchanged after the program end.
+    assert!(
+        out.text.ends_with("M30\nO1001 (HOLES)\nX20. Y0.\nX20. Y20.\nM99\nO1002 (CONTOUR)\nG1 X30. Y30.\nG1 X0. Y0.\nM99\n%\n"),
+        "{}",
+        out.text
+    );
+    let miss = largest_miss(&machine, MASTERCAM, &out.text, &options);
+    assert!(miss < ROUNDING_MM, "{miss}");
+}
+
+#[test]
 fn what_posts_write_that_volmap_refuses_names_its_line() {
     let machine = embedded::load("vmc-li2015").unwrap();
     let options = Options {
         tool_lengths: ToolLengths::default(),
         ..options()
     };
-    let cases: [(&str, &str); 7] = [
+    let cases: [(&str, &str); 9] = [
+        (
+            "G0 X10 Y10 Z10\nM98 P2000\nM30\nO1000\nX5\nM99\n",
+            "line 2: M98: subprogram O2000 is not in the file",
+        ),
+        (
+            "G0 X10 Y10 Z10\nG65 P9000 A1\n",
+            "line 2: G65: subprogram O9000 is not in the file",
+        ),
         (
             "G0 X10 Y10 Z10\nG41 D1 G1 X20\n",
             "line 2: G41: cutter radius compensation is not supported: the path the control computes",
@@ -240,20 +306,20 @@ fn passed_blocks_are_listed_and_never_compensated() {
         pass_unknown: true,
         ..options()
     };
-    let program = "G0 X10 Y10 Z10\nG84 X20 Z-5 R2 F100\nX40\nG80\nG65 P9000\nG0 X50 Y50\n";
+    let program = "G0 X10 Y10 Z10\nG84 X20 Z-5 R2 F100\nX40\nG80\nG68 X0 Y0 R30\nG0 X50 Y50\n";
     let out = nc::compensate(&machine, program.as_bytes(), "p.nc", &options).unwrap();
     let lines: Vec<&str> = out.text.lines().collect();
     // The tapping cycle and its modal repeat pass whole, R plane and all.
     assert_eq!(lines[1], "G84 X20 Z-5 R2 F100");
     assert_eq!(lines[2], "X40");
-    assert_eq!(lines[4], "G65 P9000");
+    assert_eq!(lines[4], "G68 X0 Y0 R30");
     let passed: Vec<(usize, &str)> = out
         .report
         .not_compensated
         .iter()
         .map(|p| (p.line, p.code.as_str()))
         .collect();
-    assert_eq!(passed, [(2, "G84"), (3, "G84"), (5, "G65")]);
+    assert_eq!(passed, [(2, "G84"), (3, "G84"), (5, "G68")]);
     // The moves around them are compensated.
     assert_ne!(lines[0], "G0 X10 Y10 Z10");
     assert_ne!(lines[5], "G0 X50 Y50");
@@ -269,7 +335,11 @@ fn linuxcnc_runs_the_compensated_post_programs() {
     }
     let machine = embedded::load("vmc-li2015").unwrap();
     let dir = tempfile::tempdir().unwrap();
-    for (name, program) in [("fusion.nc", FUSION), ("haas.nc", HAAS)] {
+    for (name, program) in [
+        ("fusion.nc", FUSION),
+        ("haas.nc", HAAS),
+        ("mastercam.nc", MASTERCAM),
+    ] {
         let out = nc::compensate(&machine, program.as_bytes(), name, &options()).unwrap();
         let file = dir.path().join(name);
         std::fs::write(&file, &out.text).unwrap();
@@ -294,9 +364,11 @@ fn linuxcnc_runs_the_compensated_post_programs() {
             out.text
         );
         let moves = canon.lines().filter(|l| l.contains("STRAIGHT_")).count();
+        // The interpreter stops at M30: the subprogram bodies after it are not read.
         let moving = out
             .text
             .lines()
+            .take_while(|l| *l != "M30")
             .filter(|l| {
                 let code = l.split('(').next().unwrap();
                 code.contains(['X', 'Y', 'Z']) && !code.contains("G28") && !code.contains("G53")
