@@ -48,6 +48,8 @@ fn begin<'a>(
         inch: false,
         offset: 54,
         tool: None,
+        tool_length_on: false,
+        tool_lengths: options.tool_lengths.clone(),
         pending_tool: None,
         position: start,
         written: start,
@@ -185,7 +187,7 @@ pub fn trace(
         } else {
             line_directions(&state.position, &end, &state.approach)
         };
-        let offset = *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]);
+        let offset = compensator.offset(&state, line.number)?;
         let command: Command = std::array::from_fn(|d| end[d] + offset[d]);
         let kin = compensator.kinematics(state.tool, line.number)?;
         points.push(TracePoint {
@@ -233,7 +235,7 @@ fn process_line(
     let block = Block {
         path,
         line: line.number,
-        offset: *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]),
+        offset: comp.offset(state, line.number)?,
         kin: comp.kinematics(state.tool, line.number)?,
         tolerance: options.chord_tolerance_mm,
         inch: state.inch,

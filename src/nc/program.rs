@@ -3,7 +3,7 @@
 
 use super::approach::{line_directions, Directions};
 use super::parse::Line;
-use super::{NcError, Options};
+use super::{NcError, Options, ToolLengths};
 use crate::model::{AxisLetter, Machine};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,6 +73,11 @@ pub(super) struct State {
     pub(super) inch: bool,
     pub(super) offset: u32,
     pub(super) tool: Option<u32>,
+    /// Tool length compensation (G43) in force, until G49: the control then stands the axes at
+    /// the program position plus the tool length along the spindle axis (Z).
+    pub(super) tool_length_on: bool,
+    /// The options' tool lengths, for the scans ahead.
+    pub(super) tool_lengths: ToolLengths,
     pub(super) pending_tool: Option<u32>,
     /// Where the program has the tool (program coordinates, mm and degrees).
     pub(super) position: [f64; 6],
@@ -99,8 +104,20 @@ pub(super) fn starting_position(
     let mut start: [Option<f64>; 6] = [None; 6];
     let mut absolute = true;
     let mut inch = false;
+    // Where the first Z comes under G43, the axes stand higher by the tool's length than the
+    // same Z without it: the start is where they stand, in coordinates without tool length.
+    let (mut length_on, mut tool, mut pending) = (false, None, None);
     for line in lines {
         distance_and_units(line, &mut absolute, &mut inch);
+        for w in &line.words {
+            match (w.letter, w.value) {
+                ('G', 43.0) => length_on = true,
+                ('G', 49.0) => length_on = false,
+                ('T', t) => pending = Some(t as u32),
+                ('M', 6.0) => tool = pending,
+                _ => {}
+            }
+        }
         if is_dwell(line) || is_reference_return(line) || !is_understood(line, options.pass_unknown)
         {
             continue;
@@ -115,11 +132,15 @@ pub(super) fn starting_position(
                             format!("{} moves incrementally before the program has set it: its start is not known", w.letter),
                         ));
                     }
-                    start[d] = Some(if inch && d < 3 {
-                        w.value * MM_PER_INCH
-                    } else {
-                        w.value
-                    });
+                    let length = length_added(&options.tool_lengths, tool, length_on && d == 2);
+                    start[d] = Some(
+                        length
+                            + if inch && d < 3 {
+                                w.value * MM_PER_INCH
+                            } else {
+                                w.value
+                            },
+                    );
                 }
             }
         }
@@ -181,6 +202,15 @@ fn cutter_compensation(line: &Line) -> Option<&str> {
         .map(|w| w.text.as_str())
 }
 
+/// The length the tool-length offset adds to Z with `tool` and G43 `on` (0 without G43 or a
+/// length from the options).
+pub(super) fn length_added(lengths: &ToolLengths, tool: Option<u32>, on: bool) -> f64 {
+    tool.and_then(|t| lengths.per_tool.get(&t).copied())
+        .or(lengths.all)
+        .filter(|_| on)
+        .unwrap_or(0.0)
+}
+
 /// Where axis `d` is next set absolutely after line `from` (for an axis the program sent to
 /// its reference point: the machine's reference is not in the program). Modal distance and
 /// units are followed from `state`.
@@ -192,8 +222,19 @@ pub(super) fn next_absolute(
     path: &str,
 ) -> Result<Option<f64>, NcError> {
     let (mut absolute, mut inch) = (state.absolute, state.inch);
+    let (mut on, mut tool, mut pending) = (state.tool_length_on, state.tool, state.pending_tool);
+    let now = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
     for line in &lines[from + 1..] {
         distance_and_units(line, &mut absolute, &mut inch);
+        for w in &line.words {
+            match (w.letter, w.value) {
+                ('G', 43.0) => on = true,
+                ('G', 49.0) => on = false,
+                ('T', t) => pending = Some(t as u32),
+                ('M', 6.0) => tool = pending,
+                _ => {}
+            }
+        }
         if is_dwell(line) || is_reference_return(line) {
             continue;
         }
@@ -208,11 +249,20 @@ pub(super) fn next_absolute(
                     ),
                 ));
             }
-            return Ok(Some(if inch && d < 3 {
-                w.value * MM_PER_INCH
+            // In the coordinates of the tool length in force now.
+            let shift = if d == 2 {
+                length_added(&state.tool_lengths, tool, on) - now
             } else {
-                w.value
-            }));
+                0.0
+            };
+            return Ok(Some(
+                shift
+                    + if inch && d < 3 {
+                        w.value * MM_PER_INCH
+                    } else {
+                        w.value
+                    },
+            ));
         }
     }
     Ok(None)
@@ -314,6 +364,7 @@ pub(super) fn take_line(
         state.written = end;
         return Ok(Step::Pass);
     }
+    let length_before = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
     apply_modals(line, state, path)?;
     if is_reference_return(line) {
         let machine_coordinates = line
@@ -344,6 +395,12 @@ pub(super) fn take_line(
     if line.words.iter().any(|w| w.letter == 'M' && w.value == 6.0) {
         state.tool = state.pending_tool;
     }
+    // G43, G49 and tool changes do not move the axes: where they stand is so much higher or
+    // lower in the program's coordinates.
+    let change =
+        length_before - length_added(&state.tool_lengths, state.tool, state.tool_length_on);
+    state.position[2] += change;
+    state.written[2] += change;
     let dwell = is_dwell(line);
     let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter));
     let has_centre = line
@@ -381,6 +438,8 @@ pub(super) fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result
             90 => state.absolute = true,
             91 => state.absolute = false,
             g @ 54..=59 => state.offset = g,
+            43 if w.value.fract() == 0.0 => state.tool_length_on = true,
+            49 => state.tool_length_on = false,
             _ => {}
         }
         if (w.value as u32) < 4 {

@@ -378,3 +378,37 @@ fn linuxcnc_runs_the_compensated_post_programs() {
         assert!(moves >= moving, "{name}: {moves} moves for {moving} lines");
     }
 }
+
+#[test]
+fn with_g43_the_axes_stand_higher_by_the_tool_length() {
+    let machine = embedded::load("vmc-li2015").unwrap();
+    let options = options();
+    let with_g43 = "G53 G0 Z0.\nT2 M6\nG0 X10. Y10.\nG43 H2 Z20.\nG1 X50. Y30. Z15. F100.\nG49\n";
+    let trace = nc::trace(&machine, with_g43.as_bytes(), "g43.nc", &options).unwrap();
+    // Program + work offset (200, 200, 300) + T2's 100 mm along Z.
+    let at = |line: usize| trace.iter().find(|p| p.line == line).unwrap().command;
+    assert_eq!(&at(4)[..3], &[210.0, 210.0, 420.0]);
+    assert_eq!(&at(5)[..3], &[250.0, 230.0, 415.0]);
+    // Before G43 the axes stand where the G43 block leaves Z: 100 mm higher in its coordinates.
+    assert_eq!(&at(3)[..3], &[210.0, 210.0, 420.0]);
+    // The same machine positions programmed without G43 get the same corrections.
+    let without = "G53 G0 Z0.\nT2 M6\nG0 X10. Y10.\nG0 Z120.\nG1 X50. Y30. Z115. F100.\n";
+    let a = nc::compensate(&machine, with_g43.as_bytes(), "a.nc", &options).unwrap();
+    let b = nc::compensate(&machine, without.as_bytes(), "b.nc", &options).unwrap();
+    let words = |text: &str, line: usize, letter: char| -> f64 {
+        let line = text.lines().nth(line).unwrap();
+        let at = line.find(letter).unwrap() + 1;
+        let end = line[at..].find(' ').map_or(line.len(), |e| at + e);
+        line[at..end].parse().unwrap()
+    };
+    for (line, letter, shift) in [(4, 'X', 0.0), (4, 'Y', 0.0), (4, 'Z', 100.0)] {
+        let (va, vb) = (words(&a.text, line, letter), words(&b.text, line, letter));
+        assert!(
+            (va + shift - vb).abs() < 1e-9,
+            "{letter}: {va} {vb}\n{}\n{}",
+            a.text,
+            b.text
+        );
+    }
+    assert!((a.report.largest_correction_mm - b.report.largest_correction_mm).abs() < 1e-9);
+}
