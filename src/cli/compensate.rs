@@ -117,6 +117,24 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         "  largest tool-tip error along the feed moves: {:.4} mm before, {:.4} mm after (chord tolerance {} mm)",
         report.largest_error_before_mm, report.largest_error_after_mm, options.chord_tolerance_mm
     );
+    if report.cycle_holes_expanded > 0 {
+        println!(
+            "  canned cycle holes          {} expanded into rapid and feed moves, each compensated",
+            report.cycle_holes_expanded
+        );
+    }
+    if !report.not_compensated.is_empty() {
+        let lines: Vec<String> = report
+            .not_compensated
+            .iter()
+            .map(|p| format!("{} ({})", p.line, p.code))
+            .collect();
+        println!(
+            "  not compensated             {} blocks passed as they are, lines {}: the errors above cover the compensated moves only",
+            lines.len(),
+            lines.join(", ")
+        );
+    }
     if report.take_ups > 0 {
         println!(
             "  take-ups at reversals       {} (an axis with a reversal error turns)",

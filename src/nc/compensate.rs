@@ -7,13 +7,17 @@ use std::cell::Cell;
 use nalgebra::Vector3;
 
 use super::approach::{line_directions, segment_at, segments, Directions, Segment};
+use super::cycles::expand_cycles;
 use super::kinematics::{Compensator, Kinematics};
 use super::parse::{parse_program, Line};
-use super::program::{end_position, starting_position, take_line, Motion, State, Step, XY};
+use super::program::{
+    end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
+};
+use super::subprograms::expand_subprograms;
 use super::toolpath::{arc_path, arc_through, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
-use super::{NcError, NcOption, Options, Report, ReportInputs};
+use super::{NcError, NcOption, Options, PassedBlock, Report, ReportInputs};
 use crate::model::inputs::Approach;
 use crate::model::{Command, Machine};
 
@@ -26,8 +30,16 @@ fn begin<'a>(
     program: &[u8],
     path: &'a str,
     options: &'a Options,
-) -> Result<(Vec<Line>, State, Compensator<'a>), NcError> {
-    let lines = parse_program(program, path, options.pass_unknown)?;
+) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
+    let (lines, holes) = expand_cycles(
+        expand_subprograms(
+            parse_program(program, path, options.pass_unknown)?,
+            path,
+            options.pass_unknown,
+        )?,
+        path,
+        options.pass_unknown,
+    )?;
     let start = starting_position(&lines, machine, path, options)?;
     let state = State {
         motion: Motion::Rapid,
@@ -36,6 +48,8 @@ fn begin<'a>(
         inch: false,
         offset: 54,
         tool: None,
+        tool_length_on: false,
+        tool_lengths: options.tool_lengths.clone(),
         pending_tool: None,
         position: start,
         written: start,
@@ -43,7 +57,12 @@ fn begin<'a>(
         approach: options.inputs.approach,
         programmed: options.inputs.approach,
     };
-    Ok((lines, state, Compensator::new(path, options, machine)))
+    Ok((
+        lines,
+        state,
+        Compensator::new(path, options, machine),
+        holes,
+    ))
 }
 
 /// A compensated program.
@@ -81,8 +100,9 @@ pub fn compensate_with_progress(
             message: "it must be positive".into(),
         });
     }
-    let (lines, mut state, mut compensator) = begin(machine, program, path, options)?;
+    let (lines, mut state, mut compensator, holes) = begin(machine, program, path, options)?;
     let mut report = Report {
+        cycle_holes_expanded: holes,
         inputs: ReportInputs::of(&options.inputs, machine),
         ..Report::default()
     };
@@ -94,6 +114,14 @@ pub fn compensate_with_progress(
             on_progress(index, lines.len());
         }
         let before = out.len();
+        if let Some(code) = unknown_code(line).filter(|_| options.pass_unknown) {
+            if report.not_compensated.last().map(|p| p.line) != Some(line.number) {
+                report.not_compensated.push(PassedBlock {
+                    line: line.number,
+                    code,
+                });
+            }
+        }
         let emitted = process_line(
             &lines,
             index,
@@ -145,7 +173,7 @@ pub fn trace(
     path: &str,
     options: &Options,
 ) -> Result<Vec<TracePoint>, NcError> {
-    let (lines, mut state, mut compensator) = begin(machine, program, path, options)?;
+    let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
     let mut points = Vec::new();
     for (index, line) in lines.iter().enumerate() {
         if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {
@@ -159,7 +187,7 @@ pub fn trace(
         } else {
             line_directions(&state.position, &end, &state.approach)
         };
-        let offset = *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]);
+        let offset = compensator.offset(&state, line.number)?;
         let command: Command = std::array::from_fn(|d| end[d] + offset[d]);
         let kin = compensator.kinematics(state.tool, line.number)?;
         points.push(TracePoint {
@@ -207,7 +235,7 @@ fn process_line(
     let block = Block {
         path,
         line: line.number,
-        offset: *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]),
+        offset: comp.offset(state, line.number)?,
         kin: comp.kinematics(state.tool, line.number)?,
         tolerance: options.chord_tolerance_mm,
         inch: state.inch,

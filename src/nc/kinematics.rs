@@ -7,6 +7,7 @@ use std::collections::HashMap;
 use nalgebra::{Matrix3, Vector3};
 
 use super::approach::{key, reversing_axes, Directions};
+use super::program::State;
 use super::{NcError, NcOption, Options};
 use crate::model::inputs::Inputs;
 use crate::model::{Command, Machine};
@@ -124,6 +125,39 @@ impl<'a> Compensator<'a> {
         }
     }
 
+    /// The length of `tool` from the options (`None`: the machine file's tool stands).
+    fn length(&self, tool: Option<u32>, line: usize) -> Result<Option<f64>, NcError> {
+        let lengths = &self.options.tool_lengths;
+        match tool.and_then(|t| lengths.per_tool.get(&t)) {
+            Some(&l) => Ok(Some(l)),
+            None if lengths.per_tool.is_empty() || lengths.all.is_some() => Ok(lengths.all),
+            None => Err(NcError::Missing {
+                path: self.path.to_string(),
+                line,
+                option: NcOption::ToolLengths,
+                message: match tool {
+                    Some(t) => format!("no length for tool T{t} among the tool lengths"),
+                    None => "no tool is active yet and the tool lengths name tools only".into(),
+                },
+            }),
+        }
+    }
+
+    /// Where the machine's axes stand relative to the program (mm, degrees): the active work
+    /// offset, plus with G43 the active tool's length along the spindle axis (Z), as a Fanuc or
+    /// Haas control applies it, so that the tool tip follows the program.
+    pub(super) fn offset(&self, state: &State, line: usize) -> Result<[f64; 6], NcError> {
+        let mut offset = *self
+            .options
+            .work_offsets
+            .get(&state.offset)
+            .unwrap_or(&[0.0; 6]);
+        if state.tool_length_on {
+            offset[2] += self.length(state.tool, line)?.unwrap_or(0.0);
+        }
+        Ok(offset)
+    }
+
     /// The machine with `tool` (its length from the options, else the machine file's tool).
     pub(super) fn kinematics(
         &mut self,
@@ -131,24 +165,7 @@ impl<'a> Compensator<'a> {
         line: usize,
     ) -> Result<&Kinematics, NcError> {
         if !self.tools.contains_key(&tool) {
-            let lengths = &self.options.tool_lengths;
-            let length = match tool.and_then(|t| lengths.per_tool.get(&t)) {
-                Some(&l) => Some(l),
-                None if lengths.per_tool.is_empty() || lengths.all.is_some() => lengths.all,
-                None => {
-                    return Err(NcError::Missing {
-                        path: self.path.to_string(),
-                        line,
-                        option: NcOption::ToolLengths,
-                        message: match tool {
-                            Some(t) => format!("no length for tool T{t} among the tool lengths"),
-                            None => {
-                                "no tool is active yet and the tool lengths name tools only".into()
-                            }
-                        },
-                    })
-                }
-            };
+            let length = self.length(tool, line)?;
             let mut real = self.base.clone();
             if let Some(l) = length {
                 real.tool_offset_mm = [0.0, 0.0, -l];

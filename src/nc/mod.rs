@@ -26,12 +26,18 @@
 //! directions before its first). Where an axis with a reversal error reverses, at the start of
 //! a move or at an arc's turning point, a take-up piece moves the command from the point
 //! compensated for the old direction to the same point compensated for the new one.
+//!
+//! Before any of this the program is read as the control runs it: subprogram calls whose body
+//! is in the file are run in place (`subprograms`) and canned drilling cycles become the rapid
+//! and feed moves the control makes of them (`cycles`), each then compensated like any move.
 
 mod approach;
 mod compensate;
+mod cycles;
 mod kinematics;
 pub mod parse;
 mod program;
+mod subprograms;
 mod toolpath;
 mod walk;
 mod write;
@@ -80,7 +86,7 @@ pub enum NcError {
         message: String,
     },
     /// A block with a code volmap does not follow.
-    #[error("{path}: line {line}: {code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G49 G54–G59 G61 G64 G80 G90 G91 G94 G95 G98)")]
+    #[error("{path}: line {line}: {code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G49 G53 G54–G59 G61 G64 G73 G80–G83 G85 G89 G90 G91 G94 G95 G98 G99, M98 and G65 with their body in the file)")]
     Unsupported {
         path: String,
         line: usize,
@@ -250,8 +256,21 @@ pub struct Report {
     /// reversal error: the machine approaches them the other way than they were compensated for
     /// (only where a reversal error makes a reversing move shorter than the programmed one).
     pub against_direction: usize,
+    /// Canned cycle blocks (holes, modal repeats included) expanded into their rapid and feed
+    /// moves, each compensated like any move.
+    pub cycle_holes_expanded: usize,
+    /// Blocks passed as they are with `pass_unknown` (codes volmap does not follow): not
+    /// compensated, and outside the error figures above, which cover compensated moves only.
+    pub not_compensated: Vec<PassedBlock>,
     /// The evaluation inputs the program was compensated for.
     pub inputs: ReportInputs,
+}
+
+/// A block passed uncompensated: its line and the code volmap does not follow.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PassedBlock {
+    pub line: usize,
+    pub code: String,
 }
 
 /// The evaluation inputs of a compensation as a report records them.

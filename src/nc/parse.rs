@@ -29,6 +29,9 @@ pub struct Line {
     pub words: Vec<Word>,
     /// Whether words are separated by spaces (new words are written the same way).
     pub spaced: bool,
+    /// A code volmap does not follow that governs this line though it is not in it (a hole of
+    /// a canned cycle volmap does not expand).
+    pub unknown: Option<String>,
 }
 
 impl Line {
@@ -88,6 +91,7 @@ pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<
                 ending: ending.into(),
                 words: Vec::new(),
                 spaced: false,
+                unknown: None,
             }),
             Err(e) => return Err(e),
         }
@@ -95,7 +99,12 @@ pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<
     Ok(lines)
 }
 
-fn parse_line(body: &str, ending: &str, number: usize, path: &str) -> Result<Line, NcError> {
+pub(super) fn parse_line(
+    body: &str,
+    ending: &str,
+    number: usize,
+    path: &str,
+) -> Result<Line, NcError> {
     let mut words = Vec::new();
     let bytes = body.as_bytes();
     let mut i = 0;
@@ -108,6 +117,7 @@ fn parse_line(body: &str, ending: &str, number: usize, path: &str) -> Result<Lin
             ending: ending.into(),
             words,
             spaced: false,
+            unknown: None,
         });
     }
     while i < bytes.len() {
@@ -186,6 +196,7 @@ fn parse_line(body: &str, ending: &str, number: usize, path: &str) -> Result<Lin
         ending: ending.into(),
         spaced: spaced_words(body, &words),
         words,
+        unknown: None,
     })
 }
 

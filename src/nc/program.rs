@@ -3,7 +3,7 @@
 
 use super::approach::{line_directions, Directions};
 use super::parse::Line;
-use super::{NcError, Options};
+use super::{NcError, Options, ToolLengths};
 use crate::model::{AxisLetter, Machine};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,6 +73,11 @@ pub(super) struct State {
     pub(super) inch: bool,
     pub(super) offset: u32,
     pub(super) tool: Option<u32>,
+    /// Tool length compensation (G43) in force, until G49: the control then stands the axes at
+    /// the program position plus the tool length along the spindle axis (Z).
+    pub(super) tool_length_on: bool,
+    /// The options' tool lengths, for the scans ahead.
+    pub(super) tool_lengths: ToolLengths,
     pub(super) pending_tool: Option<u32>,
     /// Where the program has the tool (program coordinates, mm and degrees).
     pub(super) position: [f64; 6],
@@ -99,8 +104,20 @@ pub(super) fn starting_position(
     let mut start: [Option<f64>; 6] = [None; 6];
     let mut absolute = true;
     let mut inch = false;
+    // Where the first Z comes under G43, the axes stand higher by the tool's length than the
+    // same Z without it: the start is where they stand, in coordinates without tool length.
+    let (mut length_on, mut tool, mut pending) = (false, None, None);
     for line in lines {
         distance_and_units(line, &mut absolute, &mut inch);
+        for w in &line.words {
+            match (w.letter, w.value) {
+                ('G', 43.0) => length_on = true,
+                ('G', 49.0) => length_on = false,
+                ('T', t) => pending = Some(t as u32),
+                ('M', 6.0) => tool = pending,
+                _ => {}
+            }
+        }
         if is_dwell(line) || is_reference_return(line) || !is_understood(line, options.pass_unknown)
         {
             continue;
@@ -115,11 +132,15 @@ pub(super) fn starting_position(
                             format!("{} moves incrementally before the program has set it: its start is not known", w.letter),
                         ));
                     }
-                    start[d] = Some(if inch && d < 3 {
-                        w.value * MM_PER_INCH
-                    } else {
-                        w.value
-                    });
+                    let length = length_added(&options.tool_lengths, tool, length_on && d == 2);
+                    start[d] = Some(
+                        length
+                            + if inch && d < 3 {
+                                w.value * MM_PER_INCH
+                            } else {
+                                w.value
+                            },
+                    );
                 }
             }
         }
@@ -164,11 +185,30 @@ pub(super) fn is_dwell(line: &Line) -> bool {
     line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0)
 }
 
-/// G28: to the reference point through the intermediate point its axis words give.
+/// G28 (to the reference point through the intermediate point its axis words give) or G53 (a
+/// move in machine coordinates, a home or a tool-change position): where the axes it names go is
+/// not a point of the program.
 pub(super) fn is_reference_return(line: &Line) -> bool {
     line.words
         .iter()
-        .any(|w| w.letter == 'G' && w.value == 28.0)
+        .any(|w| w.letter == 'G' && (w.value == 28.0 || w.value == 53.0))
+}
+
+/// G41/G42 (and G41.1/G42.1): cutter radius compensation, refused with why.
+fn cutter_compensation(line: &Line) -> Option<&str> {
+    line.words
+        .iter()
+        .find(|w| w.letter == 'G' && (41.0..43.0).contains(&w.value))
+        .map(|w| w.text.as_str())
+}
+
+/// The length the tool-length offset adds to Z with `tool` and G43 `on` (0 without G43 or a
+/// length from the options).
+pub(super) fn length_added(lengths: &ToolLengths, tool: Option<u32>, on: bool) -> f64 {
+    tool.and_then(|t| lengths.per_tool.get(&t).copied())
+        .or(lengths.all)
+        .filter(|_| on)
+        .unwrap_or(0.0)
 }
 
 /// Where axis `d` is next set absolutely after line `from` (for an axis the program sent to
@@ -182,8 +222,19 @@ pub(super) fn next_absolute(
     path: &str,
 ) -> Result<Option<f64>, NcError> {
     let (mut absolute, mut inch) = (state.absolute, state.inch);
+    let (mut on, mut tool, mut pending) = (state.tool_length_on, state.tool, state.pending_tool);
+    let now = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
     for line in &lines[from + 1..] {
         distance_and_units(line, &mut absolute, &mut inch);
+        for w in &line.words {
+            match (w.letter, w.value) {
+                ('G', 43.0) => on = true,
+                ('G', 49.0) => on = false,
+                ('T', t) => pending = Some(t as u32),
+                ('M', 6.0) => tool = pending,
+                _ => {}
+            }
+        }
         if is_dwell(line) || is_reference_return(line) {
             continue;
         }
@@ -198,11 +249,20 @@ pub(super) fn next_absolute(
                     ),
                 ));
             }
-            return Ok(Some(if inch && d < 3 {
-                w.value * MM_PER_INCH
+            // In the coordinates of the tool length in force now.
+            let shift = if d == 2 {
+                length_added(&state.tool_lengths, tool, on) - now
             } else {
-                w.value
-            }));
+                0.0
+            };
+            return Ok(Some(
+                shift
+                    + if inch && d < 3 {
+                        w.value * MM_PER_INCH
+                    } else {
+                        w.value
+                    },
+            ));
         }
     }
     Ok(None)
@@ -235,12 +295,15 @@ pub(super) fn is_understood(line: &Line, pass_unknown: bool) -> bool {
 }
 
 pub(super) fn unknown_code(line: &Line) -> Option<String> {
+    if let Some(code) = &line.unknown {
+        return Some(code.clone());
+    }
     for w in &line.words {
         match w.letter {
             'G' => {
                 let g = w.value;
                 let known = g.fract() == 0.0
-                    && matches!(g as u32, 0..=4 | 17..=21 | 28 | 90 | 91 | 54..=59)
+                    && matches!(g as u32, 0..=4 | 17..=21 | 28 | 53 | 90 | 91 | 54..=59)
                     || PASSIVE_G.contains(&(g as u32)) && g.fract() == 0.0;
                 if !known {
                     return Some(format!("G{}", w.text));
@@ -278,6 +341,13 @@ pub(super) fn take_line(
     if line.words.is_empty() {
         return Ok(Step::Pass);
     }
+    if let Some(code) = cutter_compensation(line) {
+        return Err(NcError::line(
+            path,
+            line.number,
+            format!("G{code}: cutter radius compensation is not supported: the path the control computes from it is not in the program, so it cannot be compensated; post the program for the tool's centre path (G40)"),
+        ));
+    }
     if let Some(code) = unknown_code(line) {
         if !pass_unknown {
             return Err(NcError::Unsupported {
@@ -294,8 +364,28 @@ pub(super) fn take_line(
         state.written = end;
         return Ok(Step::Pass);
     }
+    let length_before = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
     apply_modals(line, state, path)?;
     if is_reference_return(line) {
+        let machine_coordinates = line
+            .words
+            .iter()
+            .any(|w| w.letter == 'G' && w.value == 53.0);
+        if machine_coordinates && state.motion != Motion::Rapid {
+            return Err(NcError::line(
+                path,
+                line.number,
+                "G53 with a feed move: only rapid (G0) moves in machine coordinates are passed (homes and tool-change positions, whose path the control does not hold)".into(),
+            ));
+        }
+        // The block passes as it is: the output reads its motion code too.
+        if line
+            .words
+            .iter()
+            .any(|w| w.letter == 'G' && (w.value as u32) < 4 && w.value.fract() == 0.0)
+        {
+            state.written_motion = state.motion;
+        }
         reference_return(lines, index, state, path)?;
         return Ok(Step::Pass);
     }
@@ -305,6 +395,12 @@ pub(super) fn take_line(
     if line.words.iter().any(|w| w.letter == 'M' && w.value == 6.0) {
         state.tool = state.pending_tool;
     }
+    // G43, G49 and tool changes do not move the axes: where they stand is so much higher or
+    // lower in the program's coordinates.
+    let change =
+        length_before - length_added(&state.tool_lengths, state.tool, state.tool_length_on);
+    state.position[2] += change;
+    state.written[2] += change;
     let dwell = is_dwell(line);
     let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter));
     let has_centre = line
@@ -342,6 +438,8 @@ pub(super) fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result
             90 => state.absolute = true,
             91 => state.absolute = false,
             g @ 54..=59 => state.offset = g,
+            43 if w.value.fract() == 0.0 => state.tool_length_on = true,
+            49 => state.tool_length_on = false,
             _ => {}
         }
         if (w.value as u32) < 4 {

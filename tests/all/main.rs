@@ -19,6 +19,7 @@ mod machine_file;
 mod mesh;
 mod nc;
 mod nc_inputs;
+mod nc_posts;
 mod plot;
 mod plot_looks;
 mod profile_datums;

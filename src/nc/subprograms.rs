@@ -1,0 +1,145 @@
+//! Subprogram calls expanded where their body is in the file, before the compensation reads the
+//! program: `M98 P1234` (repeated `L`/`K` times, or Fanuc's `P31234`: three times O1234) and the
+//! macro call `G65 P1234` run the block from `O1234` to its `M99` in place of the call. The
+//! call becomes a comment that records it, followed by the body's blocks (which keep their own
+//! line numbers in errors); the body where it stands in the file passes unchanged (the control
+//! reaches it only through calls). A call whose body is not in the file is an error naming the
+//! call's line.
+
+use std::collections::HashMap;
+
+use super::parse::{parse_line, Line};
+use super::NcError;
+
+/// The deepest nesting of calls followed (Fanuc allows four levels).
+const MAX_DEPTH: usize = 8;
+
+fn is_call(line: &Line) -> bool {
+    line.words
+        .iter()
+        .any(|w| (w.letter == 'M' && w.value == 98.0) || (w.letter == 'G' && w.value == 65.0))
+}
+
+fn ends_body(line: &Line) -> bool {
+    line.words
+        .iter()
+        .any(|w| w.letter == 'M' && w.value == 99.0)
+}
+
+fn ends_program(line: &Line) -> bool {
+    line.words
+        .iter()
+        .any(|w| w.letter == 'M' && (w.value == 30.0 || w.value == 2.0))
+}
+
+/// The program with every subprogram call expanded (see the module's documentation); bodies
+/// pass as written whether called or not.
+/// With `pass_unknown` a call whose body is not in the file passes as written.
+pub(super) fn expand_subprograms(
+    lines: Vec<Line>,
+    path: &str,
+    pass_unknown: bool,
+) -> Result<Vec<Line>, NcError> {
+    // Bodies: an `O` block that ends with M99 before any program end.
+    let mut bodies: HashMap<u32, (usize, usize)> = HashMap::new();
+    let mut in_body = vec![false; lines.len()];
+    let mut i = 0;
+    while i < lines.len() {
+        let number = lines[i].words.first().filter(|w| w.letter == 'O');
+        if let Some(number) = number {
+            let end = lines[i + 1..]
+                .iter()
+                .position(|l| ends_body(l) || ends_program(l) || l.word('O').is_some())
+                .map(|k| i + 1 + k);
+            if let Some(end) = end.filter(|&e| ends_body(&lines[e])) {
+                bodies.insert(number.value as u32, (i + 1, end));
+                in_body[i..=end].iter_mut().for_each(|b| *b = true);
+                i = end + 1;
+                continue;
+            }
+        }
+        i += 1;
+    }
+    let mut out = Vec::with_capacity(lines.len());
+    for (k, line) in lines.iter().enumerate() {
+        if in_body[k] {
+            // Reached through calls only: passes as written.
+            out.push(Line {
+                words: Vec::new(),
+                ..line.clone()
+            });
+        } else {
+            match expand_line(&lines, line, &bodies, path, 0, &mut out) {
+                Err(NcError::Line { .. }) if pass_unknown => out.push(line.clone()),
+                result => result?,
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn expand_line(
+    lines: &[Line],
+    line: &Line,
+    bodies: &HashMap<u32, (usize, usize)>,
+    path: &str,
+    depth: usize,
+    out: &mut Vec<Line>,
+) -> Result<(), NcError> {
+    if !is_call(line) {
+        out.push(line.clone());
+        return Ok(());
+    }
+    let call = if line
+        .words
+        .iter()
+        .any(|w| w.letter == 'G' && w.value == 65.0)
+    {
+        "G65"
+    } else {
+        "M98"
+    };
+    let error = |message: String| NcError::line(path, line.number, format!("{call}: {message}"));
+    let p = line
+        .word('P')
+        .ok_or_else(|| error("the call needs the subprogram's number P".into()))?;
+    if p.value.fract() != 0.0 || p.value < 0.0 {
+        return Err(error(format!("P{}: not a program number", p.text)));
+    }
+    let mut number = p.value as u64;
+    let mut repeats = line.word('L').or(line.word('K')).map_or(1.0, |w| w.value);
+    if call == "M98" && number > 9999 && !line.has('L') && !line.has('K') {
+        // Fanuc's P31234: the repeats ahead of a four-digit program number.
+        repeats = (number / 10000) as f64;
+        number %= 10000;
+    }
+    if repeats.fract() != 0.0 || !(0.0..=1000.0).contains(&repeats) {
+        return Err(error(
+            "the repeats (L or K) must be a whole number up to 1000".into(),
+        ));
+    }
+    let &(start, end) = bodies.get(&(number as u32)).ok_or_else(|| {
+        error(format!(
+            "subprogram O{number} is not in the file (from O{number} to its M99): its moves cannot be compensated"
+        ))
+    })?;
+    if depth >= MAX_DEPTH {
+        return Err(error(format!("calls nest deeper than {MAX_DEPTH} levels")));
+    }
+    let comment = format!(
+        "({call} call expanded: {})",
+        line.text.trim().replace('(', "[").replace(')', "]")
+    );
+    let ending = if line.ending.is_empty() {
+        "\n"
+    } else {
+        line.ending.as_str()
+    };
+    out.push(parse_line(&comment, ending, line.number, path)?);
+    for _ in 0..repeats as usize {
+        for body_line in &lines[start..end] {
+            expand_line(lines, body_line, bodies, path, depth + 1, out)?;
+        }
+    }
+    Ok(())
+}
