@@ -28,15 +28,18 @@
 //! compensated for the old direction to the same point compensated for the new one.
 
 mod approach;
+mod arcs;
 mod compensate;
 mod kinematics;
 pub mod parse;
 mod program;
 mod toolpath;
+mod trace;
 mod walk;
 mod write;
 
 pub use compensate::{compensate, compensate_with_progress, trace, Compensated, TracePoint};
+pub use trace::{per_block, trace_compensated, trace_path, TraceSample};
 
 use std::collections::{BTreeMap, HashMap};
 

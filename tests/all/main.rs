@@ -16,6 +16,7 @@ mod inputs;
 mod machine_file;
 mod mesh;
 mod nc;
+mod nc_arcs;
 mod nc_inputs;
 mod plot;
 mod plot_looks;
