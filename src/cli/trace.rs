@@ -75,7 +75,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
     if let Some(path) = &args.plot {
         check_plot_paths(&[path], "--plot")?;
     }
-    if !(args.step > 0.0) {
+    if args.step.is_nan() || args.step <= 0.0 {
         return Err(Failure::input(format!(
             "--step {}: it must be positive",
             args.step

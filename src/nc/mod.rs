@@ -16,8 +16,9 @@
 //! split until the real tool tip along every piece stays within the chord tolerance of the
 //! intended path at the same fraction of the move (sampled along each piece); an arc stays an
 //! arc (with compensated ends and centre) when that already keeps it within the tolerance, and
-//! becomes compensated straight pieces otherwise. Rapid moves (G0) get compensated end points
-//! and are not split: the control does not hold their path.
+//! is split into compensated arcs otherwise (`arcs`). Every piece is planned and checked as the
+//! output writes it (rounded). Rapid moves (G0) get compensated end points and are not split:
+//! the control does not hold their path. `trace` samples the model along a program.
 //!
 //! Evaluation inputs (docs/model.md): the machine is at the options' temperatures for the whole
 //! program; every point is compensated for the approach direction of each axis there, taken

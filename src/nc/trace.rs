@@ -76,7 +76,12 @@ pub fn trace_path(
         let offset = *options.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]);
         let kin = compensator.kinematics(state.tool, line.number)?;
         let length = intended.length();
-        let n = ((length / step_mm).ceil() as usize).clamp(4, 100_000);
+        // A move that goes nowhere (a block of modes, a repeated point) is one sample.
+        let n = if length > 0.0 {
+            ((length / step_mm).ceil() as usize).clamp(4, 100_000)
+        } else {
+            1
+        };
         for k in 1..=n {
             let t = k as f64 / n as f64;
             let p = intended.at(t);
@@ -102,6 +107,9 @@ pub fn trace_path(
     }
     Ok(samples)
 }
+
+/// A straight move whose real tool tip ends within this of where it started (mm) is a take-up.
+const TIP_STANDS_MM: f64 = 1e-4;
 
 /// The distance of `p` from the polyline through `points`.
 fn distance_to_polyline(p: &Vector3<f64>, points: &[Vector3<f64>]) -> f64 {
@@ -135,6 +143,20 @@ pub fn trace_compensated(
 ) -> Result<Vec<TraceSample>, NcError> {
     let intended = trace_path(machine, original, path, options, step_mm / 8.0)?;
     let mut samples = trace_path(machine, compensated.text.as_bytes(), path, options, step_mm)?;
+    // A take-up (the command crossing a reversal while the tip stands) is left out: the model's
+    // step in the reversal error would put the tip off along it, where the real axis takes up
+    // its play with the tip at rest.
+    let mut kept = Vec::with_capacity(samples.len());
+    let mut previous_end: Option<Vector3<f64>> = None;
+    for group in samples.chunk_by(|a, b| a.line == b.line) {
+        let end = group.last().expect("a chunk is not empty").real;
+        let stands = previous_end.is_some_and(|p| (end - p).norm() < TIP_STANDS_MM);
+        if !(stands && group[0].motion == 1) {
+            kept.extend_from_slice(group);
+        }
+        previous_end = Some(end);
+    }
+    samples = kept;
     for s in &mut samples {
         let origin = compensated.origins[s.line - 1];
         let first = intended.partition_point(|i| i.line < origin);

@@ -15,6 +15,7 @@ mod sample;
 mod standards;
 mod sweep;
 mod sweep_readers;
+mod trace;
 
 use assert_cmd::Command;
 use predicates::prelude::*;
