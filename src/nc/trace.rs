@@ -3,6 +3,8 @@
 //! the ideal tip of the same command; a compensated program is measured against the intended
 //! path of the program it was made from (its origins), so before and after read alike.
 
+use std::collections::HashMap;
+
 use nalgebra::Vector3;
 
 use super::approach::{line_directions, segment_at, segments};
@@ -157,15 +159,25 @@ pub fn trace_compensated(
         previous_end = Some(end);
     }
     samples = kept;
+    // The runs of samples of each line of the original (a line run more than once has more),
+    // each from the last ideal point before it: the move's start.
+    let mut runs: HashMap<usize, Vec<std::ops::Range<usize>>> = HashMap::new();
+    let mut start = 0;
+    for run in intended.chunk_by(|a, b| a.line == b.line) {
+        let end = start + run.len();
+        runs.entry(run[0].line)
+            .or_default()
+            .push(start.saturating_sub(1)..end);
+        start = end;
+    }
+    let ideal: Vec<Vector3<f64>> = intended.iter().map(|i| i.ideal).collect();
     for s in &mut samples {
         let origin = compensated.origins[s.line - 1];
-        let first = intended.partition_point(|i| i.line < origin);
-        let last = intended.partition_point(|i| i.line <= origin);
-        // The move's start: the last ideal point before it.
-        let from = first.saturating_sub(1);
-        let path_points: Vec<Vector3<f64>> = intended[from..last].iter().map(|i| i.ideal).collect();
-        if !path_points.is_empty() {
-            s.deviation_mm = distance_to_polyline(&s.real, &path_points);
+        if let Some(runs) = runs.get(&origin) {
+            s.deviation_mm = runs
+                .iter()
+                .map(|r| distance_to_polyline(&s.real, &ideal[r.clone()]))
+                .fold(f64::INFINITY, f64::min);
         }
         s.line = origin;
     }
