@@ -244,7 +244,8 @@ pub struct Report {
     pub blocks_changed: usize,
     pub blocks_added: usize,
     /// Largest distance of the real tool tip from the intended path along the feed moves,
-    /// with the program as it was and as compensated, mm.
+    /// with the program as it was and as compensated, mm; the compensated figure is that of the
+    /// program as written (its numbers rounded, arcs about the centres their words give).
     pub largest_error_before_mm: f64,
     pub largest_error_after_mm: f64,
     /// Take-up pieces added where an axis with a reversal error reverses (at the start of a
