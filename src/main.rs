@@ -56,6 +56,9 @@ enum Command {
     /// Rewrite an NC program (ISO 6983 / Fanuc) so the real tool tip lands on the programmed
     /// path: the machine's error compensated offline.
     Compensate(cli::compensate::CompensateArgs),
+    /// The real tool-tip deviation along an NC program, sampled along every move, without
+    /// rewriting it (and, with --compensate, along its compensated program).
+    Trace(cli::trace::TraceArgs),
 }
 
 fn main() -> ExitCode {
@@ -74,6 +77,7 @@ fn main() -> ExitCode {
         Command::Budget(args) => cli::budget::run(args),
         Command::Plot(args) => cli::plot::run(args),
         Command::Compensate(args) => cli::compensate::run(args),
+        Command::Trace(args) => cli::trace::run(args),
     };
     result.unwrap_or_else(|failure| {
         failure.report();

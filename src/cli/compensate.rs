@@ -19,17 +19,8 @@ pub struct CompensateArgs {
     /// The compensated program to write (never the input).
     #[arg(long)]
     out: PathBuf,
-    /// A work offset in machine coordinates, `G54=X,Y,Z` mm (optionally `,A,B,C` degrees);
-    /// repeat per offset. G54 is zero unless given.
-    #[arg(long = "work-offset")]
-    work_offsets: Vec<String>,
-    /// Work offsets from a TOML file: `G54 = [X, Y, Z]` (mm) per offset.
-    #[arg(long)]
-    work_offset_file: Option<PathBuf>,
-    /// Tool length in mm along the spindle axis: one for every tool (`120`) or per tool
-    /// (`T1=80,T2=120`); without it the machine file's tool offset stands.
-    #[arg(long, default_value = "")]
-    tool_length: String,
+    #[command(flatten)]
+    setup: SetupArgs,
     /// Largest distance of the real tool tip from the intended path, mm.
     #[arg(long, default_value_t = 0.001)]
     chord_tolerance: f64,
@@ -47,6 +38,43 @@ pub struct CompensateArgs {
     json: JsonArg,
 }
 
+/// Where the program runs on the machine: its work offsets and tool lengths.
+#[derive(clap::Args)]
+pub struct SetupArgs {
+    /// A work offset in machine coordinates, `G54=X,Y,Z` mm (optionally `,A,B,C` degrees);
+    /// repeat per offset. G54 is zero unless given.
+    #[arg(long = "work-offset")]
+    work_offsets: Vec<String>,
+    /// Work offsets from a TOML file: `G54 = [X, Y, Z]` (mm) per offset.
+    #[arg(long)]
+    work_offset_file: Option<PathBuf>,
+    /// Tool length in mm along the spindle axis: one for every tool (`120`) or per tool
+    /// (`T1=80,T2=120`); without it the machine file's tool offset stands.
+    #[arg(long, default_value = "")]
+    tool_length: String,
+}
+
+impl SetupArgs {
+    /// The options of a compensation with these work offsets and tool lengths at `inputs`.
+    pub fn options(&self, inputs: volmap::model::inputs::Inputs) -> Result<Options, Failure> {
+        let mut options = Options {
+            tool_lengths: ToolLengths::parse(&self.tool_length).map_err(option_failure)?,
+            inputs,
+            ..Options::default()
+        };
+        if let Some(path) = &self.work_offset_file {
+            for (n, offset) in nc::read_work_offsets(path).flag("--work-offset-file")? {
+                options.work_offsets.insert(n, offset);
+            }
+        }
+        for text in &self.work_offsets {
+            let (n, offset) = nc::parse_work_offset(text).map_err(option_failure)?;
+            options.work_offsets.insert(n, offset);
+        }
+        Ok(options)
+    }
+}
+
 pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     let machine = args.machine.load()?;
     let inputs = args.inputs.on(&machine)?;
@@ -60,23 +88,12 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
             args.out.display()
         )));
     }
-    let mut options = Options {
-        tool_lengths: ToolLengths::parse(&args.tool_length).map_err(option_failure)?,
+    let options = Options {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
         pass_unknown: args.pass_unknown,
-        inputs,
-        ..Options::default()
+        ..args.setup.options(inputs)?
     };
-    if let Some(path) = &args.work_offset_file {
-        for (n, offset) in nc::read_work_offsets(path).flag("--work-offset-file")? {
-            options.work_offsets.insert(n, offset);
-        }
-    }
-    for text in &args.work_offsets {
-        let (n, offset) = nc::parse_work_offset(text).map_err(option_failure)?;
-        options.work_offsets.insert(n, offset);
-    }
     let program = volmap::io::read_bytes(&args.program).flag("--program")?;
     let bar = progress(None, "compensating", "lines");
     let compensated = nc::compensate_with_progress(
@@ -164,7 +181,7 @@ fn flag_of(option: NcOption) -> &'static str {
 
 /// A compensation error with the flag it concerns: an option's bad value names its flag, a value
 /// the program needs but was not given gets a hint of the flag that gives it.
-fn option_failure(error: NcError) -> Failure {
+pub(super) fn option_failure(error: NcError) -> Failure {
     match &error {
         NcError::Option { option, .. } => {
             let flag = flag_of(*option);

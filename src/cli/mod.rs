@@ -19,3 +19,4 @@ pub mod plot;
 pub mod sample;
 pub mod sweep;
 pub mod test;
+pub mod trace;

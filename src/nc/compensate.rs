@@ -7,6 +7,7 @@ use std::cell::Cell;
 use nalgebra::Vector3;
 
 use super::approach::{line_directions, segment_at, segments, Directions, Segment};
+use super::arcs::ArcPieces;
 use super::cycles::expand_cycles;
 use super::kinematics::{Compensator, Kinematics};
 use super::parse::{parse_program, Line};
@@ -14,7 +15,7 @@ use super::program::{
     end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
 };
 use super::subprograms::expand_subprograms;
-use super::toolpath::{arc_path, arc_through, Toolpath};
+use super::toolpath::{arc_path, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
 use super::{NcError, NcOption, Options, PassedBlock, Report, ReportInputs};
@@ -25,7 +26,7 @@ use crate::model::{Command, Machine};
 pub(super) const MAX_PIECES: usize = 100_000;
 
 /// The program's lines, its state before the first, and the machine per tool.
-fn begin<'a>(
+pub(super) fn begin<'a>(
     machine: &'a Machine,
     program: &[u8],
     path: &'a str,
@@ -239,6 +240,7 @@ fn process_line(
         kin: comp.kinematics(state.tool, line.number)?,
         tolerance: options.chord_tolerance_mm,
         inch: state.inch,
+        radius_words: line.word('R').is_some(),
         options,
         largest_correction: Cell::new(0.0),
         take_ups: Cell::new(0),
@@ -251,7 +253,7 @@ fn process_line(
     }
     let (start, end, motion) = (state.position, end_position(line, state), state.motion);
     let mut pieces: Vec<[f64; 6]> = Vec::new();
-    let mut keep_arc: Option<[f64; 2]> = None;
+    let mut arcs = ArcPieces::new();
     if motion == Motion::Rapid {
         let programmed = line_directions(&start, &end, &state.programmed);
         let mut walk = Walk {
@@ -284,7 +286,14 @@ fn process_line(
             at: block.written_start(state.written, &start, &state.approach)?,
             directions: state.approach,
         };
-        keep_arc = block.feed_move(&intended, &segments, &mut walk, motion, &mut pieces, report)?;
+        block.feed_move(
+            &intended,
+            &segments,
+            &mut walk,
+            motion,
+            (&mut pieces, &mut arcs),
+            report,
+        )?;
         state.approach = walk.directions;
         state.programmed = segments.last().expect("a move has a segment").directions;
     }
@@ -295,7 +304,7 @@ fn process_line(
         .largest_correction_mm
         .max(block.largest_correction.get());
     state.position = end;
-    write_block(line, state, &pieces, keep_arc, out, options)
+    write_block(line, state, &pieces, &arcs, out, options)
 }
 
 /// Points sampled along an intended move of `length` mm: every 0.5 mm, from 8 to 256.
@@ -311,8 +320,10 @@ pub(super) struct Block<'a> {
     offset: [f64; 6],
     pub(super) kin: &'a Kinematics,
     pub(super) tolerance: f64,
-    inch: bool,
-    options: &'a Options,
+    pub(super) inch: bool,
+    /// The block gives its arc's centre by R: added arc pieces do too.
+    pub(super) radius_words: bool,
+    pub(super) options: &'a Options,
     largest_correction: Cell<f64>,
     /// Take-ups added at reversals, and pieces whose compensated motion runs against the
     /// directions they were compensated for.
@@ -403,17 +414,17 @@ impl Block<'_> {
     }
 
     /// The pieces of a feed move along `intended`, segment by segment, starting where `walk`
-    /// is (see [`super::walk`]). Returns the kept arc's centre, where the arc stays an arc: a
-    /// move of one segment that needs no take-up.
+    /// is (see [`super::walk`]); an arc stays one arc where that fits (a move of one segment
+    /// that needs no take-up), and is split into arc pieces otherwise (see [`super::arcs`]).
     fn feed_move(
         &self,
         intended: &Toolpath,
         segments: &[Segment],
         walk: &mut Walk,
         motion: Motion,
-        pieces: &mut Vec<[f64; 6]>,
+        (pieces, arcs): (&mut Vec<[f64; 6]>, &mut ArcPieces),
         report: &mut Report,
-    ) -> Result<Option<[f64; 2]>, NcError> {
+    ) -> Result<(), NcError> {
         if let [segment] = segments {
             let piece = self.piece(intended, (0.0, 1.0), &segment.directions, walk, true)?;
             if piece.take_up.is_none() && !piece.against {
@@ -422,18 +433,29 @@ impl Block<'_> {
                     self.arc_within_tolerance(intended, ends, motion, &piece.directions, report)
                 {
                     self.accept(&piece, walk, pieces);
-                    return Ok(Some(centre));
+                    arcs.push((0, centre));
+                    return Ok(());
                 }
             }
         }
         for segment in segments {
-            self.walk_segment(intended, segment, walk, pieces, report)
-                .map_err(|e| match e {
-                    Split::Pieces(message) => NcError::line(self.path, self.line, message),
-                    Split::Point(e) => e,
-                })?;
+            match intended {
+                Toolpath::Arc { .. } => self.arc_segment(
+                    intended,
+                    segment,
+                    motion,
+                    walk,
+                    (&mut *pieces, &mut *arcs),
+                    report,
+                ),
+                Toolpath::Line { .. } => self.walk_segment(intended, segment, walk, pieces, report),
+            }
+            .map_err(|e| match e {
+                Split::Pieces(message) => NcError::line(self.path, self.line, message),
+                Split::Point(e) => e,
+            })?;
         }
-        Ok(None)
+        Ok(())
     }
 
     /// Where the output has the tool at the start of a move; an axis not written since its
@@ -457,8 +479,8 @@ impl Block<'_> {
     }
 
     /// An arc kept as an arc, with compensated ends `from`, `to` and its centre moved by the mean
-    /// correction of its ends, where that keeps the real tool tip within the tolerance of the
-    /// intended arc: the new centre.
+    /// correction of its ends, where that keeps the real tool tip along the arc as written
+    /// within the tolerance of the intended arc: the new centre.
     fn arc_within_tolerance(
         &self,
         intended: &Toolpath,
@@ -482,24 +504,16 @@ impl Block<'_> {
             0.5 * (from[plane.v] - start[plane.v] + to[plane.v] - end[plane.v]),
         ];
         let moved = [centre[0] + shift[0], centre[1] + shift[1]];
-        let commanded = arc_through(from, to, plane, moved, motion)?;
+        let commanded = self.written_arc((&from, &to), plane, moved, motion)?;
         let Toolpath::Arc { radii, .. } = commanded else {
-            unreachable!("arc_through returns arcs")
+            unreachable!("written_arc returns arcs")
         };
-        if (radii[0] - radii[1]).abs() > self.tolerance {
+        if (radii[0] - radii[1]).abs() > self.tolerance
+            || !self.keeps_directions(&commanded, directions)
+        {
             return None;
         }
-        let n = samples(intended.length()) * 2;
-        let worst = (1..n)
-            .map(|k| {
-                let t = k as f64 / n as f64;
-                self.kin.miss(
-                    &self.command(&commanded.at(t)),
-                    &self.command(&intended.at(t)),
-                    directions,
-                )
-            })
-            .fold(0.0, f64::max);
+        let worst = self.path_error(intended, (0.0, 1.0), &commanded, directions);
         (worst <= self.tolerance).then(|| {
             report.largest_error_after_mm = report.largest_error_after_mm.max(worst);
             moved

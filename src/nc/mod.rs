@@ -16,8 +16,9 @@
 //! split until the real tool tip along every piece stays within the chord tolerance of the
 //! intended path at the same fraction of the move (sampled along each piece); an arc stays an
 //! arc (with compensated ends and centre) when that already keeps it within the tolerance, and
-//! becomes compensated straight pieces otherwise. Rapid moves (G0) get compensated end points
-//! and are not split: the control does not hold their path.
+//! is split into compensated arcs otherwise (`arcs`). Every piece is planned and checked as the
+//! output writes it (rounded). Rapid moves (G0) get compensated end points and are not split:
+//! the control does not hold their path. `trace` samples the model along a program.
 //!
 //! Evaluation inputs (docs/model.md): the machine is at the options' temperatures for the whole
 //! program; every point is compensated for the approach direction of each axis there, taken
@@ -32,6 +33,7 @@
 //! and feed moves the control makes of them (`cycles`), each then compensated like any move.
 
 mod approach;
+mod arcs;
 mod compensate;
 mod cycles;
 mod kinematics;
@@ -39,10 +41,12 @@ pub mod parse;
 mod program;
 mod subprograms;
 mod toolpath;
+mod trace;
 mod walk;
 mod write;
 
 pub use compensate::{compensate, compensate_with_progress, trace, Compensated, TracePoint};
+pub use trace::{per_block, trace_compensated, trace_path, TraceSample};
 
 use std::collections::{BTreeMap, HashMap};
 
@@ -246,7 +250,8 @@ pub struct Report {
     pub blocks_changed: usize,
     pub blocks_added: usize,
     /// Largest distance of the real tool tip from the intended path along the feed moves,
-    /// with the program as it was and as compensated, mm.
+    /// with the program as it was and as compensated, mm; the compensated figure is that of the
+    /// program as written (its numbers rounded, arcs about the centres their words give).
     pub largest_error_before_mm: f64,
     pub largest_error_after_mm: f64,
     /// Take-up pieces added where an axis with a reversal error reverses (at the start of a

@@ -200,8 +200,8 @@ impl Block<'_> {
         };
     }
 
-    /// The largest distance of the real tip along the straight piece from `a` to `b`,
-    /// approached in `directions`, from the intended path at the same fraction of `[ta, tb]`.
+    /// The largest distance of the real tip along the straight piece from `a` to `b` as written
+    /// (rounded), approached in `directions`, from the intended path at the same fraction of `[ta, tb]`.
     fn chord_error(
         &self,
         intended: &Toolpath,
@@ -209,6 +209,8 @@ impl Block<'_> {
         (a, b): ([f64; 6], [f64; 6]),
         directions: &Directions,
     ) -> f64 {
+        // The piece as the output writes it: the error after rounding.
+        let (a, b) = (self.written(&a), self.written(&b));
         let length = (0..3).map(|d| (b[d] - a[d]).powi(2)).sum::<f64>().sqrt();
         let n = ((length / 0.5).ceil() as usize).clamp(8, 64);
         (1..n)

@@ -117,17 +117,20 @@ impl Style {
 type Edit = (std::ops::Range<usize>, String);
 
 /// Writes the block's output: the original line with its coordinates replaced by the first
-/// piece's (an arc that became lines turns G2/G3 into G1 and loses its centre words), then one
-/// added line per further piece. Returns the number of lines written.
+/// piece's (an arc whose first piece is straight turns G2/G3 into G1 and loses its centre
+/// words), then one added line per further piece: G1, or G2/G3 with its centre for the pieces in
+/// `arcs` (by index in `pieces`). Returns the number of lines written.
 pub(super) fn write_block(
     line: &Line,
     state: &mut State,
     pieces: &[[f64; 6]],
-    keep_arc: Option<[f64; 2]>,
+    arcs: &[(usize, [f64; 2])],
     out: &mut String,
     options: &Options,
 ) -> Result<usize, NcError> {
     let style = Style::of(line, state, options);
+    let centre_of = |i: usize| arcs.iter().find(|(k, _)| *k == i).map(|(_, c)| *c);
+    let keep_arc = centre_of(0);
     let arc_becomes_lines =
         matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) && keep_arc.is_none();
     let split = pieces.len() > 1;
@@ -185,7 +188,12 @@ pub(super) fn write_block(
     } else {
         &line.ending
     };
-    Ok(1 + write_pieces(&pieces[1..], state, &style, ending, out))
+    let centres: Vec<Option<[f64; 2]>> = (1..pieces.len()).map(centre_of).collect();
+    let arc = ArcWords {
+        motion: state.motion,
+        radius: line.has('R'),
+    };
+    Ok(1 + write_pieces(&pieces[1..], &centres, arc, state, &style, ending, out))
 }
 
 /// The axis words: linear ones take the compensated values; rotary ones change only where the
@@ -308,22 +316,36 @@ fn motion_edit(
     }
 }
 
+/// How added arc pieces are written: the block's arc motion, and whether by R (else I J K).
+#[derive(Clone, Copy)]
+struct ArcWords {
+    motion: Motion,
+    radius: bool,
+}
+
 /// The added lines of a split move, one per piece after the first (a piece that moves no written
-/// value is left out). Returns how many were written.
+/// value is left out): straight, or an arc about `centres[i]`. Returns how many were written.
 fn write_pieces(
     pieces: &[[f64; 6]],
+    centres: &[Option<[f64; 2]>],
+    arc: ArcWords,
     state: &mut State,
     style: &Style,
     ending: &str,
     out: &mut String,
 ) -> usize {
     let mut count = 0;
-    let g1 = format!("{}1", style.letter('G'));
-    for piece in pieces {
+    for (piece, centre) in pieces.iter().zip(centres) {
+        let motion = if centre.is_some() {
+            arc.motion
+        } else {
+            Motion::Linear
+        };
+        let motion_word = format!("{}{}", style.letter('G'), motion.code());
         let piece_written: [f64; 6] = std::array::from_fn(|d| style.rounded(piece[d], d));
         let mut words = String::new();
-        if state.written_motion != Motion::Linear {
-            words += &g1;
+        if state.written_motion != motion {
+            words += &motion_word;
         }
         for (d, &target) in piece_written.iter().enumerate() {
             if style.changes(target, state.written[d], d) {
@@ -333,8 +355,29 @@ fn write_pieces(
                 words += &style.axis_word(d, target, &state.written);
             }
         }
-        if words.is_empty() || words == g1 {
+        if words.is_empty() || words == motion_word {
             continue;
+        }
+        if let Some(c) = centre {
+            let (u, v) = (state.plane.u, state.plane.v);
+            if arc.radius {
+                let r = (piece_written[u] - c[0]).hypot(piece_written[v] - c[1]);
+                words += &format!(
+                    "{}{}{}",
+                    style.separator,
+                    style.letter('R'),
+                    format_value(r / style.unit, style.decimals)
+                );
+            } else {
+                for (k, d) in [u, v].into_iter().enumerate() {
+                    words += &format!(
+                        "{}{}{}",
+                        style.separator,
+                        style.letter(state.plane.centre[k]),
+                        format_value((c[k] - state.written[d]) / style.unit, style.decimals)
+                    );
+                }
+            }
         }
         out.push_str(&words);
         out.push_str(ending);
@@ -345,7 +388,7 @@ fn write_pieces(
                 piece_written[d]
             }
         });
-        state.written_motion = Motion::Linear;
+        state.written_motion = motion;
         count += 1;
     }
     count

@@ -18,6 +18,7 @@ mod inputs;
 mod machine_file;
 mod mesh;
 mod nc;
+mod nc_arcs;
 mod nc_inputs;
 mod nc_posts;
 mod plot;

@@ -178,11 +178,24 @@ fn linuxcnc_runs_the_compensated_programs_without_an_error() {
         "%\nG21 G90 G17 G0 X80. Y50. Z10.\nG1 X100. F500\nG2 X100. Y50. I-20. J0\nG3 X60. Y50. R20.\nG1 X70. Y40.\nM2\n%\n",
     )
     .unwrap();
+    // Arcs of every kind split into compensated arcs on an embedded machine: I J K and R
+    // pieces, G18, a helix.
+    let split = dir.path().join("split.nc");
+    std::fs::write(
+        &split,
+        "G90 G17 G21 G54\nG0 X0 Y0 Z5.\nG1 Z-2. F300\nG1 X40. F800\nG3 X40. Y0 I-40. J0\nG2 X0 Y40. R40.\nG1 X-30.\nG3 X-60. Y10. I-15. J-15.\nG18 G2 X-90. Z-2. I-15. K0\nG17 G2 X-90. Y10. Z-5. I20. J0\nG0 Z5.\nM2\n",
+    )
+    .unwrap();
     for (machine, program, extra) in [
         (
             machine.clone(),
             arcs.clone(),
             vec!["--temperatures", "x_scale=28"],
+        ),
+        (
+            std::path::PathBuf::from("gantry-2m"),
+            split,
+            vec!["--work-offset", "G54=400,300,100"],
         ),
         (machine.clone(), arcs, vec!["--approach", "X=-,Y=-"]),
         (

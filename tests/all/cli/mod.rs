@@ -17,6 +17,7 @@ mod standards;
 mod standards_frames;
 mod sweep;
 mod sweep_readers;
+mod trace;
 
 use assert_cmd::Command;
 use predicates::prelude::*;

@@ -1,0 +1,184 @@
+//! `volmap trace`: the real tool-tip deviation along an NC program, predicted before it cuts,
+//! without rewriting it; with `--compensate`, also along the program compensation would write,
+//! measured from the intended path, so a shop sees before and after.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use volmap::nc::{self, Options, TraceSample};
+use volmap::plot::{self, Color, Marker, Series};
+
+use super::args::{InputsArg, JsonArg, MachineArg};
+use super::compensate::{option_failure, SetupArgs};
+use super::failure::{Failure, FlagContext};
+use super::output::{check_plot_paths, write_file, write_json, write_plot};
+
+#[derive(clap::Args)]
+pub struct TraceArgs {
+    #[command(flatten)]
+    machine: MachineArg,
+    /// The part program (ISO 6983 / Fanuc style).
+    #[arg(long)]
+    program: PathBuf,
+    #[command(flatten)]
+    setup: SetupArgs,
+    /// Also trace the program as `volmap compensate` would write it (same chord tolerance and
+    /// decimals), against the intended path.
+    #[arg(long)]
+    compensate: bool,
+    /// With --compensate: largest distance of the real tool tip from the intended path, mm.
+    #[arg(long, default_value_t = 0.001)]
+    chord_tolerance: f64,
+    /// With --compensate: decimals of the coordinates written (default 4 in mm, 5 in inch).
+    #[arg(long)]
+    decimals: Option<usize>,
+    /// Largest distance between samples along a move, mm (every move gets at least 4).
+    #[arg(long, default_value_t = 0.5)]
+    step: f64,
+    /// The samples as CSV: program (as-programmed or compensated), line, motion (G code),
+    /// distance_mm along the path, x_mm y_mm z_mm (program coordinates), deviation_mm.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// A plot of the deviation along the path (SVG or PNG by the extension).
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    #[command(flatten)]
+    inputs: InputsArg,
+    #[command(flatten)]
+    json: JsonArg,
+}
+
+/// What a trace found, per program traced.
+#[derive(serde::Serialize)]
+struct Summary {
+    program: &'static str,
+    /// The largest deviation and its line (1-based, of the input program).
+    largest_mm: f64,
+    largest_line: usize,
+    /// The largest deviation of every block that moves: `[line, mm]`.
+    per_block: Vec<(usize, f64)>,
+}
+
+fn summary(program: &'static str, samples: &[TraceSample]) -> Summary {
+    let worst = samples
+        .iter()
+        .max_by(|a, b| a.deviation_mm.total_cmp(&b.deviation_mm));
+    Summary {
+        program,
+        largest_mm: worst.map_or(0.0, |s| s.deviation_mm),
+        largest_line: worst.map_or(0, |s| s.line),
+        per_block: nc::per_block(samples),
+    }
+}
+
+pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
+    if let Some(path) = &args.plot {
+        check_plot_paths(&[path], "--plot")?;
+    }
+    if args.step.is_nan() || args.step <= 0.0 {
+        return Err(Failure::input(format!(
+            "--step {}: it must be positive",
+            args.step
+        )));
+    }
+    let machine = args.machine.load()?;
+    let inputs = args.inputs.on(&machine)?;
+    let options = Options {
+        chord_tolerance_mm: args.chord_tolerance,
+        decimals: args.decimals,
+        ..args.setup.options(inputs)?
+    };
+    let program = volmap::io::read_bytes(&args.program).flag("--program")?;
+    let name = args.program.display().to_string();
+    let mut traces = vec![(
+        "as-programmed",
+        nc::trace_path(&machine, &program, &name, &options, args.step).map_err(option_failure)?,
+    )];
+    if args.compensate {
+        let compensated =
+            nc::compensate(&machine, &program, &name, &options).map_err(option_failure)?;
+        let after = nc::trace_compensated(
+            &machine,
+            (&program, &compensated),
+            &name,
+            &options,
+            args.step,
+        )
+        .map_err(option_failure)?;
+        traces.push(("compensated", after));
+    }
+    let summaries: Vec<Summary> = traces.iter().map(|(p, s)| summary(p, s)).collect();
+    println!("{name}: tool-tip deviation on {}", machine.name);
+    for s in &summaries {
+        println!(
+            "  {:<14} largest {:.4} mm at line {} ({} blocks that move)",
+            s.program,
+            s.largest_mm,
+            s.largest_line,
+            s.per_block.len()
+        );
+    }
+    println!("  the blocks with the largest deviation (line: mm):");
+    let mut worst = summaries[0].per_block.clone();
+    worst.sort_by(|a, b| b.1.total_cmp(&a.1));
+    for (line, mm) in worst.iter().take(10) {
+        let after = summaries
+            .get(1)
+            .and_then(|s| s.per_block.iter().find(|b| b.0 == *line))
+            .map_or(String::new(), |b| format!(", {:.4} compensated", b.1));
+        println!("    {line:>6}: {mm:.4}{after}");
+    }
+    if let Some(path) = &args.out {
+        write_file(path, |out| {
+            writeln!(
+                out,
+                "program,line,motion,distance_mm,x_mm,y_mm,z_mm,deviation_mm"
+            )?;
+            for (program, samples) in &traces {
+                for s in samples {
+                    writeln!(
+                        out,
+                        "{program},{},G{},{:.6},{:.6},{:.6},{:.6},{:.9}",
+                        s.line,
+                        s.motion,
+                        s.distance_mm,
+                        s.program[0],
+                        s.program[1],
+                        s.program[2],
+                        s.deviation_mm
+                    )?;
+                }
+            }
+            Ok(())
+        })
+        .flag("--out")?;
+    }
+    if let Some(path) = &args.plot {
+        let colours = [Color::RED, Color::BLUE];
+        let series: Vec<Series> = traces
+            .iter()
+            .zip(colours)
+            .map(|((program, samples), color)| Series {
+                name: program.replace('-', " "),
+                x: samples.iter().map(|s| s.distance_mm).collect(),
+                y: samples.iter().map(|s| s.deviation_mm * 1000.0).collect(),
+                color,
+                dashed: false,
+                marker: Marker::None,
+                band: None,
+            })
+            .collect();
+        let title = format!("Tool-tip deviation along {name} on {}", machine.name);
+        let drawing = plot::line_chart(
+            &title,
+            "distance along the path (mm)",
+            "deviation (µm)",
+            &series,
+        )?;
+        write_plot(&drawing, path)?;
+    }
+    if let Some(path) = &args.json.json {
+        write_json(path, &summaries)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}

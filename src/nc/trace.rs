@@ -1,0 +1,207 @@
+//! Predicting a program before it cuts: the real tool tip sampled along every move, as the model
+//! has it, against the ideal one. A program's own deviation is the distance of the real tip from
+//! the ideal tip of the same command; a compensated program is measured against the intended
+//! path of the program it was made from (its origins), so before and after read alike.
+
+use std::collections::HashMap;
+
+use nalgebra::Vector3;
+
+use super::approach::{line_directions, segment_at, segments};
+use super::compensate::{begin, Compensated};
+use super::program::{end_position, take_line, Motion, Step};
+use super::toolpath::{arc_path, Toolpath};
+use super::{NcError, Options};
+use crate::model::{Command, Machine};
+
+/// One point of a move, sampled.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TraceSample {
+    /// The program's line (1-based).
+    pub line: usize,
+    /// The motion's G code (0 rapid, 1 straight, 2 and 3 arcs).
+    pub motion: u32,
+    /// Distance along the programmed path from the program's first point, mm.
+    pub distance_mm: f64,
+    /// The point in program coordinates (mm, degrees).
+    pub program: [f64; 6],
+    /// The ideal and the real tool tip (workpiece frame, mm).
+    pub ideal: Vector3<f64>,
+    pub real: Vector3<f64>,
+    /// The distance of the real tool tip from where it was meant to be, mm.
+    pub deviation_mm: f64,
+}
+
+/// The samples of one move: its path, from its start to its end.
+fn move_path(
+    line: &super::parse::Line,
+    state: &super::program::State,
+    end: [f64; 6],
+    path: &str,
+) -> Result<Toolpath, NcError> {
+    if matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) {
+        arc_path(line, state, state.position, end, path)
+    } else {
+        Ok(Toolpath::Line {
+            from: state.position,
+            to: end,
+        })
+    }
+}
+
+/// Runs a program through the model, sampling every move at least every `step_mm` (at least 4
+/// samples a move, its start excluded, its end included): the ideal and the real tool tip, each
+/// axis approaching in the direction of its programmed motion there.
+pub fn trace_path(
+    machine: &Machine,
+    program: &[u8],
+    path: &str,
+    options: &Options,
+    step_mm: f64,
+) -> Result<Vec<TraceSample>, NcError> {
+    let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
+    let mut samples = Vec::new();
+    let mut travelled = 0.0;
+    for (index, line) in lines.iter().enumerate() {
+        if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {
+            continue;
+        }
+        let end = end_position(line, &state);
+        let intended = move_path(line, &state, end, path)?;
+        let segments = match state.motion {
+            Motion::Rapid => vec![super::approach::Segment {
+                t: (0.0, 1.0),
+                directions: line_directions(&state.position, &end, &state.approach),
+            }],
+            _ => segments(&intended, &state.approach, &[true; 6]),
+        };
+        // The work offset, and with G43 the tool's length along Z (see `Compensator::offset`).
+        let offset = compensator.offset(&state, line.number)?;
+        let kin = compensator.kinematics(state.tool, line.number)?;
+        let length = intended.length();
+        // A move that goes nowhere (a block of modes, a repeated point) is one sample.
+        let n = if length > 0.0 {
+            ((length / step_mm).ceil() as usize).clamp(4, 100_000)
+        } else {
+            1
+        };
+        for k in 1..=n {
+            let t = k as f64 / n as f64;
+            let p = intended.at(t);
+            let command: Command = std::array::from_fn(|d| p[d] + offset[d]);
+            let directions = segment_at(&segments, t).directions;
+            let (ideal, real) = (
+                kin.ideal_tip(&command),
+                kin.twin(&directions).real_tip(&command),
+            );
+            samples.push(TraceSample {
+                line: line.number,
+                motion: state.motion.code(),
+                distance_mm: travelled + t * length,
+                program: p,
+                ideal,
+                real,
+                deviation_mm: (real - ideal).norm(),
+            });
+        }
+        travelled += length;
+        state.position = end;
+        state.approach = segments.last().expect("a move has a segment").directions;
+    }
+    Ok(samples)
+}
+
+/// A straight move whose real tool tip ends within this of where it started (mm) is a take-up.
+const TIP_STANDS_MM: f64 = 1e-4;
+
+/// The distance of `p` from the polyline through `points`.
+fn distance_to_polyline(p: &Vector3<f64>, points: &[Vector3<f64>]) -> f64 {
+    if let [only] = points {
+        return (p - only).norm();
+    }
+    points
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let ab = b - a;
+            let s = if ab.norm_squared() > 0.0 {
+                ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (p - (a + s * ab)).norm()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The samples of a compensated program, each deviation the distance of its real tool tip from
+/// the intended path (the ideal tip along the original program's move it comes from, sampled
+/// every `step_mm / 8`). `original` is the program `compensated` was made from.
+pub fn trace_compensated(
+    machine: &Machine,
+    (original, compensated): (&[u8], &Compensated),
+    path: &str,
+    options: &Options,
+    step_mm: f64,
+) -> Result<Vec<TraceSample>, NcError> {
+    let intended = trace_path(machine, original, path, options, step_mm / 8.0)?;
+    let mut samples = trace_path(machine, compensated.text.as_bytes(), path, options, step_mm)?;
+    // A take-up (the command crossing a reversal while the tip stands) is left out: the model's
+    // step in the reversal error would put the tip off along it, where the real axis takes up
+    // its play with the tip at rest.
+    let mut kept = Vec::with_capacity(samples.len());
+    let mut previous_end: Option<Vector3<f64>> = None;
+    for group in samples.chunk_by(|a, b| a.line == b.line) {
+        let end = group.last().expect("a chunk is not empty").real;
+        let stands = previous_end.is_some_and(|p| (end - p).norm() < TIP_STANDS_MM);
+        if !(stands && group[0].motion == 1) {
+            kept.extend_from_slice(group);
+        }
+        previous_end = Some(end);
+    }
+    samples = kept;
+    // The runs of samples of each line of the original (a line run more than once has more),
+    // each from the last ideal point before it: the move's start.
+    let mut runs: HashMap<usize, Vec<std::ops::Range<usize>>> = HashMap::new();
+    let mut start = 0;
+    for run in intended.chunk_by(|a, b| a.line == b.line) {
+        let end = start + run.len();
+        runs.entry(run[0].line)
+            .or_default()
+            .push(start.saturating_sub(1)..end);
+        start = end;
+    }
+    let ideal: Vec<Vector3<f64>> = intended.iter().map(|i| i.ideal).collect();
+    for s in &mut samples {
+        let origin = compensated.origins[s.line - 1];
+        if let Some(runs) = runs.get(&origin) {
+            s.deviation_mm = runs
+                .iter()
+                .map(|r| distance_to_polyline(&s.real, &ideal[r.clone()]))
+                .fold(f64::INFINITY, f64::min);
+        }
+        s.line = origin;
+    }
+    Ok(samples)
+}
+
+/// The largest deviation of every block that moves, by line (increasing).
+pub fn per_block(samples: &[TraceSample]) -> Vec<(usize, f64)> {
+    let mut blocks: Vec<(usize, f64)> = Vec::new();
+    for s in samples {
+        match blocks.last_mut() {
+            Some((line, worst)) if *line == s.line => *worst = worst.max(s.deviation_mm),
+            _ => blocks.push((s.line, s.deviation_mm)),
+        }
+    }
+    blocks.sort_by_key(|b| b.0);
+    blocks.dedup_by(|b, a| {
+        if a.0 == b.0 {
+            a.1 = a.1.max(b.1);
+            true
+        } else {
+            false
+        }
+    });
+    blocks
+}

@@ -1,0 +1,93 @@
+//! `volmap trace`: the deviation along a program before it cuts, and after compensation.
+
+use predicates::prelude::*;
+
+use super::volmap;
+
+/// A machine whose only error is a scale error of X: the real tip is 1e-4·x ahead in X.
+const SCALE: &str = r#"
+name = "scale"
+chain = "FFXYZ"
+[axes.X]
+range = [0.0, 200.0]
+EXX = { poly = [0.0, 1.0e-4] }
+[axes.Y]
+range = [0.0, 200.0]
+[axes.Z]
+range = [0.0, 200.0]
+"#;
+
+#[test]
+fn trace_samples_every_move_and_names_the_largest_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = dir.path().join("scale.toml");
+    std::fs::write(&machine, SCALE).unwrap();
+    let program = dir.path().join("p.nc");
+    // X runs to 50 on line 3: 1e-4 · 50 mm = 5 µm there, the most; back to 20 (2 µm) on line 4.
+    std::fs::write(
+        &program,
+        "G90 G0 X0 Y10. Z10.\nG1 X10. F500\nX50.\nX20.\nG2 X30. Y20. I10. J0\n",
+    )
+    .unwrap();
+    let (csv, plot, json) = (
+        dir.path().join("trace.csv"),
+        dir.path().join("trace.png"),
+        dir.path().join("trace.json"),
+    );
+    volmap()
+        .args(["trace", "--machine"])
+        .arg(&machine)
+        .arg("--program")
+        .arg(&program)
+        .args(["--compensate", "--step", "1", "--out"])
+        .arg(&csv)
+        .arg("--plot")
+        .arg(&plot)
+        .arg("--json")
+        .arg(&json)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "as-programmed  largest 0.0050 mm at line 3",
+        ));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut rows = text.lines();
+    assert_eq!(
+        rows.next().unwrap(),
+        "program,line,motion,distance_mm,x_mm,y_mm,z_mm,deviation_mm"
+    );
+    let rows: Vec<Vec<&str>> = rows.map(|r| r.split(',').collect()).collect();
+    let before: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == "as-programmed").collect();
+    // Every sample's deviation is 1e-4 · x, and line 3 is sampled every mm from X10 to X50.
+    for r in &before {
+        let (x, deviation): (f64, f64) = (r[4].parse().unwrap(), r[7].parse().unwrap());
+        assert!((deviation - 1e-4 * x).abs() < 1e-9, "{r:?}");
+    }
+    let line3 = before.iter().filter(|r| r[1] == "3").count();
+    assert_eq!(line3, 40);
+    assert!(before.iter().any(|r| r[1] == "5" && r[2] == "G2"));
+    // Compensated, the tip is on the path within the chord tolerance (and the rounding).
+    let after: Vec<f64> = rows
+        .iter()
+        .filter(|r| r[0] == "compensated")
+        .map(|r| r[7].parse().unwrap())
+        .collect();
+    assert!(!after.is_empty());
+    assert!(after.iter().all(|&d| d <= 1e-3), "{after:?}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(summary[0]["largest_line"], 3);
+    assert_eq!(summary[0]["per_block"].as_array().unwrap().len(), 5);
+    let png = std::fs::read(&plot).unwrap();
+    assert_eq!(&png[..4], b"\x89PNG");
+    // A bad program: exit 2, naming the line.
+    std::fs::write(&program, "G0 X10 Y10 Z10\nG2 X20 Y20\n").unwrap();
+    volmap()
+        .args(["trace", "--machine"])
+        .arg(&machine)
+        .arg("--program")
+        .arg(&program)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("line 2"));
+}
