@@ -39,6 +39,15 @@ pub struct CompensateArgs {
     /// Pass blocks volmap does not understand through unchanged instead of stopping.
     #[arg(long)]
     pass_unknown: bool,
+    /// Compensate the tool orientation too (five-axis machines): X, Y, Z and both rotary axes
+    /// are solved so the real tool tip and tool axis are the intended ones; rotary words are
+    /// rewritten.
+    #[arg(long)]
+    orientation: bool,
+    /// With --orientation: largest angle between the real and the intended tool axis along the
+    /// path, rad.
+    #[arg(long, default_value_t = nc::DEFAULT_ANGULAR_TOLERANCE_RAD, requires = "orientation")]
+    angular_tolerance: f64,
     // `--temperatures` hold for the whole program; `--approach` gives the directions of the
     // axes at its start (each axis then approaches in the direction of its programmed motion).
     #[command(flatten)]
@@ -66,6 +75,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         decimals: args.decimals,
         pass_unknown: args.pass_unknown,
         inputs,
+        orientation_tolerance_rad: args.orientation.then_some(args.angular_tolerance),
         ..Options::default()
     };
     if let Some(path) = &args.work_offset_file {
@@ -117,6 +127,12 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         "  largest tool-tip error along the feed moves: {:.4} mm before, {:.4} mm after (chord tolerance {} mm)",
         report.largest_error_before_mm, report.largest_error_after_mm, options.chord_tolerance_mm
     );
+    if let Some(tolerance) = options.orientation_tolerance_rad {
+        println!(
+            "  largest tool orientation error along the feed moves: {:.3e} rad before, {:.3e} rad after (angular tolerance {tolerance:e} rad)",
+            report.largest_orientation_error_before_rad, report.largest_orientation_error_after_rad
+        );
+    }
     if report.take_ups > 0 {
         println!(
             "  take-ups at reversals       {} (an axis with a reversal error turns)",
@@ -141,6 +157,8 @@ fn flag_of(option: NcOption) -> &'static str {
         NcOption::ToolLengths => "--tool-length",
         NcOption::WorkOffsets => "--work-offset",
         NcOption::ChordTolerance => "--chord-tolerance",
+        NcOption::Orientation => "--orientation",
+        NcOption::AngularTolerance => "--angular-tolerance",
     }
 }
 
@@ -157,6 +175,8 @@ fn option_failure(error: NcError) -> Failure {
                 NcOption::ToolLengths => "T1=80,T2=120",
                 NcOption::WorkOffsets => "G55=100,50,-200",
                 NcOption::ChordTolerance => "0.001",
+                NcOption::Orientation => "",
+                NcOption::AngularTolerance => "1e-5",
             };
             let hint = format!(
                 "{} gives it, e.g. {} {example}",

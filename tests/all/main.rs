@@ -17,6 +17,7 @@ mod machine_file;
 mod mesh;
 mod nc;
 mod nc_inputs;
+mod nc_orientation;
 mod plot;
 mod plot_looks;
 mod profile_datums;
