@@ -26,9 +26,10 @@ const TIP_TOLERANCE_MM: f64 = 1e-10;
 const AXIS_TOLERANCE_RAD: f64 = 1e-10;
 
 /// A pose is singular where the smallest singular value of the tool axis's derivative in the two
-/// rotary axes (rad per rad) is below this: a 1e-5 rad orientation error would need turns of
-/// 0.01 rad or more, and exactly along the rotary axis none corrects it.
-const SINGULAR: f64 = 1e-3;
+/// rotary axes (rad per rad) is below this (the tool within about 0.6° of a rotary axis): the
+/// correction would turn the rotary axes by more than a hundred times the orientation error, and
+/// exactly along the rotary axis no turn corrects it.
+const SINGULAR: f64 = 1e-2;
 
 /// Steps of the central differences: mm for linear axes, degrees for rotary ones.
 const STEP: f64 = 1e-4;
@@ -62,8 +63,9 @@ pub(super) fn check_options(machine: &Machine, options: &Options) -> Result<(), 
             option: NcOption::Orientation,
             value: machine.name.clone(),
             message: format!(
-                "the machine has {} rotary axes: the tool orientation is compensated on machines with two (five axes: tip 3 and axis direction 2 equations, X Y Z and two rotary unknowns)",
-                rotary.len()
+                "the machine has {} rotary {}: the tool orientation is compensated on machines with two (five axes: tip 3 and axis direction 2 equations, X Y Z and two rotary unknowns)",
+                rotary.len(),
+                if rotary.len() == 1 { "axis" } else { "axes" }
             ),
         });
     }
