@@ -30,6 +30,15 @@ pub struct CompensateArgs {
     /// Pass blocks volmap does not understand through unchanged instead of stopping.
     #[arg(long)]
     pass_unknown: bool,
+    /// Compensate the tool orientation too (five-axis machines): X, Y, Z and both rotary axes
+    /// are solved so the real tool tip and tool axis are the intended ones; rotary words are
+    /// rewritten.
+    #[arg(long)]
+    orientation: bool,
+    /// With --orientation: largest angle between the real and the intended tool axis along the
+    /// path, rad.
+    #[arg(long, default_value_t = nc::DEFAULT_ANGULAR_TOLERANCE_RAD, requires = "orientation")]
+    angular_tolerance: f64,
     // `--temperatures` hold for the whole program; `--approach` gives the directions of the
     // axes at its start (each axis then approaches in the direction of its programmed motion).
     #[command(flatten)]
@@ -92,6 +101,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
         pass_unknown: args.pass_unknown,
+        orientation_tolerance_rad: args.orientation.then_some(args.angular_tolerance),
         ..args.setup.options(inputs)?
     };
     let program = volmap::io::read_bytes(&args.program).flag("--program")?;
@@ -152,6 +162,12 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
             lines.join(", ")
         );
     }
+    if let Some(tolerance) = options.orientation_tolerance_rad {
+        println!(
+            "  largest tool orientation error along the feed moves: {:.3e} rad before, {:.3e} rad after (angular tolerance {tolerance:e} rad)",
+            report.largest_orientation_error_before_rad, report.largest_orientation_error_after_rad
+        );
+    }
     if report.take_ups > 0 {
         println!(
             "  take-ups at reversals       {} (an axis with a reversal error turns)",
@@ -176,6 +192,8 @@ fn flag_of(option: NcOption) -> &'static str {
         NcOption::ToolLengths => "--tool-length",
         NcOption::WorkOffsets => "--work-offset",
         NcOption::ChordTolerance => "--chord-tolerance",
+        NcOption::Orientation => "--orientation",
+        NcOption::AngularTolerance => "--angular-tolerance",
     }
 }
 
@@ -192,6 +210,8 @@ pub(super) fn option_failure(error: NcError) -> Failure {
                 NcOption::ToolLengths => "T1=80,T2=120",
                 NcOption::WorkOffsets => "G55=100,50,-200",
                 NcOption::ChordTolerance => "0.001",
+                NcOption::Orientation => "",
+                NcOption::AngularTolerance => "1e-5",
             };
             let hint = format!(
                 "{} gives it, e.g. {} {example}",

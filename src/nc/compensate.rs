@@ -101,6 +101,7 @@ pub fn compensate_with_progress(
             message: "it must be positive".into(),
         });
     }
+    super::orientation::check_options(machine, options)?;
     let (lines, mut state, mut compensator, holes) = begin(machine, program, path, options)?;
     let mut report = Report {
         cycle_holes_expanded: holes,
@@ -282,6 +283,11 @@ fn process_line(
         report.largest_error_before_mm = report
             .largest_error_before_mm
             .max(block.error_before(&intended, &segments));
+        report.largest_orientation_error_before_rad = report
+            .largest_orientation_error_before_rad
+            .max(block.angle_before(&|t| intended.at(t), &|t| {
+                segment_at(&segments, t).directions
+            }));
         let mut walk = Walk {
             at: block.written_start(state.written, &start, &state.approach)?,
             directions: state.approach,
@@ -376,18 +382,26 @@ impl Block<'_> {
         directions: &Directions,
     ) -> Result<[f64; 6], NcError> {
         self.check_travel(p, "the programmed point")?;
-        let c = self
-            .kin
-            .compensate(&self.command(p), directions)
-            .ok_or_else(|| {
-                NcError::line(
-                    self.path,
-                    self.line,
-                    "the compensation does not converge at this point".into(),
-                )
-            })?;
+        let c = if self.angular_tolerance().is_some() {
+            self.compensate_pose(&self.command(p), directions)?
+        } else {
+            self.kin
+                .compensate(&self.command(p), directions)
+                .ok_or_else(|| {
+                    NcError::line(
+                        self.path,
+                        self.line,
+                        "the compensation does not converge at this point".into(),
+                    )
+                })?
+        };
+        let solved = if self.angular_tolerance().is_some() {
+            6
+        } else {
+            3
+        };
         let mut compensated = *p;
-        for d in 0..3 {
+        for d in 0..solved {
             compensated[d] = c[d] - self.offset[d];
         }
         self.check_travel(&compensated, "the compensated point")?;
@@ -514,8 +528,12 @@ impl Block<'_> {
             return None;
         }
         let worst = self.path_error(intended, (0.0, 1.0), &commanded, directions);
-        (worst <= self.tolerance).then(|| {
+        let turn = (3..6).map(|d| (to[d] - from[d]).abs()).fold(0.0, f64::max);
+        let angle = self.angle_along(&|t| commanded.at(t), &|t| intended.at(t), turn, directions);
+        (worst <= self.tolerance && angle <= self.angular_tolerance().unwrap_or(0.0)).then(|| {
             report.largest_error_after_mm = report.largest_error_after_mm.max(worst);
+            report.largest_orientation_error_after_rad =
+                report.largest_orientation_error_after_rad.max(angle);
             moved
         })
     }

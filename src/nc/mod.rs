@@ -10,7 +10,10 @@
 //! machine's Jacobian in X, Y, Z (exact: the nominal tip is affine in them) until it agrees to
 //! 1e-9 mm. Rotary axes stay as programmed: on a five-axis machine the tool tip is put back
 //! where it belongs with the rotary axes where the program has them; the tool's orientation error
-//! is not corrected (rotary words are never changed).
+//! is not corrected (rotary words are never changed) unless the orientation is compensated too
+//! (`orientation_tolerance_rad`, see `orientation`): then X, Y, Z and the two rotary axes are
+//! solved together so that the real tool tip and tool axis are the ideal ones, and the rotary
+//! words are rewritten (with at least 6 decimals of a degree, 9e-9 rad).
 //!
 //! Between points the control interpolates the compensated commands. A feed move (G1, G2, G3) is
 //! split until the real tool tip along every piece stays within the chord tolerance of the
@@ -37,6 +40,7 @@ mod arcs;
 mod compensate;
 mod cycles;
 mod kinematics;
+mod orientation;
 pub mod parse;
 mod program;
 mod subprograms;
@@ -60,6 +64,8 @@ pub enum NcOption {
     ToolLengths,
     WorkOffsets,
     ChordTolerance,
+    Orientation,
+    AngularTolerance,
 }
 
 impl std::fmt::Display for NcOption {
@@ -68,6 +74,8 @@ impl std::fmt::Display for NcOption {
             NcOption::ToolLengths => "tool lengths",
             NcOption::WorkOffsets => "work offset",
             NcOption::ChordTolerance => "chord tolerance",
+            NcOption::Orientation => "orientation compensation",
+            NcOption::AngularTolerance => "angular tolerance",
         })
     }
 }
@@ -171,7 +179,13 @@ pub struct Options {
     /// The temperatures of the machine's thermal inputs for the whole program, and the approach
     /// direction of every axis at its start (before the axis first moves).
     pub inputs: Inputs,
+    /// Where given, the tool orientation is compensated too (five-axis machines): the largest
+    /// angle between the real and the intended tool axis along the path, rad.
+    pub orientation_tolerance_rad: Option<f64>,
 }
+
+/// The default angular tolerance of the orientation compensation, rad.
+pub const DEFAULT_ANGULAR_TOLERANCE_RAD: f64 = 1e-5;
 
 impl Default for Options {
     fn default() -> Options {
@@ -182,6 +196,7 @@ impl Default for Options {
             decimals: None,
             pass_unknown: false,
             inputs: Inputs::default(),
+            orientation_tolerance_rad: None,
         }
     }
 }
@@ -254,6 +269,11 @@ pub struct Report {
     /// program as written (its numbers rounded, arcs about the centres their words give).
     pub largest_error_before_mm: f64,
     pub largest_error_after_mm: f64,
+    /// Where the orientation is compensated: the largest angle between the real and the intended
+    /// tool axis along the feed moves, with the program as it was and as compensated (rotary
+    /// words as written), rad.
+    pub largest_orientation_error_before_rad: f64,
+    pub largest_orientation_error_after_rad: f64,
     /// Take-up pieces added where an axis with a reversal error reverses (at the start of a
     /// move or at an arc's turning point).
     pub take_ups: usize,

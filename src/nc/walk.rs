@@ -172,8 +172,17 @@ impl Block<'_> {
                     self.tolerance
                 )));
             }
-            if worst <= self.tolerance || tb - ta <= finest {
+            let angle = self.chord_angle(
+                &|t| along.at(t),
+                (ta, tb),
+                (start, piece.end),
+                &piece.directions,
+            );
+            let within_angle = angle <= self.angular_tolerance().unwrap_or(0.0);
+            if (worst <= self.tolerance && within_angle) || tb - ta <= finest {
                 report.largest_error_after_mm = report.largest_error_after_mm.max(worst);
+                report.largest_orientation_error_after_rad =
+                    report.largest_orientation_error_after_rad.max(angle);
                 self.accept(&piece, walk, pieces);
             } else {
                 let tm = 0.5 * (ta + tb);

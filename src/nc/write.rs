@@ -24,6 +24,8 @@ pub(super) fn format_value(value: f64, decimals: usize) -> String {
 struct Style {
     decimals: usize,
     rotary_decimals: usize,
+    /// Rotary words carry the compensation (the orientation is compensated).
+    rotary_compensated: bool,
     /// mm per program unit.
     unit: f64,
     lower: bool,
@@ -51,7 +53,13 @@ impl Style {
         let decimals = options.decimals.unwrap_or(if inch { 5 } else { 4 });
         Style {
             decimals,
-            rotary_decimals: decimals.max(4),
+            // Compensated rotary words: 6 decimals of a degree at least (rounding ≤ 8.7e-9 rad).
+            rotary_decimals: decimals.max(if options.orientation_tolerance_rad.is_some() {
+                6
+            } else {
+                4
+            }),
+            rotary_compensated: options.orientation_tolerance_rad.is_some(),
             unit: if inch { MM_PER_INCH } else { 1.0 },
             lower: false,
             separator: "",
@@ -136,7 +144,7 @@ pub(super) fn write_block(
     let split = pieces.len() > 1;
     let first_written: [f64; 6] = std::array::from_fn(|d| {
         // Rotary words of a move that is not split stay exactly as programmed.
-        if d >= 3 && !split {
+        if d >= 3 && !split && !style.rotary_compensated {
             state.position[d]
         } else {
             style.rounded(pieces[0][d], d)
@@ -211,7 +219,7 @@ fn axis_edits(
     for w in &line.words {
         if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {
             last_axis_end = Some(w.number.end);
-            if d < 3 || split {
+            if d < 3 || split || style.rotary_compensated {
                 edits.push((
                     w.number.clone(),
                     style.value_text(first_written[d], d, &state.written),

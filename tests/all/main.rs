@@ -20,6 +20,7 @@ mod mesh;
 mod nc;
 mod nc_arcs;
 mod nc_inputs;
+mod nc_orientation;
 mod nc_posts;
 mod plot;
 mod plot_looks;

@@ -1,6 +1,7 @@
 //! The `volmap` binary as a user runs it, command by command.
 
 mod compensate;
+mod compensate_orientation;
 mod design;
 mod inputs;
 mod interrupt;

@@ -1,0 +1,179 @@
+//! `volmap compensate --orientation`: five-axis tool orientation compensation from the command
+//! line, and LinuxCNC's interpreter on the programs it writes.
+
+use predicates::prelude::*;
+
+use super::volmap;
+
+const PROGRAM: &str =
+    "G21 G90 G17\nG0 X400. Y300. Z300. B30. C45.\nG1 X450. F500\nB35. C60.\nX420. Y320. Z280. B20. C90.\nM2\n";
+
+#[test]
+fn orientation_rewrites_the_rotary_words_and_reports_the_orientation_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let (program, out, json) = (
+        dir.path().join("p.nc"),
+        dir.path().join("out.nc"),
+        dir.path().join("r.json"),
+    );
+    std::fs::write(&program, PROGRAM).unwrap();
+    let run = |extra: &[&str]| {
+        let mut command = volmap();
+        command
+            .args(["compensate", "--machine", "5axis-hwang2014", "--program"])
+            .arg(&program)
+            .arg("--out")
+            .arg(&out)
+            .arg("--json")
+            .arg(&json)
+            .args(extra);
+        command.assert()
+    };
+    run(&["--orientation"])
+        .success()
+        .stdout(predicate::str::contains(
+            "rad after (angular tolerance 1e-5 rad)",
+        ));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let before = report["largest_orientation_error_before_rad"]
+        .as_f64()
+        .unwrap();
+    let after = report["largest_orientation_error_after_rad"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        before > 1e-5 && after <= 1e-5 && after < before / 10.0,
+        "{report}"
+    );
+    // Rotary words carry six decimals of a degree and are no longer the programmed ones.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let last_move = text.lines().rev().find(|l| l.contains('X')).unwrap();
+    let rotary: Vec<&str> = last_move
+        .split(' ')
+        .filter(|w| w.starts_with(['B', 'C']))
+        .collect();
+    assert_eq!(rotary.len(), 2, "{last_move}");
+    assert!(
+        !rotary.contains(&"B20.") && !rotary.contains(&"C90."),
+        "{last_move}"
+    );
+    let six_decimals = text
+        .split([' ', '\n'])
+        .filter(|w| w.starts_with(['B', 'C']))
+        .any(|w| w.split('.').nth(1).is_some_and(|d| d.len() == 6));
+    assert!(six_decimals, "{text}");
+    // Without the flag the rotary words stay as programmed.
+    run(&[]).success();
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("B20. C90."), "{text}");
+    // A singular pose names its line; a machine without two rotary axes names the flag.
+    std::fs::write(&program, "G0 X400. Y300. Z300. B30. C45.\nG1 B0. F500\n").unwrap();
+    run(&["--orientation"]).code(2).stderr(
+        predicate::str::contains("p.nc: line 2: singular pose")
+            .and(predicate::str::contains("along the C axis")),
+    );
+    std::fs::write(&program, "G0 X10. Y10. Z10.\n").unwrap();
+    volmap()
+        .args([
+            "compensate",
+            "--machine",
+            "vmc-li2015",
+            "--orientation",
+            "--program",
+        ])
+        .arg(&program)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(
+            predicate::str::contains("--orientation")
+                .and(predicate::str::contains("has 0 rotary axes")),
+        );
+    volmap()
+        .args([
+            "compensate",
+            "--machine",
+            "5axis-hwang2014",
+            "--orientation",
+        ])
+        .args(["--angular-tolerance", "0", "--program"])
+        .arg(&program)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--angular-tolerance"));
+}
+
+#[test]
+fn linuxcnc_runs_the_orientation_compensated_program() {
+    if !super::super::field::tool_available(
+        std::process::Command::new("sh").args(["-c", "command -v rs274"]),
+        "LinuxCNC's rs274 interpreter",
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (program, out, canon) = (
+        dir.path().join("p.nc"),
+        dir.path().join("out.nc"),
+        dir.path().join("canon.txt"),
+    );
+    std::fs::write(&program, PROGRAM).unwrap();
+    volmap()
+        .args([
+            "compensate",
+            "--machine",
+            "5axis-hwang2014",
+            "--orientation",
+        ])
+        .arg("--program")
+        .arg(&program)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let run = std::process::Command::new("rs274")
+        .arg("-g")
+        .arg(&out)
+        .arg(&canon)
+        .output()
+        .unwrap();
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        run.status.success(),
+        "{}\n{text}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    // Every move reaches the interpreter with its B and C as written (canon prints 4 decimals:
+    // X Y Z A B C).
+    let canon = std::fs::read_to_string(&canon).unwrap();
+    let moves: Vec<Vec<f64>> = canon
+        .lines()
+        .filter(|l| l.contains("STRAIGHT_"))
+        .map(|l| {
+            let args = &l[l.find('(').unwrap() + 1..l.rfind(')').unwrap()];
+            args.split(',').map(|v| v.trim().parse().unwrap()).collect()
+        })
+        .collect();
+    let written: Vec<[f64; 2]> = text
+        .lines()
+        .filter(|l| l.contains('X') && !l.starts_with('('))
+        .map(|l| {
+            let word = |letter: char| -> f64 {
+                let w = l.split(' ').find(|w| w.starts_with(letter)).unwrap();
+                w[1..].parse().unwrap()
+            };
+            [word('B'), word('C')]
+        })
+        .collect();
+    assert_eq!(moves.len(), written.len(), "{canon}\n{text}");
+    for (m, w) in moves.iter().zip(&written) {
+        assert!(
+            (m[4] - w[0]).abs() <= 5e-5 && (m[5] - w[1]).abs() <= 5e-5,
+            "{m:?} {w:?}"
+        );
+    }
+}
