@@ -14,6 +14,7 @@ use super::parse::{parse_program, Line};
 use super::program::{
     end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
 };
+use super::rotation::apply_rotations;
 use super::subprograms::expand_subprograms;
 use super::toolpath::{arc_path, Toolpath};
 use super::walk::Walk;
@@ -41,6 +42,7 @@ pub(super) fn begin<'a>(
         path,
         options.pass_unknown,
     )?;
+    let lines = apply_rotations(lines, path)?;
     let start = starting_position(&lines, machine, path, options)?;
     let state = State {
         motion: Motion::Rapid,

@@ -85,6 +85,24 @@ M99
 %
 ";
 
+/// A pocket corner programmed in a system turned by G68 30° about (10, 10), with an arc.
+const ROTATED: &str = "%
+O0300 (G68 ROTATION)
+G90 G17 G21
+T1 M6
+G54 G0 X0. Y0.
+G43 H1 Z10.
+G68 X10. Y10. R30.
+G0 X40. Y10.
+G1 Z-1. F300.
+Y30.
+G2 X40. Y50. I0. J10.
+G69
+G0 Z10.
+M30
+%
+";
+
 fn options() -> Options {
     Options {
         decimals: Some(4),
@@ -306,20 +324,20 @@ fn passed_blocks_are_listed_and_never_compensated() {
         pass_unknown: true,
         ..options()
     };
-    let program = "G0 X10 Y10 Z10\nG84 X20 Z-5 R2 F100\nX40\nG80\nG68 X0 Y0 R30\nG0 X50 Y50\n";
+    let program = "G0 X10 Y10 Z10\nG84 X20 Z-5 R2 F100\nX40\nG80\nG51 X0 Y0 P2\nG0 X50 Y50\n";
     let out = nc::compensate(&machine, program.as_bytes(), "p.nc", &options).unwrap();
     let lines: Vec<&str> = out.text.lines().collect();
     // The tapping cycle and its modal repeat pass whole, R plane and all.
     assert_eq!(lines[1], "G84 X20 Z-5 R2 F100");
     assert_eq!(lines[2], "X40");
-    assert_eq!(lines[4], "G68 X0 Y0 R30");
+    assert_eq!(lines[4], "G51 X0 Y0 P2");
     let passed: Vec<(usize, &str)> = out
         .report
         .not_compensated
         .iter()
         .map(|p| (p.line, p.code.as_str()))
         .collect();
-    assert_eq!(passed, [(2, "G84"), (3, "G84"), (5, "G68")]);
+    assert_eq!(passed, [(2, "G84"), (3, "G84"), (5, "G51")]);
     // The moves around them are compensated.
     assert_ne!(lines[0], "G0 X10 Y10 Z10");
     assert_ne!(lines[5], "G0 X50 Y50");
@@ -339,6 +357,7 @@ fn linuxcnc_runs_the_compensated_post_programs() {
         ("fusion.nc", FUSION),
         ("haas.nc", HAAS),
         ("mastercam.nc", MASTERCAM),
+        ("rotated.nc", ROTATED),
     ] {
         let out = nc::compensate(&machine, program.as_bytes(), name, &options()).unwrap();
         let file = dir.path().join(name);
@@ -363,7 +382,10 @@ fn linuxcnc_runs_the_compensated_post_programs() {
             "{name}: {canon}\n{}",
             out.text
         );
-        let moves = canon.lines().filter(|l| l.contains("STRAIGHT_")).count();
+        let moves = canon
+            .lines()
+            .filter(|l| l.contains("STRAIGHT_") || l.contains("ARC_FEED"))
+            .count();
         // The interpreter stops at M30: the subprogram bodies after it are not read.
         let moving = out
             .text
@@ -411,4 +433,49 @@ fn with_g43_the_axes_stand_higher_by_the_tool_length() {
         );
     }
     assert!((a.report.largest_correction_mm - b.report.largest_correction_mm).abs() < 1e-9);
+}
+
+#[test]
+fn a_rotated_program_moves_where_g68_turns_it_and_lands_every_point() {
+    let machine = embedded::load("vmc-li2015").unwrap();
+    let meant = nc::trace(&machine, ROTATED.as_bytes(), "rotated.nc", &options()).unwrap();
+    // By hand: (x, y) of the turned system is c + Rot(30°)((x, y) − c), c = (10, 10).
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let turned = |x: f64, y: f64| {
+        [
+            10.0 + c * (x - 10.0) - s * (y - 10.0),
+            10.0 + s * (x - 10.0) + c * (y - 10.0),
+        ]
+    };
+    for (line, x, y) in [(8, 40.0, 10.0), (10, 40.0, 30.0), (11, 40.0, 50.0)] {
+        let at = moves_of(&meant, line);
+        let expected = turned(x, y);
+        assert!(
+            (at[0][0] - expected[0]).abs() < 1e-8 && (at[0][1] - expected[1]).abs() < 1e-8,
+            "line {line}: {at:?} against {expected:?}"
+        );
+    }
+    // After G69 the program's own system again: Z only.
+    assert_eq!(moves_of(&meant, 13)[0][2], 10.0);
+    let out = nc::compensate(&machine, ROTATED.as_bytes(), "rotated.nc", &options()).unwrap();
+    assert!(
+        !out.text.contains("\nG68") && out.text.contains("rotation applied"),
+        "{}",
+        out.text
+    );
+    let miss = largest_miss(&machine, ROTATED, &out.text, &options());
+    assert!(miss < ROUNDING_MM, "{miss}\n{}", out.text);
+    // G68 outside the XY plane names its line.
+    let error = nc::compensate(
+        &machine,
+        ROTATED.replace("G68 X10.", "G18 G68 X10.").as_bytes(),
+        "rotated.nc",
+        &options(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.contains("rotated.nc: line 7") && error.contains("XY plane"),
+        "{error}"
+    );
 }
