@@ -261,3 +261,36 @@ fn has_axis_word(line: &str) -> bool {
         matches!(w[0], b'X' | b'Y' | b'Z') && (w[1].is_ascii_digit() || matches!(w[1], b'-' | b'.'))
     })
 }
+
+#[test]
+fn the_report_lists_expanded_holes_and_blocks_passed_uncompensated() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("p.nc");
+    std::fs::write(
+        &program,
+        "G90 G17 G21\nG0 X10 Y10 Z10\nG98 G81 X20 Y10 Z-5 R2 F100\nX40\nG80\nG51 X0 Y0 P2\nG0 X50 Y50\nM30\n",
+    )
+    .unwrap();
+    volmap()
+        .args([
+            "compensate",
+            "--machine",
+            "vmc-li2015",
+            "--work-offset",
+            "G54=200,200,300",
+        ])
+        .arg("--program")
+        .arg(&program)
+        .arg("--out")
+        .arg(dir.path().join("out.nc"))
+        .arg("--pass-unknown")
+        .assert()
+        .success()
+        .stdout(
+            predicate::str::contains("canned cycle holes          2 expanded").and(
+                predicate::str::contains(
+                    "not compensated             1 blocks passed as they are, lines 6 (G51)",
+                ),
+            ),
+        );
+}
