@@ -29,3 +29,46 @@ macro_rules! input_errors {
     };
 }
 pub(crate) use input_errors;
+
+/// The most characters of an input that a message quotes.
+pub const EXCERPT_CHARS: usize = 80;
+
+/// `text` as a message quotes it: whole up to [`EXCERPT_CHARS`] characters, else its first
+/// characters and `…`, so that no line of input (a 1 MB line, a number of 400 digits, the first
+/// line of a file that is not what it should be) is echoed whole.
+pub fn excerpt(text: &str) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(EXCERPT_CHARS) {
+        None => std::borrow::Cow::Borrowed(text),
+        Some((end, _)) => std::borrow::Cow::Owned(format!("{}…", &text[..end])),
+    }
+}
+
+/// A number as a message shows it: as Rust writes it where that is short, in exponent form
+/// where it would run to many digits (`1e300`, not 301 digits).
+pub fn shown(value: f64) -> String {
+    let plain = value.to_string();
+    if plain.len() <= 24 {
+        plain
+    } else {
+        format!("{value:e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn excerpts_keep_short_text_and_cut_long_text() {
+        assert_eq!(excerpt("1.5e-3"), "1.5e-3");
+        let long = "9".repeat(400);
+        let cut = excerpt(&long);
+        assert_eq!(cut.chars().count(), EXCERPT_CHARS + 1);
+        assert!(cut.ends_with('…'));
+        assert_eq!(shown(12.5), "12.5");
+        assert_eq!(shown(1e300), "1e300");
+        assert_eq!(shown(-1.5e-300), "-1.5e-300");
+        let wide = "é".repeat(EXCERPT_CHARS);
+        assert_eq!(excerpt(&wide), wide);
+    }
+}

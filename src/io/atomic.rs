@@ -1,16 +1,19 @@
 //! Writing a file whole or not at all: every output goes to a temporary file in the target's
-//! folder (`.NAME.PID.part`, so two runs never share one) and is renamed into place only when it
-//! is complete and on disk. Until then dropping it removes the temporary file, so a failed or
+//! folder (`.NAME.PID.N.part`, created new: no two runs, and no two writers of one run, share
+//! one) and is renamed into place only when it is complete and on disk, so the file a run
+//! reports is the whole file it wrote. An output that is one of the run's inputs is refused
+//! before anything is written ([`super::input::check_not_input`]). Until then dropping it removes the temporary file, so a failed or
 //! interrupted run never leaves half a file under the name asked for.
 //!
 //! Every temporary file alive is registered here, so that a signal handler (which runs no
-//! destructors) can remove them all ([`remove_live_temporaries`]); and a run that starts writing
+//! destructors) can remove them all ([`remove_live_temporaries_and_exit`]); and a run that starts writing
 //! `NAME` first removes the temporary files of `NAME` left by runs whose process is gone (killed
 //! beyond any handler, or a power cut), keeping those of runs still alive.
 
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 use super::FileError;
@@ -26,14 +29,31 @@ pub struct AtomicFile {
 impl AtomicFile {
     /// Starts writing `path` (through a buffer of `buffer_bytes`).
     pub fn create(path: &Path, buffer_bytes: usize) -> Result<AtomicFile, FileError> {
+        super::input::check_not_input(path)?;
         let name = path
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         remove_stale_temporaries(path, &name);
-        let temp = path.with_file_name(temporary_name(&name, std::process::id()));
-        let file = File::create(&temp).map_err(|e| FileError::write(path, e))?;
-        live().push(temp.clone());
+        // Created and listed under the lock: a signal handler that takes the lock to remove
+        // every temporary file either finds this one listed or stops the process before it
+        // exists.
+        let mut live = live();
+        let (temp, file) = loop {
+            let temp = path.with_file_name(temporary_name(&name, std::process::id()));
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&temp)
+            {
+                Ok(file) => break (temp, file),
+                // Left by a process of the same number long gone: take the next name.
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                Err(e) => return Err(FileError::write(path, e)),
+            }
+        };
+        live.push(temp.clone());
+        drop(live);
         Ok(AtomicFile {
             out: BufWriter::with_capacity(buffer_bytes, file),
             temp,
@@ -107,9 +127,12 @@ pub fn write_atomically(
     file.commit()
 }
 
-/// The temporary name of `name` written by process `pid`.
+/// A new temporary name of `name` written by process `pid`: `.NAME.PID.N.part`, `N` counting
+/// the temporary files of the process.
 fn temporary_name(name: &str, pid: u32) -> String {
-    format!(".{name}.{pid}.part")
+    static COUNT: AtomicU64 = AtomicU64::new(0);
+    let n = COUNT.fetch_add(1, Ordering::Relaxed);
+    format!(".{name}.{pid}.{n}.part")
 }
 
 /// The temporary files being written now.
@@ -124,12 +147,15 @@ fn forget(temp: &Path) {
     live().retain(|t| t != temp);
 }
 
-/// Removes every temporary file being written: for a signal handler, before the process exits
-/// without running destructors.
-pub fn remove_live_temporaries() {
-    for temp in live().drain(..) {
+/// Removes every temporary file being written and exits with `code`: for a signal handler,
+/// which runs no destructors. The list stays locked until the process ends, so no writer
+/// starts another temporary file meanwhile.
+pub fn remove_live_temporaries_and_exit(code: i32) -> ! {
+    let mut live = live();
+    for temp in live.drain(..) {
         let _ = std::fs::remove_file(temp);
     }
+    std::process::exit(code)
 }
 
 /// Removes the temporary files of `name` (beside `path`) whose writing process is gone.
@@ -144,10 +170,16 @@ fn remove_stale_temporaries(path: &Path, name: &str) {
     let prefix = format!(".{name}.");
     for entry in entries.flatten() {
         let file_name = entry.file_name();
+        // `PID.N` (or `PID` alone, as runs before the counter wrote).
         let Some(pid) = file_name
             .to_str()
             .and_then(|f| f.strip_prefix(&prefix))
             .and_then(|rest| rest.strip_suffix(".part"))
+            .and_then(|rest| match rest.split_once('.') {
+                Some((pid, n)) if n.bytes().all(|b| b.is_ascii_digit()) => Some(pid),
+                Some(_) => None,
+                None => Some(rest),
+            })
             .and_then(|pid| pid.parse::<u32>().ok())
         else {
             continue;

@@ -75,7 +75,8 @@ fn other_columns_pass_through_and_outside_positions_follow_outside() {
     ));
     // Nothing half written under the name asked for, nor a temporary file left.
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
-    // Without --outside a position outside is an error too; with --exact there is no grid.
+    // Without --outside a position outside is an error too; with --exact, a position outside
+    // the machine's travels likewise (the model is not evaluated where the machine cannot go).
     volmap()
         .args(["sample", "--device", "cpu", "--field"])
         .arg(&field)
@@ -84,20 +85,22 @@ fn other_columns_pass_through_and_outside_positions_follow_outside() {
         .assert()
         .code(2)
         .stderr(predicate::str::contains("line 4"));
-    volmap()
-        .args([
-            "sample",
-            "--exact",
-            "--machine",
-            "vmc-li2015",
-            "--outside",
-            "skip",
-        ])
-        .arg("--points")
-        .arg(&points)
-        .assert()
-        .code(2)
-        .stderr(predicate::str::contains("--outside"));
+    let exact = |extra: &[&str]| {
+        let mut command = volmap();
+        command
+            .args(["sample", "--exact", "--machine", "vmc-li2015"])
+            .args(extra)
+            .arg("--points")
+            .arg(&points);
+        command.assert()
+    };
+    exact(&[]).code(2).stderr(predicate::str::contains(
+        "p.csv: line 4: X=5000 lies outside the machine's travel (0 to 1000)",
+    ));
+    let skipped = exact(&["--outside", "skip"]).success();
+    let text = String::from_utf8(skipped.get_output().stdout.clone()).unwrap();
+    assert_eq!(text.lines().count(), 3, "{text}");
+    assert!(!text.contains("5000"), "{text}");
 }
 
 #[test]
