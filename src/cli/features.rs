@@ -118,7 +118,10 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             ErrorSource::Field(&field)
         }
         (None, Some(name)) => {
-            machine = args.inputs.machine_at(&load_machine(name)?)?.0;
+            machine = args
+                .inputs
+                .machine_at(&load_machine(name, &args.machine.reach)?)?
+                .0;
             ErrorSource::Exact(&machine)
         }
         (None, None) => return Err(no_error_source()),
@@ -180,7 +183,7 @@ fn run_conformance(
     tolerances: &Path,
     machine_name: &str,
 ) -> Result<ExitCode, Failure> {
-    let loaded = load_machine(machine_name)?;
+    let loaded = load_machine(machine_name, &args.machine.reach)?;
     let file = ToleranceFile::load(tolerances, &loaded).flag("--tolerances")?;
     // The machines are drawn around the machine at the evaluation inputs.
     let (machine, _) = args.inputs.machine_at(&loaded)?;

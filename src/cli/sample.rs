@@ -156,7 +156,9 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             (Source::Field(sampler), Precision::F32)
         }
         (None, Some(machine)) if args.exact => {
-            let (machine, inputs) = args.inputs.machine_at(&load_machine(machine)?)?;
+            let (machine, inputs) = args
+                .inputs
+                .machine_at(&load_machine(machine, &args.machine.reach)?)?;
             record = Some(format!(
                 "exactly for {} at {}",
                 machine.name,

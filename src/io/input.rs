@@ -158,6 +158,12 @@ impl Identity {
     fn is(&self, other: &Identity) -> bool {
         self.canonical == other.canonical || (self.inode.is_some() && self.inode == other.inode)
     }
+
+    /// Whether the file read is still where it was read: a file deleted since may have left
+    /// its inode to another.
+    fn still_there(&self) -> bool {
+        inode(&self.canonical) == self.inode
+    }
 }
 
 #[cfg(unix)]
@@ -181,6 +187,7 @@ fn inputs() -> std::sync::MutexGuard<'static, Vec<(PathBuf, Identity)>> {
 pub fn note_input(path: &Path) {
     if let Some(identity) = Identity::of(path) {
         let mut inputs = inputs();
+        inputs.retain(|(_, i)| i.still_there());
         if !inputs.iter().any(|(_, i)| i.is(&identity)) {
             inputs.push((path.to_path_buf(), identity));
         }
@@ -193,7 +200,10 @@ pub fn check_not_input(path: &Path) -> Result<(), FileError> {
     let Some(identity) = Identity::of(path) else {
         return Ok(());
     };
-    match inputs().iter().find(|(_, i)| i.is(&identity)) {
+    match inputs()
+        .iter()
+        .find(|(_, i)| i.still_there() && i.is(&identity))
+    {
         Some((input, _)) => Err(FileError::OverwritesInput {
             path: path.display().to_string(),
             input: input.display().to_string(),
