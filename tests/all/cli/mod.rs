@@ -3,6 +3,9 @@
 mod compensate;
 mod compensate_orientation;
 mod design;
+mod hardening_inputs;
+mod hardening_messages;
+mod hardening_outputs;
 mod inputs;
 mod interrupt;
 mod machine_files;
