@@ -167,27 +167,31 @@ fn remove_stale_temporaries(path: &Path, name: &str) {
     let Ok(entries) = std::fs::read_dir(folder) else {
         return;
     };
-    let prefix = format!(".{name}.");
     for entry in entries.flatten() {
-        let file_name = entry.file_name();
-        // `PID.N` (or `PID` alone, as runs before the counter wrote).
-        let Some(pid) = file_name
-            .to_str()
-            .and_then(|f| f.strip_prefix(&prefix))
-            .and_then(|rest| rest.strip_suffix(".part"))
-            .and_then(|rest| match rest.split_once('.') {
-                Some((pid, n)) if n.bytes().all(|b| b.is_ascii_digit()) => Some(pid),
-                Some(_) => None,
-                None => Some(rest),
-            })
-            .and_then(|pid| pid.parse::<u32>().ok())
-        else {
+        let Some(pid) = entry.file_name().to_str().and_then(|f| writer_of(f, name)) else {
             continue;
         };
         if pid != std::process::id() && process_is_gone(pid) {
             let _ = std::fs::remove_file(entry.path());
         }
     }
+}
+
+/// The process that wrote `file_name` if it is a temporary file of `name`: `.NAME.PID.N.part`
+/// (or `.NAME.PID.part`, as runs before the count wrote). The temporary file of another output
+/// whose name starts like this one's (`.NAME.99.PID.N.part`, of `NAME.99`) is not.
+fn writer_of(file_name: &str, name: &str) -> Option<u32> {
+    let rest = file_name
+        .strip_prefix('.')?
+        .strip_prefix(name)?
+        .strip_prefix('.')?
+        .strip_suffix(".part")?;
+    let pid = match rest.split_once('.') {
+        Some((pid, n)) if n.bytes().all(|b| b.is_ascii_digit()) => pid,
+        Some(_) => return None,
+        None => rest,
+    };
+    pid.parse().ok()
 }
 
 /// Whether no process `pid` exists (signal 0 checks without sending anything).
@@ -205,4 +209,71 @@ fn process_is_gone(pid: u32) -> bool {
 #[cfg(not(unix))]
 fn process_is_gone(_pid: u32) -> bool {
     false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn two_writers_of_one_file_write_under_names_of_their_own() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.csv");
+        let mut first = AtomicFile::create(&path, 16).unwrap();
+        let mut second = AtomicFile::create(&path, 16).unwrap();
+        assert_ne!(first.temp, second.temp);
+        first.write_all(b"first, whole\n").unwrap();
+        second.write_all(b"second, whole\n").unwrap();
+        first.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "first, whole\n");
+        second.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "second, whole\n");
+        assert_eq!(names(dir.path()), ["out.csv"]);
+    }
+
+    #[test]
+    fn a_file_dropped_unfinished_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.csv");
+        let mut file = AtomicFile::create(&path, 16).unwrap();
+        file.write_all(&[b'x'; 100]).unwrap();
+        drop(file);
+        assert!(names(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn an_input_of_the_run_is_never_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("in.csv");
+        std::fs::write(&path, "X,Y,Z\n").unwrap();
+        super::super::input::read_text(&path).unwrap();
+        let error = AtomicFile::create(&dir.path().join(".").join("in.csv"), 16)
+            .err()
+            .unwrap();
+        assert!(
+            error.to_string().contains("an input of this run"),
+            "{error}"
+        );
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "X,Y,Z\n");
+        assert_eq!(names(dir.path()), ["in.csv"]);
+    }
+
+    #[test]
+    fn stale_names_are_read_as_the_process_that_wrote_them() {
+        let pid = |file_name: &str| writer_of(file_name, "out.csv");
+        assert_eq!(pid(&temporary_name("out.csv", 4242)), Some(4242));
+        assert_eq!(pid(".out.csv.4242.part"), Some(4242));
+        // The temporary file of `out.csv.99` belongs to another output.
+        assert_eq!(pid(".out.csv.99.4242.0.part"), None);
+    }
 }
