@@ -226,7 +226,7 @@ impl Evaluator<'_> {
         self.check_reach(name, depth)?;
         let bottom = self.part.commanded(centre) - a * depth;
         let path_radius = (diameter / 2.0 - radius).max(0.0);
-        let angles = ((std::f64::consts::PI * diameter / spacing).ceil() as usize).max(24);
+        let angles = super::counts::hole_angles(diameter, spacing) as usize;
         let heights = steps(0.0, depth, spacing);
         let mut levels: Vec<Vec<Cut>> =
             heights.iter().map(|_| Vec::with_capacity(angles)).collect();
