@@ -58,6 +58,7 @@ use nalgebra::Vector3;
 use crate::error::input_errors;
 use crate::io::csv::CsvError;
 use crate::io::FileError;
+use crate::limits;
 use crate::model::grid::{self, GridError};
 use crate::model::inputs::{Approach, Inputs};
 use crate::model::perturbation::ErrorTarget;
@@ -82,12 +83,35 @@ pub enum StandardsError {
     },
     #[error(transparent)]
     Pose(#[from] GridError),
+    /// A count the spec implies beyond its limit (see [`crate::limits`]); `key` names the
+    /// spec's keys it comes from.
+    #[error("{key}: {message}")]
+    Limit { key: &'static str, message: String },
 }
 
 input_errors!(StandardsError);
 
 fn parameter(message: impl Into<String>) -> StandardsError {
     StandardsError::Parameter(message.into())
+}
+
+/// `count` (in f64, from the spec's `key`) of `what` within `limit`.
+fn check_count(
+    key: &'static str,
+    what: &str,
+    count: f64,
+    limit: u64,
+) -> Result<usize, StandardsError> {
+    limits::within(count, limit)
+        .map(|c| c as usize)
+        .map_err(|e| StandardsError::Limit {
+            key,
+            message: format!(
+                "{} {what} are more than the limit of {}",
+                limits::count_words(e.count),
+                e.limit
+            ),
+        })
 }
 
 /// The direction each axis moves in at a point of a test's path, indexed by
@@ -280,7 +304,8 @@ impl Setup {
             let value = command[axis.letter.index()];
             let [lo, hi] = axis.range;
             let slack = 1e-9 * (1.0 + lo.abs().max(hi.abs()));
-            if value < lo - slack || value > hi + slack {
+            // A position that is not a number lies on no travel.
+            if !(value >= lo - slack && value <= hi + slack) {
                 return Err(StandardsError::OutsideTravel {
                     what: what.to_string(),
                     axis: axis.letter,
