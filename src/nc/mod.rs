@@ -67,6 +67,7 @@ pub enum NcOption {
     ChordTolerance,
     Orientation,
     AngularTolerance,
+    Decimals,
 }
 
 impl std::fmt::Display for NcOption {
@@ -77,6 +78,7 @@ impl std::fmt::Display for NcOption {
             NcOption::ChordTolerance => "chord tolerance",
             NcOption::Orientation => "orientation compensation",
             NcOption::AngularTolerance => "angular tolerance",
+            NcOption::Decimals => "decimals",
         })
     }
 }
