@@ -9,6 +9,7 @@ use volmap::io::atomic::AtomicFile;
 use volmap::io::field::FieldFile;
 use volmap::io::points::{PointReader, PointsError, Precision, QueryPoint, SampleWriter};
 use volmap::io::FileError;
+use volmap::limits::number_words;
 use volmap::model::channels::Sample;
 use volmap::model::{Command, Machine};
 use volmap::query::{self, FieldSampler, Outside, SampledField};
@@ -88,10 +89,22 @@ impl Source<'_> {
                         p
                     })
                     .collect();
-                Ok(query::sample_exact(machine, &points)
-                    .into_iter()
-                    .map(Some)
-                    .collect())
+                let samples = query::sample_exact(machine, &points);
+                // A position far beyond any travel can leave the model's error no number.
+                if let Some((p, _)) = points
+                    .iter()
+                    .zip(&samples)
+                    .find(|(_, s)| s.iter().any(|v| !v.is_finite()))
+                {
+                    return Err(Failure::input(format!(
+                        "--points: line {}: the model's error at X={} Y={} Z={} mm is not a finite number: the position lies far beyond the machine's travel",
+                        p.line,
+                        number_words(p.command[0]),
+                        number_words(p.command[1]),
+                        number_words(p.command[2])
+                    )));
+                }
+                Ok(samples.into_iter().map(Some).collect())
             }
         }
     }

@@ -305,7 +305,7 @@ pub(super) fn positioning_from(m: &Measured) -> Result<PositioningData, Standard
 
 pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, StandardsError> {
     let measured = read_positioning_of(spec)?;
-    positioning_with(setup, spec, measured.as_ref())
+    positioning_with(setup, spec, measured.as_ref())?.finite()
 }
 
 /// [`positioning`] with the measured runs already read (a fit runs the test many times).

@@ -149,7 +149,7 @@ pub fn geometric_circle(
 }
 
 pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, StandardsError> {
-    circular_with(setup, spec, read_circular(spec)?.as_ref())
+    circular_with(setup, spec, read_circular(spec)?.as_ref())?.finite()
 }
 
 /// +1 counter-clockwise, −1 clockwise.

@@ -116,7 +116,7 @@ pub fn read_profile(
 }
 
 pub fn diagonal(setup: &Setup, spec: &DiagonalSpec) -> Result<TestResult, StandardsError> {
-    diagonal_with(setup, spec, read_diagonal(spec)?.as_ref())
+    diagonal_with(setup, spec, read_diagonal(spec)?.as_ref())?.finite()
 }
 
 /// A diagonal's measured results, where the spec names a file.

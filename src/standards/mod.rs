@@ -87,6 +87,10 @@ pub enum StandardsError {
     /// spec's keys it comes from.
     #[error("{key}: {message}")]
     Limit { key: &'static str, message: String },
+    /// A result that is not a number (a backstop: machine files and measurements are bounded
+    /// as they are read).
+    #[error("{title}: {what} is not a finite number")]
+    NotFinite { title: String, what: String },
 }
 
 input_errors!(StandardsError);
@@ -431,6 +435,36 @@ pub struct TestResult {
     /// A circular test's ballbar diagnostics.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ballbar: Option<ballbar::BallbarReport>,
+}
+
+impl TestResult {
+    /// The result, where every position, curve and figure is a finite number.
+    pub(crate) fn finite(self) -> Result<TestResult, StandardsError> {
+        let error = |what: String| StandardsError::NotFinite {
+            title: self.title.clone(),
+            what,
+        };
+        if self.positions.iter().any(|v| !v.is_finite()) {
+            return Err(error("a position".into()));
+        }
+        let curves = [
+            ("predicted", Some(&self.predicted)),
+            ("measured", self.measured.as_ref()),
+        ];
+        for (kind, curves) in curves {
+            for (name, curve) in self.curve_names.iter().zip(curves.into_iter().flatten()) {
+                if curve.iter().any(|v| !v.is_finite()) {
+                    return Err(error(format!("the {kind} `{name}`")));
+                }
+            }
+        }
+        for f in &self.figures {
+            if !f.predicted.is_finite() || f.measured.is_some_and(|m| !m.is_finite()) {
+                return Err(error(format!("the figure {}", f.name)));
+            }
+        }
+        Ok(self)
+    }
 }
 
 fn figure(name: &str, meaning: &str, predicted: f64, measured: Option<f64>) -> Figure {

@@ -45,7 +45,7 @@ fn default_step() -> f64 {
 }
 
 pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsError> {
-    rtest_with(setup, spec, read_rtest(spec)?.as_ref())
+    rtest_with(setup, spec, read_rtest(spec)?.as_ref())?.finite()
 }
 
 /// An R-test's measured results, where the spec names a file.
