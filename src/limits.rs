@@ -27,6 +27,9 @@ pub const MAX_SAMPLES: u64 = 1_000_000;
 /// Decimals of the coordinates an NC program is written with (a nanometre in mm).
 pub const MAX_DECIMALS: usize = 9;
 
+/// Samples of a traced program (`trace --step`), every move together.
+pub const MAX_TRACE_SAMPLES: u64 = 4_000_000;
+
 /// Points along the lines of a deformed-grid drawing (`plot grid`: about 34 lines each way).
 pub const MAX_DRAWN_POINTS: u64 = 1_000_000;
 

@@ -195,6 +195,7 @@ fn flag_of(option: NcOption) -> &'static str {
         NcOption::Orientation => "--orientation",
         NcOption::AngularTolerance => "--angular-tolerance",
         NcOption::Decimals => "--decimals",
+        NcOption::TraceStep => "--step",
     }
 }
 
@@ -214,6 +215,7 @@ pub(super) fn option_failure(error: NcError) -> Failure {
                 NcOption::Orientation => "",
                 NcOption::AngularTolerance => "1e-5",
                 NcOption::Decimals => "4",
+                NcOption::TraceStep => "0.5",
             };
             let hint = format!(
                 "{} gives it, e.g. {} {example}",

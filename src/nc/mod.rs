@@ -68,6 +68,8 @@ pub enum NcOption {
     Orientation,
     AngularTolerance,
     Decimals,
+    /// The distance between the samples of a trace.
+    TraceStep,
 }
 
 impl std::fmt::Display for NcOption {
@@ -79,6 +81,7 @@ impl std::fmt::Display for NcOption {
             NcOption::Orientation => "orientation compensation",
             NcOption::AngularTolerance => "angular tolerance",
             NcOption::Decimals => "decimals",
+            NcOption::TraceStep => "sampling step",
         })
     }
 }
