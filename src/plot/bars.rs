@@ -131,11 +131,20 @@ pub fn histogram(
         hi / bins as f64 - lo / bins as f64
     };
     let start = (lo / width).floor() * width;
-    let start = if start.is_finite() { start } else { lo };
     let count = ((hi / 2.0 - start / 2.0) / width * 2.0)
         .floor()
         .clamp(0.0, 4.0 * bins as f64 + 4.0) as usize
         + 1;
+    // Bin edges in halves, so that none overflows; round bins that would end beyond f64 give
+    // way to `bins` bins from the smallest value to the largest.
+    let half_end = |start: f64, width: f64, count: usize| start / 2.0 + width / 2.0 * count as f64;
+    let (start, width, count) =
+        if start.is_finite() && half_end(start, width, count).abs() <= f64::MAX / 2.0 {
+            (start, width, count)
+        } else {
+            (lo, hi / bins as f64 - lo / bins as f64, bins)
+        };
+    let edge = |b: usize| (half_end(start, width, b) * 2.0).clamp(-f64::MAX, f64::MAX);
     let mut counts = vec![0usize; count];
     for v in &finite {
         let b = (((v - start) / width).floor() as usize).min(count - 1);
@@ -145,7 +154,7 @@ pub fn histogram(
     let (height, left, right, top, bottom) = (480.0, 80.0, 30.0, 50.0, 60.0);
     let (x0, x1) = (left, WIDTH - right);
     let (y0, y1) = (height - bottom, top);
-    let end = (start + width * count as f64).min(f64::MAX);
+    let end = edge(count);
     let sx = |v: f64| x0 + fraction(v, (start, end)) * (x1 - x0);
     // Headroom above the tallest bin, for the marker's label.
     let y_top = most * 1.1;
@@ -158,11 +167,11 @@ pub fn histogram(
         d.text(x0 - 6.0, sy(t) + 4.0, tick_label(t, 1.0), 11.0, Anchor::End);
     }
     for (b, &c) in counts.iter().enumerate() {
-        let left_edge = start + width * b as f64;
+        let (left_edge, right_edge) = (edge(b), edge(b + 1));
         d.shapes.push(Shape::Rect {
             x: sx(left_edge),
             y: sy(c as f64),
-            w: sx(left_edge + width) - sx(left_edge),
+            w: sx(right_edge) - sx(left_edge),
             h: y0 - sy(c as f64),
             fill: Some(Color::BLUE),
             stroke: Some(Color(255, 255, 255)),

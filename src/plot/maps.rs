@@ -1,6 +1,6 @@
 //! Pictures of a field: colour maps of a slice with a scale bar, the isometric deformed grid.
 
-use super::axis::{finite_range, fraction, is_wide, tick_label, ticks};
+use super::axis::{drawable, finite_range, fraction, is_wide, tick_label, ticks};
 use super::charts::{MARGIN_BOTTOM, MARGIN_LEFT, MARGIN_TOP};
 use super::{Anchor, Color, Drawing, PlotError, Shape};
 
@@ -93,7 +93,7 @@ pub fn colour_map(
         if is_wide((a, b)) {
             (ticks(a, b, 6), (a, b))
         } else {
-            (vec![a], (a - 1.0, a + 1.0))
+            (vec![a], drawable((a, a)))
         }
     };
     let (xt, x_range) = axis_ticks(e0, e1);
@@ -132,10 +132,13 @@ pub fn colour_map(
 /// The range a colour map's colours run over: its values' range, or where that is too narrow to
 /// tell apart, one from the lowest value up (every value the lowest colour).
 fn value_range(lo: f64, hi: f64) -> (f64, f64) {
+    let top = lo + lo.abs().max(1.0);
     if is_wide((lo, hi)) {
         (lo, hi)
+    } else if top.is_finite() {
+        (lo, top)
     } else {
-        (lo, (lo + lo.abs().max(1.0)).min(f64::MAX))
+        (lo / 2.0, lo)
     }
 }
 
