@@ -3,8 +3,10 @@
 mod compensate;
 mod compensate_orientation;
 mod design;
+mod finite;
 mod inputs;
 mod interrupt;
+mod limits;
 mod machine_files;
 mod machine_files_tables;
 mod machines;
