@@ -31,7 +31,7 @@ pub(super) fn mesh_points(mesh: &Mesh, spacing: f64) -> Result<u64, String> {
         let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
         longest_edge = longest_edge.max(longest);
         count += triangle_cuts(longest, spacing).powi(2);
-        if !(count <= MAX_FEATURE_POINTS as f64) {
+        if count > MAX_FEATURE_POINTS as f64 {
             break;
         }
     }

@@ -257,7 +257,7 @@ pub fn polar_chart(
         .clamp(0.0, 64.0) as i64;
     for k in 0..=rings {
         let dev = inner + k as f64 * step;
-        if !(dev <= outer) {
+        if dev.is_nan() || dev > outer {
             break;
         }
         let ring: Vec<[f64; 2]> = (0..=180).map(|a| at(2.0 * a as f64, dev)).collect();

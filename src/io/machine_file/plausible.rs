@@ -60,7 +60,7 @@ pub(super) fn check_lengths(
     for (key, values, unit) in lengths {
         if let Some(v) = values
             .iter()
-            .find(|v| !(v.abs() <= MAX_PLAUSIBLE_LENGTH_MM))
+            .find(|v| v.is_nan() || v.abs() > MAX_PLAUSIBLE_LENGTH_MM)
         {
             return Err(MachineError::Key {
                 file: file.to_string(),
@@ -84,11 +84,11 @@ pub(super) fn check_values(
 ) -> Result<(), MachineError> {
     for value in values {
         let (largest, at) = largest_magnitude(value, axes);
-        let message = if value.angular && !(largest <= MAX_PLAUSIBLE_ANGLE_RAD) {
+        let message = if value.angular && (largest.is_nan() || largest > MAX_PLAUSIBLE_ANGLE_RAD) {
             format!(
                 "an angular error of {largest:.4} rad{at} is more than any machine tool has (at most {MAX_PLAUSIBLE_ANGLE_RAD} rad): angular errors are in rad, check the unit"
             )
-        } else if !value.angular && !(largest <= MAX_PLAUSIBLE_LENGTH_MM) {
+        } else if !value.angular && (largest.is_nan() || largest > MAX_PLAUSIBLE_LENGTH_MM) {
             format!(
                 "a translational error of {} mm{at} is more than any machine tool has (at most {MAX_PLAUSIBLE_LENGTH_MM:e} mm): translational errors are in mm, check the unit",
                 number_words(largest)
