@@ -24,8 +24,9 @@ pub const MAX_RUNS: u64 = 100;
 /// Machines drawn by Monte Carlo (`budget --samples`, `features --samples`).
 pub const MAX_SAMPLES: u64 = 1_000_000;
 
-/// Decimals of the coordinates an NC program is written with (a nanometre in mm).
-pub const MAX_DECIMALS: usize = 9;
+/// Decimals of the coordinates an NC program is written with: beyond what an f64 holds of any
+/// coordinate above 0.1 mm.
+pub const MAX_DECIMALS: usize = 15;
 
 /// Samples of a traced program (`trace --step`), every move together.
 pub const MAX_TRACE_SAMPLES: u64 = 4_000_000;

@@ -24,7 +24,7 @@ pub struct CompensateArgs {
     /// Largest distance of the real tool tip from the intended path, mm.
     #[arg(long, default_value_t = 0.001)]
     chord_tolerance: f64,
-    /// Decimals of the coordinates written (default 4 in mm, 5 in inch; at most 9).
+    /// Decimals of the coordinates written (default 4 in mm, 5 in inch; at most 15).
     #[arg(long)]
     decimals: Option<usize>,
     /// Pass blocks volmap does not understand through unchanged instead of stopping.

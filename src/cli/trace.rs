@@ -30,7 +30,7 @@ pub struct TraceArgs {
     #[arg(long, default_value_t = 0.001)]
     chord_tolerance: f64,
     /// With --compensate: decimals of the coordinates written (default 4 in mm, 5 in inch; at
-    /// most 9).
+    /// most 15).
     #[arg(long)]
     decimals: Option<usize>,
     /// Largest distance between samples along a move, mm (every move gets at least 4).

@@ -329,7 +329,7 @@ fn counts_of_tests_compensations_samples_and_drawings_are_refused_naming_the_fla
                 "--decimals",
                 "65536",
             ],
-            vec!["--decimals", "at most 9"],
+            vec!["--decimals", "at most 15"],
         ),
         (
             vec![
@@ -411,15 +411,19 @@ fn counts_of_tests_compensations_samples_and_drawings_are_refused_naming_the_fla
             "--out",
             s(&out),
             "--decimals",
-            "9",
+            "15",
         ])
         .args(li)
         .assert()
         .success();
+    // The coordinates of the compensated G0 are written with more than 9 decimals.
     let text = std::fs::read_to_string(&out).unwrap();
-    assert!(text
-        .lines()
-        .any(|l| l.contains('.') && l.split('.').nth(1).unwrap().len() >= 9));
+    let decimals = |word: &str| word.split('.').nth(1).map_or(0, str::len);
+    assert!(
+        text.split_whitespace()
+            .any(|w| w.starts_with('X') && decimals(w) > 9),
+        "{text}"
+    );
 }
 
 #[test]
