@@ -53,9 +53,14 @@ pub fn colour_map(
     let width = 900.0;
     let (x0, y1) = (MARGIN_LEFT, MARGIN_TOP);
     let available = (width - MARGIN_LEFT - 160.0, 540.0);
-    // Spans in halves; a picture longer than 1000:1 is drawn at 1000:1.
-    let half = |a: f64, b: f64| (b / 2.0 - a / 2.0).abs().max(5e-10);
-    let aspect = (half(e0, e1) / half(e2, e3)).clamp(1e-3, 1e3);
+    // Spans in halves; a picture longer than 1000:1 is drawn at 1000:1, and one with an axis of
+    // one point (or of a span f64 does not resolve) square, so that its values show.
+    let half = |a: f64, b: f64| (b / 2.0 - a / 2.0).abs();
+    let aspect = if is_wide((e0.min(e1), e0.max(e1))) && is_wide((e2.min(e3), e2.max(e3))) {
+        (half(e0, e1) / half(e2, e3)).clamp(1e-3, 1e3)
+    } else {
+        1.0
+    };
     let (w, h) = if available.0 / available.1 > aspect {
         (available.1 * aspect, available.1)
     } else {
