@@ -52,6 +52,27 @@ impl AtomicFile {
         FileError::write(&self.path, source)
     }
 
+    /// Writes `bytes` at `offset` of the file, leaving the position that sequential writes
+    /// continue from where it is: a table written ahead (flushed) and filled in as the data it
+    /// points to is written.
+    pub fn write_at(&mut self, bytes: &[u8], offset: u64) -> std::io::Result<()> {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileExt;
+            self.out.get_ref().write_all_at(bytes, offset)
+        }
+        #[cfg(not(unix))]
+        {
+            self.out.flush()?;
+            let file = self.out.get_mut();
+            let here = file.stream_position()?;
+            file.seek(SeekFrom::Start(offset))?;
+            file.write_all(bytes)?;
+            file.seek(SeekFrom::Start(here))?;
+            Ok(())
+        }
+    }
+
     /// Flushes, syncs and renames the file into place.
     pub fn commit(mut self) -> Result<(), FileError> {
         let result = (|| -> std::io::Result<()> {

@@ -1,6 +1,7 @@
 //! A field read into memory for sampling at arbitrary positions: trilinear interpolation within
 //! its grid (the GPU twin is `shaders/sample.wgsl`).
 
+use std::ops::Range;
 use std::path::Path;
 
 use super::{FieldError, FieldFile, FieldInfo, FieldReader};
@@ -15,36 +16,110 @@ pub struct GridCell {
     pub fraction: [f64; 3],
 }
 
+/// The most bytes of values a reader holds of one field at once: a field this large or smaller
+/// is read whole (24 bytes a point: about 89 million points, 447³); a larger one is sampled in
+/// slabs of whole z planes of at most this size.
+pub const FIELD_MEMORY_BYTES: u64 = 2 << 30;
+
+/// Bytes a point takes in memory.
+const POINT_BYTES: u64 = 24;
+
 /// A field file read into memory, point-interleaved for sampling: the six values of a grid point
-/// in the [`SAMPLE_COLUMNS`](crate::model::channels::SAMPLE_COLUMNS) order side by side, so a trilinear sample touches eight places.
+/// in the [`SAMPLE_COLUMNS`](crate::model::channels::SAMPLE_COLUMNS) order side by side, so a
+/// trilinear sample touches eight places. It holds the whole field, or (a field larger than
+/// [`FIELD_MEMORY_BYTES`]) a slab of its z planes, [`LoadedField::planes`].
 pub struct LoadedField {
     pub info: FieldInfo,
-    /// `[p][c]` with `p = i + nx·(j + ny·k)`.
+    /// The first z plane held.
+    first_plane: usize,
+    /// `[p][c]` with `p = i + nx·(j + ny·(k − first_plane))`.
     values: Vec<[f32; 6]>,
 }
 
 impl LoadedField {
-    /// Reads a single-part field file (or a sweep of one pose); a file of several poses is an
-    /// error listing them.
+    /// Reads a single-part field file (or a sweep of one pose) whole; a file of several poses is
+    /// an error listing them.
     pub fn open(path: &Path) -> Result<LoadedField, FieldError> {
-        LoadedField::read(FieldReader::open(path)?)
+        let file = FieldFile::open(path)?;
+        LoadedField::open_part(&file, file.single()?)
     }
 
-    /// Reads part `part` of a field file.
+    /// Reads part `part` of a field file whole: an error for a field larger than
+    /// [`FIELD_MEMORY_BYTES`].
     pub fn open_part(file: &FieldFile, part: usize) -> Result<LoadedField, FieldError> {
-        LoadedField::read(file.reader(part)?)
+        let [nx, ny, nz] = file.info(part).dims;
+        let bytes = (nx * ny * nz) as u64 * POINT_BYTES;
+        if bytes > FIELD_MEMORY_BYTES {
+            return Err(FieldError::TooLarge {
+                path: file.path().display().to_string(),
+                what: format!("reading its {nx}x{ny}x{nz} grid whole"),
+                bytes,
+                limit: FIELD_MEMORY_BYTES,
+            });
+        }
+        LoadedField::read(file.reader(part)?, 0..nz)
     }
 
-    fn read(mut reader: FieldReader) -> Result<LoadedField, FieldError> {
+    /// Reads the z planes `planes` of part `part` of a field file.
+    pub fn open_planes(
+        file: &FieldFile,
+        part: usize,
+        planes: Range<usize>,
+    ) -> Result<LoadedField, FieldError> {
+        LoadedField::read(file.reader(part)?, planes)
+    }
+
+    /// The number of z planes a slab of this field may hold within [`FIELD_MEMORY_BYTES`]: all
+    /// of them where the field fits, at least two (a cell's) else; an error where two planes do
+    /// not fit.
+    pub fn slab_planes(file: &FieldFile, part: usize) -> Result<usize, FieldError> {
+        let [nx, ny, nz] = file.info(part).dims;
+        let plane = (nx * ny) as u64 * POINT_BYTES;
+        let planes = (FIELD_MEMORY_BYTES / plane.max(1)) as usize;
+        if planes >= nz {
+            return Ok(nz);
+        }
+        if planes < 2 {
+            return Err(FieldError::TooLarge {
+                path: file.path().display().to_string(),
+                what: format!("sampling between two z planes of its {nx}x{ny}x{nz} grid"),
+                bytes: 2 * plane,
+                limit: FIELD_MEMORY_BYTES,
+            });
+        }
+        Ok(planes)
+    }
+
+    fn read(mut reader: FieldReader, planes: Range<usize>) -> Result<LoadedField, FieldError> {
         let info = reader.info().clone();
-        let nx = info.dims[0];
-        let mut values = Vec::with_capacity(reader.lines() as usize * nx);
-        reader.for_each_chunk((1 << 20) / nx as u64, |_, _, chunk| {
+        let [nx, ny, nz] = info.dims;
+        let planes = planes.start.min(nz)..planes.end.min(nz);
+        let lines = (planes.start * ny) as u64..(planes.end * ny) as u64;
+        let mut values = Vec::with_capacity((lines.end - lines.start) as usize * nx);
+        reader.for_each_chunk_of(lines, ((1 << 20) / nx as u64).max(1), |_, _, chunk| {
             for line in chunk.chunks_exact(CHANNELS.len() * nx) {
                 values.extend((0..nx).map(|i| CHANNELS_TO_SAMPLE.map(|c| line[c * nx + i])));
             }
         })?;
-        Ok(LoadedField { info, values })
+        Ok(LoadedField {
+            info,
+            first_plane: planes.start,
+            values,
+        })
+    }
+
+    /// The z planes held.
+    pub fn planes(&self) -> Range<usize> {
+        let plane = (self.info.dims[0] * self.info.dims[1]).max(1);
+        self.first_plane..self.first_plane + self.values.len() / plane
+    }
+
+    /// Whether the slab holds every corner of `cell`.
+    pub fn holds(&self, cell: &GridCell) -> bool {
+        let planes = self.planes();
+        let k = cell.lower[2];
+        let upper = if self.info.dims[2] > 1 { k + 1 } else { k };
+        planes.contains(&k) && planes.contains(&upper)
     }
 
     /// The first rotary axis (0 A, 1 B, 2 C) among those `given` whose position in `command`
@@ -58,10 +133,10 @@ impl LoadedField {
         })
     }
 
-    /// The values at grid point `(i, j, k)`.
+    /// The values at grid point `(i, j, k)`, which the slab holds.
     fn at(&self, [i, j, k]: [usize; 3]) -> &[f32; 6] {
         let [nx, ny, _] = self.info.dims;
-        &self.values[i + nx * (j + ny * k)]
+        &self.values[i + nx * (j + ny * (k - self.first_plane))]
     }
 
     /// The grid cell that holds a commanded position (its lower corner) and the fractions of the
@@ -128,8 +203,9 @@ impl LoadedField {
         out
     }
 
-    /// The values of every grid point, `[p][column]` with `p = i + nx·(j + ny·k)` and the
-    /// columns of [`SAMPLE_COLUMNS`](crate::model::channels::SAMPLE_COLUMNS).
+    /// The values of every grid point held, `[p][column]` with `p = i + nx·(j + ny·(k − k0))`,
+    /// `k0` the first plane held, and the columns of
+    /// [`SAMPLE_COLUMNS`](crate::model::channels::SAMPLE_COLUMNS).
     pub fn values(&self) -> &[[f32; 6]] {
         &self.values
     }
