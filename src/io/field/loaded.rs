@@ -16,10 +16,64 @@ pub struct GridCell {
     pub fraction: [f64; 3],
 }
 
+impl FieldInfo {
+    /// The first rotary axis (0 A, 1 B, 2 C) among those `given` whose position in `command`
+    /// differs from the field's pose, with that position and the field's: a field holds one
+    /// pose only.
+    pub fn pose_mismatch(&self, command: &Command, given: [bool; 3]) -> Option<(usize, f64, f64)> {
+        (0..3).find_map(|n| {
+            let (asked, held) = (command[3 + n], self.pose_deg[n]);
+            (given[n] && (asked - held).abs() > 1e-9 * (1.0 + held.abs()))
+                .then_some((n, asked, held))
+        })
+    }
+
+    /// The grid cell that holds a commanded position (its lower corner) and the fractions of the
+    /// position within it; `Err((axis, lo, hi))` when the position lies outside the grid along
+    /// `axis`. Positions within 1e-9 of the travel of the grid count as inside (the ends of a
+    /// grid are rounded). Along a dimension one point deep the cell is 0 and the fraction 0.
+    pub fn cell(&self, command: &Command) -> Result<GridCell, (usize, f64, f64)> {
+        let mut base = [0usize; 3];
+        let mut t = [0.0f64; 3];
+        for d in 0..3 {
+            let n = self.dims[d];
+            let (origin, step) = (self.origin_mm[d], self.spacing_mm[d]);
+            let end = origin + (n - 1) as f64 * step;
+            let slack = 1e-9 * (1.0 + origin.abs().max(end.abs()));
+            let q = command[d];
+            if q < origin - slack || q > end + slack {
+                return Err((d, origin, end));
+            }
+            if n > 1 {
+                let u = ((q - origin) / step).clamp(0.0, (n - 1) as f64);
+                base[d] = (u.floor() as usize).min(n - 2);
+                t[d] = u - base[d] as f64;
+            }
+        }
+        Ok(GridCell {
+            lower: base,
+            fraction: t,
+        })
+    }
+}
+
 /// The most bytes of values a reader holds of one field at once: a field this large or smaller
 /// is read whole (24 bytes a point: about 89 million points, 447³); a larger one is sampled in
 /// slabs of whole z planes of at most this size.
 pub const FIELD_MEMORY_BYTES: u64 = 2 << 30;
+
+/// [`FIELD_MEMORY_BYTES`], or the bytes `VOLMAP_FIELD_MEMORY_BYTES` sets (a smaller machine;
+/// the tests, to read small fields in slabs).
+pub fn field_memory_bytes() -> u64 {
+    static BYTES: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
+    *BYTES.get_or_init(|| {
+        std::env::var("VOLMAP_FIELD_MEMORY_BYTES")
+            .ok()
+            .and_then(|v| v.trim().parse().ok())
+            .filter(|&b| b > 0)
+            .unwrap_or(FIELD_MEMORY_BYTES)
+    })
+}
 
 /// Bytes a point takes in memory.
 const POINT_BYTES: u64 = 24;
@@ -45,16 +99,17 @@ impl LoadedField {
     }
 
     /// Reads part `part` of a field file whole: an error for a field larger than
-    /// [`FIELD_MEMORY_BYTES`].
+    /// [`field_memory_bytes`].
     pub fn open_part(file: &FieldFile, part: usize) -> Result<LoadedField, FieldError> {
         let [nx, ny, nz] = file.info(part).dims;
         let bytes = (nx * ny * nz) as u64 * POINT_BYTES;
-        if bytes > FIELD_MEMORY_BYTES {
+        let limit = field_memory_bytes();
+        if bytes > limit {
             return Err(FieldError::TooLarge {
                 path: file.path().display().to_string(),
                 what: format!("reading its {nx}x{ny}x{nz} grid whole"),
                 bytes,
-                limit: FIELD_MEMORY_BYTES,
+                limit,
             });
         }
         LoadedField::read(file.reader(part)?, 0..nz)
@@ -69,13 +124,14 @@ impl LoadedField {
         LoadedField::read(file.reader(part)?, planes)
     }
 
-    /// The number of z planes a slab of this field may hold within [`FIELD_MEMORY_BYTES`]: all
+    /// The number of z planes a slab of this field may hold within [`field_memory_bytes`]: all
     /// of them where the field fits, at least two (a cell's) else; an error where two planes do
     /// not fit.
     pub fn slab_planes(file: &FieldFile, part: usize) -> Result<usize, FieldError> {
         let [nx, ny, nz] = file.info(part).dims;
         let plane = (nx * ny) as u64 * POINT_BYTES;
-        let planes = (FIELD_MEMORY_BYTES / plane.max(1)) as usize;
+        let limit = field_memory_bytes();
+        let planes = (limit / plane.max(1)) as usize;
         if planes >= nz {
             return Ok(nz);
         }
@@ -84,7 +140,7 @@ impl LoadedField {
                 path: file.path().display().to_string(),
                 what: format!("sampling between two z planes of its {nx}x{ny}x{nz} grid"),
                 bytes: 2 * plane,
-                limit: FIELD_MEMORY_BYTES,
+                limit,
             });
         }
         Ok(planes)
@@ -122,15 +178,9 @@ impl LoadedField {
         planes.contains(&k) && planes.contains(&upper)
     }
 
-    /// The first rotary axis (0 A, 1 B, 2 C) among those `given` whose position in `command`
-    /// differs from the field's pose, with that position and the field's: a field holds one
-    /// pose only.
+    /// See [`FieldInfo::pose_mismatch`].
     pub fn pose_mismatch(&self, command: &Command, given: [bool; 3]) -> Option<(usize, f64, f64)> {
-        (0..3).find_map(|n| {
-            let (asked, held) = (command[3 + n], self.info.pose_deg[n]);
-            (given[n] && (asked - held).abs() > 1e-9 * (1.0 + held.abs()))
-                .then_some((n, asked, held))
-        })
+        self.info.pose_mismatch(command, given)
     }
 
     /// The values at grid point `(i, j, k)`, which the slab holds.
@@ -139,32 +189,9 @@ impl LoadedField {
         &self.values[i + nx * (j + ny * (k - self.first_plane))]
     }
 
-    /// The grid cell that holds a commanded position (its lower corner) and the fractions of the
-    /// position within it; `Err((axis, lo, hi))` when the position lies outside the grid along
-    /// `axis`. Positions within 1e-9 of the travel of the grid count as inside (the ends of a
-    /// grid are rounded). Along a dimension one point deep the cell is 0 and the fraction 0.
+    /// See [`FieldInfo::cell`].
     pub fn cell(&self, command: &Command) -> Result<GridCell, (usize, f64, f64)> {
-        let mut base = [0usize; 3];
-        let mut t = [0.0f64; 3];
-        for d in 0..3 {
-            let n = self.info.dims[d];
-            let (origin, step) = (self.info.origin_mm[d], self.info.spacing_mm[d]);
-            let end = origin + (n - 1) as f64 * step;
-            let slack = 1e-9 * (1.0 + origin.abs().max(end.abs()));
-            let q = command[d];
-            if q < origin - slack || q > end + slack {
-                return Err((d, origin, end));
-            }
-            if n > 1 {
-                let u = ((q - origin) / step).clamp(0.0, (n - 1) as f64);
-                base[d] = (u.floor() as usize).min(n - 2);
-                t[d] = u - base[d] as f64;
-            }
-        }
-        Ok(GridCell {
-            lower: base,
-            fraction: t,
-        })
+        self.info.cell(command)
     }
 
     /// Trilinear interpolation at a commanded position, in f64; `Err((axis, lo, hi))` as

@@ -22,7 +22,7 @@ mod read;
 mod write;
 
 pub use blocks::{Compression, Storage, HALF_MAX};
-pub use loaded::{GridCell, LoadedField, FIELD_MEMORY_BYTES};
+pub use loaded::{field_memory_bytes, GridCell, LoadedField, FIELD_MEMORY_BYTES};
 pub use pipeline::WriteTimes;
 pub use read::{FieldFile, FieldReader};
 pub use write::{FieldWriter, PartsWriter};
