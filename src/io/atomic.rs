@@ -140,16 +140,53 @@ fn live() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     LIVE.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// The scratch folders alive now.
+fn live_folders() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+    LIVE.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// A folder of scratch files (a benchmark's fields), removed with everything in it when
+/// dropped, and by [`remove_live_temporaries`] when a signal ends the process.
+pub struct ScratchDir {
+    path: PathBuf,
+}
+
+impl ScratchDir {
+    /// Creates `path` (and its parents).
+    pub fn create(path: &Path) -> Result<ScratchDir, FileError> {
+        std::fs::create_dir_all(path).map_err(|e| FileError::write(path, e))?;
+        live_folders().push(path.to_path_buf());
+        Ok(ScratchDir {
+            path: path.to_path_buf(),
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.path);
+        live_folders().retain(|p| p != &self.path);
+    }
+}
+
 /// Takes a temporary file off the list of live ones (committed or removed).
 fn forget(temp: &Path) {
     live().retain(|t| t != temp);
 }
 
-/// Removes every temporary file being written: for a signal handler, before the process exits
-/// without running destructors.
+/// Removes every temporary file being written and every scratch folder: for a signal handler,
+/// before the process exits without running destructors.
 pub fn remove_live_temporaries() {
     for temp in live().drain(..) {
         let _ = std::fs::remove_file(temp);
+    }
+    for folder in live_folders().drain(..) {
+        let _ = std::fs::remove_dir_all(folder);
     }
 }
 
