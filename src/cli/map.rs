@@ -132,6 +132,7 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
             .map_err(|e| map_failure(e, &machine, &args.out))?;
         sweep::print_map_summary(&machine, grids, &summary);
         print_time(summary.seconds, summary.stats.points);
+        print_stored(&options.storage, summary.times.write.bytes);
         println!(
             "  field       {} ({} parts, one per pose)",
             args.out.display(),
@@ -149,6 +150,7 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     let info = map::field_info(&machine, &grid, &summary.device);
     print_summary(&info, &summary.stats);
     print_time(summary.seconds, summary.stats.points);
+    print_stored(&options.storage, summary.times.write.bytes);
     println!("  field       {}", args.out.display());
     if let Some(vti) = &args.vti {
         println!("  VTK image   {}", vti.display());
@@ -180,6 +182,15 @@ fn print_time(seconds: f64, points: u64) {
         "  time        {:.3} s, {:.2} Mpts/s",
         seconds,
         points as f64 / seconds.max(1e-9) / 1e6
+    );
+}
+
+/// How the field file stores its values, and its size.
+fn print_stored(storage: &Storage, bytes: u64) {
+    println!(
+        "  stored      {}, {:.1} MB",
+        storage.describe(),
+        bytes as f64 / 1e6
     );
 }
 

@@ -1,7 +1,8 @@
 //! The pixel blocks of a field: how its values are stored (`--compression`, `--half`) and the
-//! codec that turns lines of f32 values into an OpenEXR scanline block and back. Compression and
-//! decompression are the `exr` crate's (OpenEXR's own ZIP and PXR24 and every other method the
-//! crate reads); this file only arranges the bytes.
+//! codec that turns lines of f32 values into an OpenEXR scanline block and back. Decompression is
+//! the `exr` crate's (OpenEXR's ZIP and PXR24 and every other method the crate reads); volmap's
+//! own ZIP and PXR24 blocks are laid out as OpenEXR lays them out and deflated at a faster level
+//! than the crate's encoders ([`super::prepare`]).
 //!
 //! A block holds `lines_per_block` lines (1 uncompressed, 16 for ZIP and PXR24); within it, per
 //! line, the `nx` values of each channel in [`CHANNELS`] order: the layout of an engine's chunk.
@@ -13,6 +14,7 @@ use exr::meta::header::Header;
 use exr::meta::BlockDescription;
 use exr::prelude::{f16, SmallVec};
 
+use super::prepare;
 use crate::model::channels::CHANNELS;
 
 /// How a field's blocks are compressed when volmap writes them.
@@ -195,26 +197,45 @@ impl BlockCodec {
         IntegerBounds::new(Vec2(0, first_line as i32), Vec2(self.nx, lines as usize))
     }
 
-    /// The stored bytes of the block of `values` (its lines, in the chunk layout) starting at
-    /// line `first_line`. A value beyond HALF's range in a HALF field is `Err(index)` of the
-    /// first such value in `values`.
-    pub fn encode(&self, first_line: u64, values: &[f32]) -> Result<Vec<u8>, EncodeError> {
-        let lines = (values.len() / self.values_per_line()) as u64;
-        let native: Vec<u8> = if self.half {
-            let mut bytes = Vec::with_capacity(values.len() * 2);
+    /// The stored bytes of the block of `values` (its lines, in the chunk layout): ZIP and
+    /// PXR24 in OpenEXR's layout deflated at volmap's level ([`super::prepare`]), the
+    /// little-endian values where compression would not make the block smaller (as OpenEXR
+    /// stores such blocks). A value beyond HALF's range in a HALF field is an error naming its
+    /// index in `values`.
+    pub fn encode(&self, values: &[f32]) -> Result<Vec<u8>, EncodeError> {
+        let little_endian: Vec<u8>;
+        let prepared = if self.half {
+            let mut bits = Vec::with_capacity(values.len());
             for (n, &v) in values.iter().enumerate() {
                 if v.abs() > HALF_MAX {
                     return Err(EncodeError::HalfRange(n));
                 }
-                bytes.extend_from_slice(&f16::from_f32(v).to_ne_bytes());
+                bits.push(f16::from_f32(v).to_bits());
             }
-            bytes
+            little_endian = bits.iter().flat_map(|b| b.to_le_bytes()).collect();
+            match self.compression {
+                ExrCompression::ZIP16 => Some(prepare::zip_bytes(&little_endian)),
+                ExrCompression::PXR24 => Some(prepare::pxr24_half_bytes(&bits, self.nx)),
+                _ => None,
+            }
         } else {
-            bytemuck::cast_slice(values).to_vec()
+            little_endian = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+            match self.compression {
+                ExrCompression::ZIP16 => Some(prepare::zip_bytes(&little_endian)),
+                ExrCompression::PXR24 => Some(prepare::pxr24_float_bytes(values, self.nx)),
+                _ => None,
+            }
         };
-        self.compression
-            .compress_image_section_to_le(&self.header, native, self.section(first_line, lines))
-            .map_err(|e| EncodeError::Exr(e.to_string()))
+        let Some(prepared) = prepared else {
+            return Ok(little_endian);
+        };
+        let deflated =
+            prepare::deflate(&prepared).map_err(|e| EncodeError::Deflate(e.to_string()))?;
+        Ok(if deflated.len() < little_endian.len() {
+            deflated
+        } else {
+            little_endian
+        })
     }
 
     /// The values of the block starting at `first_line` with `lines` lines from its stored
@@ -265,6 +286,6 @@ impl BlockCodec {
 pub(super) enum EncodeError {
     /// The value at this index of the block's values exceeds HALF's range.
     HalfRange(usize),
-    /// The `exr` crate refused the block.
-    Exr(String),
+    /// Deflating the block failed.
+    Deflate(String),
 }

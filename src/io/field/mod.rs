@@ -18,6 +18,7 @@ mod header;
 mod inputs;
 mod loaded;
 mod pipeline;
+mod prepare;
 mod read;
 mod write;
 

@@ -332,10 +332,7 @@ fn compress_loop(
             .values
             .par_chunks(lines_per_block * per_line)
             .enumerate()
-            .map(|(n, values)| {
-                let first = piece.first_line + (n * lines_per_block) as u64;
-                codec.encode(first, values).map_err(|e| (n, e))
-            })
+            .map(|(n, values)| codec.encode(values).map_err(|e| (n, e)))
             .collect();
         busy += start.elapsed().as_secs_f64();
         let blocks = match blocks {
@@ -389,7 +386,7 @@ fn encode_failure(
                 max: HALF_MAX,
             }
         }
-        EncodeError::Exr(what) => FieldError::Compress {
+        EncodeError::Deflate(what) => FieldError::Compress {
             path: display.to_string(),
             what: format!("a block could not be compressed: {what}"),
         },

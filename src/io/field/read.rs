@@ -7,7 +7,7 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use super::blocks::BlockCodec;
+use super::blocks::{compression_name, BlockCodec};
 use super::header::Cursor;
 use super::{
     pose_list, FieldError, FieldInfo, FLAG_DEEP, FLAG_MULTIPART, FLAG_TILED, MAGIC,
@@ -160,6 +160,18 @@ impl FieldFile {
             info.csv_files = self.parts[0].info.csv_files.clone();
         }
         info
+    }
+
+    /// How part `part` stores its values, in words: its compression (`none`, `zip`, `pxr24`,
+    /// …), and `, HALF` for 16-bit channels.
+    pub fn storage(&self, part: usize) -> String {
+        let stored = &self.parts[part];
+        let name = compression_name(stored.code);
+        if stored.half {
+            format!("{name}, HALF")
+        } else {
+            name
+        }
     }
 
     /// The evaluation inputs part `part` was computed for.

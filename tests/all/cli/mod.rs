@@ -3,6 +3,7 @@
 mod compensate;
 mod compensate_orientation;
 mod design;
+mod field_files;
 mod inputs;
 mod interrupt;
 mod machine_files;
