@@ -211,37 +211,35 @@ pub fn bench_machine(
     let disk_mb_per_s =
         disk.file_bytes.unwrap_or(0) as f64 / Spread::of(&disk.seconds).median / 1e6;
     rows.push(disk);
+    rows.extend(paths::bench_encoders(machine, grid, runs, &mut on_step)?);
     let compressions = Compression::ALL;
+    let maps = paths::MapBench {
+        machine,
+        grid,
+        scratch,
+        runs,
+    };
     if let Engine::Gpu(_) = engine {
         rows.extend(paths::bench_maps(
-            machine,
-            grid,
+            &maps,
             engine,
             "GPU",
             &compressions,
-            scratch,
-            runs,
             &mut on_step,
         )?);
     }
     rows.extend(paths::bench_maps(
-        machine,
-        grid,
+        &maps,
         &Engine::Cpu,
         "CPU engine",
         &compressions,
-        scratch,
-        runs,
         &mut on_step,
     )?);
     rows.extend(paths::bench_maps(
-        machine,
-        grid,
+        &maps,
         &Engine::Reference,
         "f64 reference",
         &[Compression::None],
-        scratch,
-        runs,
         &mut on_step,
     )?);
     rows.extend(monte_carlo::bench_monte_carlo(

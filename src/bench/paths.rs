@@ -10,7 +10,7 @@ use super::{BenchError, Row};
 use crate::engine::map::{self, MapOptions, MapTimes};
 use crate::engine::{cpu, reference, Engine};
 use crate::gpu::{GpuError, GpuMapper, KernelChoice, Tiling, TimedKernel};
-use crate::io::field::{Compression, FieldWriter, Storage};
+use crate::io::field::{Compression, FieldError, FieldWriter, Storage};
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
@@ -225,18 +225,29 @@ pub(super) fn bench_disk_ceiling(
     Ok(row)
 }
 
+/// What a map is benchmarked on: the machine, its grid, the folder for the fields and the runs.
+pub(super) struct MapBench<'a> {
+    pub machine: &'a Machine,
+    pub grid: &'a Grid,
+    pub scratch: &'a Path,
+    pub runs: usize,
+}
+
 /// Whole maps into a field file on `engine` (named `engine_name`), with each of
 /// `compressions`.
 pub(super) fn bench_maps(
-    machine: &Machine,
-    grid: &Grid,
+    bench: &MapBench,
     engine: &Engine,
     engine_name: &str,
     compressions: &[Compression],
-    scratch: &Path,
-    runs: usize,
     on_step: &mut impl FnMut(&str),
 ) -> Result<Vec<Row>, BenchError> {
+    let MapBench {
+        machine,
+        grid,
+        scratch,
+        runs,
+    } = *bench;
     let mut rows = Vec::new();
     for &compression in compressions {
         let name = format!("map to EXR, {engine_name}, {}", compression.name());
@@ -265,6 +276,59 @@ pub(super) fn bench_maps(
         row.times = Some(median);
         row.disk = true;
         rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// Points the encoders compress in `volmap bench`'s comparison (at most).
+const ENCODER_POINTS: u64 = 1 << 20;
+
+/// The block encoders on one core, volmap's (ZIP and PXR24 deflated at level 1) against the
+/// `exr` crate's (level 4), over the first lines of the map: points compressed per second and
+/// the bytes they take.
+pub(super) fn bench_encoders(
+    machine: &Machine,
+    grid: &Grid,
+    runs: usize,
+    on_step: &mut impl FnMut(&str),
+) -> Result<Vec<Row>, BenchError> {
+    on_step("block encoders on one core");
+    let nx = grid.dims[0] as u64;
+    let lines = (ENCODER_POINTS / nx).clamp(1, grid.lines());
+    let mut values = vec![0.0f32; (lines * nx) as usize * CHANNELS.len()];
+    cpu::CpuPlan::new(machine, grid).compute_lines(0, lines, &mut values);
+    let mut rows = Vec::new();
+    for compression in [Compression::Zip, Compression::Pxr24] {
+        let storage = Storage {
+            compression,
+            half: false,
+        };
+        for (exr_crate, whose) in [(false, "volmap, level 1"), (true, "exr crate, level 4")] {
+            let mut seconds = Vec::with_capacity(runs);
+            let mut bytes = 0;
+            for _ in 0..runs {
+                let (compressed, s) = timed(|| {
+                    crate::io::field::compress_on_one_thread(
+                        storage,
+                        nx as usize,
+                        &values,
+                        exr_crate,
+                    )
+                });
+                bytes = compressed.map_err(|what| FieldError::Compress {
+                    path: "(volmap bench)".into(),
+                    what,
+                })?;
+                seconds.push(s);
+            }
+            let mut row = Row::new(
+                format!("compress, 1 core, {} ({whose})", compression.name()),
+                lines * nx,
+                seconds,
+            );
+            row.file_bytes = Some(bytes);
+            rows.push(row);
+        }
     }
     Ok(rows)
 }

@@ -71,6 +71,12 @@ fn row(p: &PathResult) -> String {
             line.push_str(&format!("; file {:.1} MB", bytes as f64 / 1e6));
         }
         line.push('\n');
+    } else if let (Some(bytes), true) = (p.file_bytes, p.path.starts_with("compress")) {
+        // 24 bytes a point uncompressed.
+        line.push_str(&format!(
+            "      {:.2}× smaller than uncompressed\n",
+            (24 * p.points) as f64 / bytes.max(1) as f64
+        ));
     }
     line
 }

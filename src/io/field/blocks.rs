@@ -238,6 +238,27 @@ impl BlockCodec {
         })
     }
 
+    /// [`BlockCodec::encode`] by the `exr` crate's own encoder (ZIP and PXR24 deflated at level
+    /// 4), for `volmap bench` to compare.
+    pub fn encode_with_exr_crate(
+        &self,
+        first_line: u64,
+        values: &[f32],
+    ) -> Result<Vec<u8>, String> {
+        let lines = (values.len() / self.values_per_line()) as u64;
+        let native: Vec<u8> = if self.half {
+            values
+                .iter()
+                .flat_map(|&v| f16::from_f32(v).to_ne_bytes())
+                .collect()
+        } else {
+            bytemuck::cast_slice(values).to_vec()
+        };
+        self.compression
+            .compress_image_section_to_le(&self.header, native, self.section(first_line, lines))
+            .map_err(|e| e.to_string())
+    }
+
     /// The values of the block starting at `first_line` with `lines` lines from its stored
     /// bytes, into `out` (resized): per line, `nx` values of each channel.
     pub fn decode(
@@ -288,4 +309,29 @@ pub(super) enum EncodeError {
     HalfRange(usize),
     /// Deflating the block failed.
     Deflate(String),
+}
+
+/// Compresses `values` (whole lines `nx` long in the chunk layout, from line 0) block by block as
+/// `storage` says, on this thread, with volmap's encoder or the `exr` crate's: the bytes they
+/// take. For `volmap bench`, which compares the two.
+pub fn compress_on_one_thread(
+    storage: Storage,
+    nx: usize,
+    values: &[f32],
+    exr_crate: bool,
+) -> Result<u64, String> {
+    let lines = (values.len() / (CHANNELS.len() * nx)) as u64;
+    let codec = BlockCodec::for_writing(nx, lines, storage);
+    let block_values = codec.lines_per_block() as usize * codec.values_per_line();
+    let mut bytes = 0;
+    for (n, block) in values.chunks(block_values).enumerate() {
+        let first_line = n as u64 * codec.lines_per_block();
+        let stored = if exr_crate {
+            codec.encode_with_exr_crate(first_line, block)?
+        } else {
+            codec.encode(block).map_err(|e| format!("{e:?}"))?
+        };
+        bytes += stored.len() as u64;
+    }
+    Ok(bytes)
 }

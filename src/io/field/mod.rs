@@ -22,7 +22,7 @@ mod prepare;
 mod read;
 mod write;
 
-pub use blocks::{Compression, Storage, HALF_MAX};
+pub use blocks::{compress_on_one_thread, Compression, Storage, HALF_MAX};
 pub use loaded::{field_memory_bytes, GridCell, LoadedField, FIELD_MEMORY_BYTES};
 pub use pipeline::WriteTimes;
 pub use read::{FieldFile, FieldReader};
