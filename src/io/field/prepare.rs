@@ -118,7 +118,10 @@ mod tests {
         assert_eq!(float_to_f24(1.0 + 2f32.powi(-16)), 0x3f_8001);
         assert_eq!(float_to_f24(1.0 + 2f32.powi(-17)), 0x3f_8000);
         assert_eq!(float_to_f24(f32::INFINITY), 0x7f_8000);
-        assert!(float_to_f24(f32::NAN) & 0x7f != 0);
+        // A NaN stays a NaN: every exponent bit and a significand bit set.
+        let nan = float_to_f24(f32::NAN);
+        assert_eq!(nan & 0x7f_8000, 0x7f_8000);
+        assert_ne!(nan & 0x7fff, 0);
     }
 
     #[test]
