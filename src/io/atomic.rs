@@ -3,8 +3,9 @@
 //! is complete and on disk. Until then dropping it removes the temporary file, so a failed or
 //! interrupted run never leaves half a file under the name asked for.
 //!
-//! Every temporary file alive is registered here, so that a signal handler (which runs no
-//! destructors) can remove them all ([`remove_live_temporaries`]); and a run that starts writing
+//! Every temporary file alive is registered here, and every scratch folder ([`ScratchDir`]: a
+//! benchmark's fields), so that a signal handler (which runs no destructors) can remove them all
+//! ([`remove_live_temporaries`]); and a run that starts writing
 //! `NAME` first removes the temporary files of `NAME` left by runs whose process is gone (killed
 //! beyond any handler, or a power cut), keeping those of runs still alive.
 
