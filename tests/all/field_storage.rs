@@ -316,3 +316,89 @@ fn oiiotool_reads_every_storage() {
         assert_eq!(pixels, DIMS.iter().product::<usize>(), "{storage:?}");
     }
 }
+
+#[test]
+fn a_compressed_half_sweep_holds_every_pose_within_its_precision() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let grids: Vec<Grid> = volmap::model::poses::parse_sweep("B=-45:45:45,C=30", &machine)
+        .unwrap()
+        .into_iter()
+        .map(|pose| Grid::full_travel(&machine, DIMS, pose).unwrap())
+        .collect();
+    for storage in storages() {
+        let path = dir.path().join("sweep.exr");
+        let options = MapOptions {
+            chunk_points: Some(DIMS[0] as u64 * 4),
+            storage,
+            ..Default::default()
+        };
+        volmap::engine::sweep::map_sweep_to_file(
+            &machine,
+            &grids,
+            &Engine::Cpu,
+            &path,
+            &options,
+            |_| {},
+        )
+        .unwrap();
+        let file = volmap::io::field::FieldFile::open(&path).unwrap();
+        assert_eq!(file.parts(), 3);
+        assert_eq!(file.storage(1), storage.describe());
+        for (p, grid) in grids.iter().enumerate() {
+            let expected = engine_values(&machine, grid);
+            let mut reader = file.reader(p).unwrap();
+            let mut line = vec![0.0f32; CHANNELS.len() * DIMS[0]];
+            for k in 0..DIMS[2] {
+                for j in 0..DIMS[1] {
+                    reader
+                        .read_line((j + k * DIMS[1]) as u64, &mut line)
+                        .unwrap();
+                    for i in 0..DIMS[0] {
+                        for c in 0..6 {
+                            let (got, want) = (line[c * DIMS[0] + i], expected([i, j, k], c));
+                            assert!(within(storage, got, want), "{storage:?} part {p}");
+                        }
+                    }
+                }
+            }
+        }
+        // The exr crate reads every part.
+        let image = exr::prelude::read_all_flat_layers_from_file(&path).expect("exr reads it");
+        assert_eq!(image.layer_data.len(), 3, "{storage:?}");
+    }
+    // The last one written, PXR24 with HALF channels, as Python's OpenEXR reads its parts.
+    if tool_available(
+        std::process::Command::new("python3").args(["-c", "import OpenEXR, numpy"]),
+        "the Python OpenEXR package",
+    ) {
+        let script =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/read_parts.py");
+        let output = std::process::Command::new("python3")
+            .arg(script)
+            .arg(dir.path().join("sweep.exr"))
+            .args(["B=45,C=30", "8,6,4"])
+            .output()
+            .unwrap();
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+        assert_eq!(
+            json["parts"],
+            serde_json::json!(["B=-45,C=30", "B=0,C=30", "B=45,C=30"])
+        );
+        assert_eq!(json["dtype"], "float16");
+        let expected = engine_values(&machine, &grids[2]);
+        let half = Storage {
+            compression: Compression::Pxr24,
+            half: true,
+        };
+        for (c, name) in CHANNELS.iter().enumerate() {
+            let got = json["values"][0][name].as_f64().unwrap() as f32;
+            assert!(within(half, got, expected([8, 6, 4], c)), "{name}: {got}");
+        }
+    }
+}
