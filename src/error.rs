@@ -29,3 +29,187 @@ macro_rules! input_errors {
     };
 }
 pub(crate) use input_errors;
+
+/// The most characters of an input that a message quotes.
+pub const EXCERPT_CHARS: usize = 80;
+
+/// `text` as a message quotes it: whole up to [`EXCERPT_CHARS`] characters, else its first
+/// characters and `…`, so that no line of input (a 1 MB line, a number of 400 digits, the first
+/// line of a file that is not what it should be) is echoed whole.
+pub fn excerpt(text: &str) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(EXCERPT_CHARS) {
+        None => std::borrow::Cow::Borrowed(text),
+        Some((end, _)) => std::borrow::Cow::Owned(format!("{}…", &text[..end])),
+    }
+}
+
+/// A number as a message shows it: as Rust writes it where that is short, in exponent form
+/// where it would run to many digits (`1e300`, not 301 digits).
+pub fn shown(value: f64) -> String {
+    let plain = value.to_string();
+    if plain.len() <= 24 {
+        plain
+    } else {
+        format!("{value:e}")
+    }
+}
+
+/// A message as it is shown, whatever its parts quote: each span between backticks cut to
+/// [`excerpt`], and each number written with many digits (the `{}` of 1e300 has 301) in
+/// exponent form. A last guard for messages built from input that no reader cut first.
+pub fn capped(message: &str) -> String {
+    let mut out = String::with_capacity(message.len().min(4096));
+    let mut rest = message;
+    while let Some(open) = rest.find('`') {
+        out.push_str(&short_numbers(&rest[..open]));
+        let after = &rest[open + 1..];
+        let (quoted, next) = match after.find('`') {
+            Some(close) => (&after[..close], &after[close + 1..]),
+            None => (after, ""),
+        };
+        out.push('`');
+        out.push_str(&excerpt(quoted));
+        if !next.is_empty() || after.contains('`') {
+            out.push('`');
+        }
+        rest = next;
+    }
+    out.push_str(&short_numbers(rest));
+    out
+}
+
+/// `text` with every number longer than 24 characters that stands alone (not part of a word or
+/// a file name) written by [`shown`].
+fn short_numbers(text: &str) -> std::borrow::Cow<'_, str> {
+    let is_digit = |c: char| c.is_ascii_digit() || c == '.';
+    if !text.split(|c: char| !is_digit(c)).any(|run| run.len() > 24) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let in_word = |c: Option<char>| c.is_some_and(|c| c.is_alphanumeric() || "_/\\".contains(c));
+    let chars: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut n = 0;
+    while n < chars.len() {
+        if !is_digit(chars[n]) {
+            out.push(chars[n]);
+            n += 1;
+            continue;
+        }
+        let end = (n..chars.len())
+            .find(|&k| !is_digit(chars[k]))
+            .unwrap_or(chars.len());
+        let run: String = chars[n..end].iter().collect();
+        let alone =
+            !in_word(n.checked_sub(1).map(|k| chars[k])) && !in_word(chars.get(end).copied());
+        match run.parse::<f64>() {
+            Ok(v) if alone && run.len() > 24 && v.is_finite() => out.push_str(&shown(v)),
+            _ => out.push_str(&run),
+        }
+        n = end;
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+/// A TOML parse error of `text` as a message says it: `line L, column C: what`, then the line
+/// quoted around the column (at most [`EXCERPT_CHARS`] characters of it, where the parser's own
+/// message would quote the whole line however long).
+pub fn toml_message(error: &toml::de::Error, text: &str) -> String {
+    located_message(error.message(), error.span(), text)
+}
+
+/// [`toml_message`] for an error of `toml_edit` (the parser of files volmap edits in place).
+pub fn toml_edit_message(error: &toml_edit::TomlError, text: &str) -> String {
+    located_message(error.message(), error.span(), text)
+}
+
+/// `what` went wrong at `span` of `text`: the line, the column and the line quoted around it.
+fn located_message(what: &str, span: Option<std::ops::Range<usize>>, text: &str) -> String {
+    let what = what.trim_end();
+    let Some(span) = span else {
+        return what.to_string();
+    };
+    let start = floor_char_boundary(text, span.start.min(text.len()));
+    let line_start = text[..start].rfind('\n').map_or(0, |n| n + 1);
+    let line_end = text[start..].find('\n').map_or(text.len(), |n| start + n);
+    let line = text[..start].matches('\n').count() + 1;
+    let column = text[line_start..start].chars().count() + 1;
+    // Up to half the excerpt before the column, the rest after it.
+    let before: Vec<char> = text[line_start..start].chars().collect();
+    let skip = before.len().saturating_sub(EXCERPT_CHARS / 2);
+    let shown_before: String = before[skip..].iter().collect();
+    let after = excerpt(&text[start..line_end]);
+    let lead = if skip > 0 { "…" } else { "" };
+    let quoted = format!("{lead}{shown_before}{after}");
+    let quoted = excerpt(quoted.trim_end_matches('\r'));
+    format!("line {line}, column {column}: {what}\n  | {quoted}")
+}
+
+/// The largest char boundary of `text` at or before `index`.
+fn floor_char_boundary(text: &str, mut index: usize) -> usize {
+    while !text.is_char_boundary(index) {
+        index -= 1;
+    }
+    index
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn excerpts_keep_short_text_and_cut_long_text() {
+        assert_eq!(excerpt("1.5e-3"), "1.5e-3");
+        let long = "9".repeat(400);
+        let cut = excerpt(&long);
+        assert_eq!(cut.chars().count(), EXCERPT_CHARS + 1);
+        assert!(cut.ends_with('…'));
+        assert_eq!(shown(12.5), "12.5");
+        assert_eq!(shown(1e300), "1e300");
+        assert_eq!(shown(-1.5e-300), "-1.5e-300");
+        let wide = "é".repeat(EXCERPT_CHARS);
+        assert!(excerpt(&format!("{wide}é")).ends_with('…'));
+        assert_eq!(excerpt(&wide), wide);
+    }
+}
+
+#[cfg(test)]
+mod toml_tests {
+    use super::*;
+
+    #[test]
+    fn capped_messages_cut_quotes_and_long_numbers() {
+        let long = "x".repeat(1000);
+        let message = capped(&format!(
+            "a.csv: line 2: `{long}` in column `X` is not a number"
+        ));
+        assert!(message.len() < 200, "{message}");
+        assert!(
+            message.ends_with("…` in column `X` is not a number"),
+            "{message}"
+        );
+        let message = capped(&format!("X={} lies outside", 1e300));
+        assert_eq!(message, "X=1e300 lies outside");
+        assert_eq!(
+            capped("line 7: X=12.5 (0 to 600)"),
+            "line 7: X=12.5 (0 to 600)"
+        );
+        let name = format!("run_{}.csv: cannot read", "1".repeat(30));
+        assert_eq!(capped(&name), name);
+        let unclosed = capped(&format!("found `{long}"));
+        assert!(unclosed.len() < 120, "{unclosed}");
+    }
+
+    #[test]
+    fn toml_errors_quote_a_window_of_their_line() {
+        let text = format!("a = 1\nb = \"{}", "x".repeat(100_000));
+        let error = toml::from_str::<toml::Table>(&text).unwrap_err();
+        let message = toml_message(&error, &text);
+        assert!(message.starts_with("line 2, column"), "{message}");
+        assert!(message.len() < 400, "{message}");
+        let text = "a = 1\nb = = 2\n";
+        let error = toml::from_str::<toml::Table>(text).unwrap_err();
+        let message = toml_message(&error, text);
+        assert!(message.starts_with("line 2, column 5: "), "{message}");
+        assert!(message.ends_with("| b = = 2"), "{message}");
+    }
+}

@@ -148,42 +148,134 @@ fn line_through(a: (f64, f64), b: (f64, f64), q: f64) -> f64 {
 }
 
 /// Leave-one-out RMS error of `interp` over the interior nodes; `None` where it does not apply.
+/// Each interior node is predicted from the others in constant time (the spline through the
+/// others from sweeps over the whole table), so a table of a million nodes takes a moment.
 fn leave_one_out(nodes: &[(f64, f64)], interp: Interp) -> Option<f64> {
     let n = nodes.len();
     if n < 4 {
         return None;
     }
+    let sweeps = (interp == Interp::Cubic).then(|| SplineSweeps::of(nodes));
     let mut sum = 0.0;
     for i in 1..n - 1 {
         let (q, v) = nodes[i];
-        let others: Vec<(f64, f64)> = nodes
-            .iter()
-            .enumerate()
-            .filter(|&(k, _)| k != i)
-            .map(|(_, p)| *p)
-            .collect();
-        let predicted = match interp {
-            Interp::Linear => line_through(nodes[i - 1], nodes[i + 1], q),
-            Interp::Quadratic => {
-                // The Lagrange quadratic through the three remaining nodes nearest to q.
-                let mut near = others.clone();
-                near.sort_by(|a, b| (a.0 - q).abs().total_cmp(&(b.0 - q).abs()));
-                let p = &near[..3];
-                (0..3)
-                    .map(|a| {
-                        let basis: f64 = (0..3)
-                            .filter(|&b| b != a)
-                            .map(|b| (q - p[b].0) / (p[a].0 - p[b].0))
-                            .product();
-                        basis * p[a].1
-                    })
-                    .sum()
-            }
-            Interp::Cubic => Table::new(others, Interp::Cubic, false).ok()?.eval(q),
+        let predicted = match &sweeps {
+            None if interp == Interp::Linear => line_through(nodes[i - 1], nodes[i + 1], q),
+            None => quadratic_without(nodes, i),
+            Some(sweeps) => sweeps.spline_without(nodes, i),
         };
         sum += (predicted - v).powi(2);
     }
     Some((sum / (n - 2) as f64).sqrt())
+}
+
+/// The Lagrange quadratic through the three nodes nearest to node `i` (`i` left out), at node
+/// `i`. The nodes rise, so the nearest are found walking outwards from `i`; of two as near, the
+/// lower first.
+fn quadratic_without(nodes: &[(f64, f64)], i: usize) -> f64 {
+    let q = nodes[i].0;
+    let (mut below, mut above) = (i.checked_sub(1), i + 1);
+    let mut p = [(0.0, 0.0); 3];
+    for slot in &mut p {
+        let take_below = match (below, nodes.get(above)) {
+            (Some(b), Some(a)) => (nodes[b].0 - q).abs() <= (a.0 - q).abs(),
+            (Some(_), None) => true,
+            (None, _) => false,
+        };
+        if take_below {
+            let b = below.expect("a node below");
+            *slot = nodes[b];
+            below = b.checked_sub(1);
+        } else {
+            *slot = nodes[above];
+            above += 1;
+        }
+    }
+    (0..3)
+        .map(|a| {
+            let basis: f64 = (0..3)
+                .filter(|&b| b != a)
+                .map(|b| (q - p[b].0) / (p[a].0 - p[b].0))
+                .product();
+            basis * p[a].1
+        })
+        .sum()
+}
+
+/// The natural cubic spline's tridiagonal system
+/// `h_{k-1} M_{k-1} + 2 (h_{k-1} + h_k) M_k + h_k M_{k+1} = 6 (s_k − s_{k-1})` (`M_0 = M_{n-1} = 0`)
+/// eliminated from both ends: rows `1 ..= k` give `M_k = P_k − Q_k M_{k+1}`, rows `k ..= n-2`
+/// give `M_k = U_k − V_k M_{k-1}`. Leaving node `i` out changes only the rows of its two
+/// neighbours, so the spline through the others follows from these and a 2×2 system.
+struct SplineSweeps {
+    p: Vec<f64>,
+    q: Vec<f64>,
+    u: Vec<f64>,
+    v: Vec<f64>,
+}
+
+impl SplineSweeps {
+    fn of(nodes: &[(f64, f64)]) -> SplineSweeps {
+        let n = nodes.len();
+        let h = |k: usize| nodes[k + 1].0 - nodes[k].0;
+        let slope = |k: usize| (nodes[k + 1].1 - nodes[k].1) / h(k);
+        let rhs = |k: usize| 6.0 * (slope(k) - slope(k - 1));
+        let (mut p, mut q) = (vec![0.0; n], vec![0.0; n]);
+        for k in 1..n - 1 {
+            let d = 2.0 * (h(k - 1) + h(k)) - h(k - 1) * q[k - 1];
+            p[k] = (rhs(k) - h(k - 1) * p[k - 1]) / d;
+            q[k] = h(k) / d;
+        }
+        let (mut u, mut v) = (vec![0.0; n], vec![0.0; n]);
+        for k in (1..n - 1).rev() {
+            let e = 2.0 * (h(k - 1) + h(k)) - h(k) * v[k + 1];
+            u[k] = (rhs(k) - h(k) * u[k + 1]) / e;
+            v[k] = h(k - 1) / e;
+        }
+        SplineSweeps { p, q, u, v }
+    }
+
+    /// The natural cubic spline through every node but `i` (interior), at node `i`.
+    fn spline_without(&self, nodes: &[(f64, f64)], i: usize) -> f64 {
+        let n = nodes.len();
+        let (a, b) = (i - 1, i + 1);
+        let (xa, ya) = nodes[a];
+        let (xb, yb) = nodes[b];
+        let span = xb - xa;
+        let joined = (yb - ya) / span;
+        // Row a: α1 M_a + β1 M_b = γ1 (M_a = 0 at the first node).
+        let (a1, b1, c1) = if a == 0 {
+            (1.0, 0.0, 0.0)
+        } else {
+            let h = xa - nodes[a - 1].0;
+            let s = (ya - nodes[a - 1].1) / h;
+            (
+                2.0 * (h + span) - h * self.q[a - 1],
+                span,
+                6.0 * (joined - s) - h * self.p[a - 1],
+            )
+        };
+        // Row b: α2 M_a + β2 M_b = γ2 (M_b = 0 at the last node).
+        let (a2, b2, c2) = if b == n - 1 {
+            (0.0, 1.0, 0.0)
+        } else {
+            let h = nodes[b + 1].0 - xb;
+            let s = (nodes[b + 1].1 - yb) / h;
+            (
+                span,
+                2.0 * (span + h) - h * self.v[b + 1],
+                6.0 * (s - joined) - h * self.u[b + 1],
+            )
+        };
+        let det = a1 * b2 - b1 * a2;
+        let ma = (c1 * b2 - b1 * c2) / det;
+        let mb = (a1 * c2 - c1 * a2) / det;
+        let (t, w) = (nodes[i].0 - xa, xb - nodes[i].0);
+        ma * w.powi(3) / (6.0 * span)
+            + mb * t.powi(3) / (6.0 * span)
+            + (ya / span - ma * span / 6.0) * w
+            + (yb / span - mb * span / 6.0) * t
+    }
 }
 
 /// Chooses the interpolation of one component (see the module's documentation).
@@ -344,4 +436,85 @@ pub fn build(
         }
     }
     Ok((document.to_string(), built))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Leave-one-out as written first: the spline or quadratic through a copy of the others.
+    fn leave_one_out_by_copies(nodes: &[(f64, f64)], interp: Interp) -> Option<f64> {
+        let n = nodes.len();
+        if n < 4 {
+            return None;
+        }
+        let mut sum = 0.0;
+        for i in 1..n - 1 {
+            let (q, v) = nodes[i];
+            let others: Vec<(f64, f64)> = nodes
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| k != i)
+                .map(|(_, p)| *p)
+                .collect();
+            let predicted = match interp {
+                Interp::Linear => line_through(nodes[i - 1], nodes[i + 1], q),
+                Interp::Quadratic => {
+                    let mut near = others.clone();
+                    near.sort_by(|a, b| (a.0 - q).abs().total_cmp(&(b.0 - q).abs()));
+                    let p = &near[..3];
+                    (0..3)
+                        .map(|a| {
+                            let basis: f64 = (0..3)
+                                .filter(|&b| b != a)
+                                .map(|b| (q - p[b].0) / (p[a].0 - p[b].0))
+                                .product();
+                            basis * p[a].1
+                        })
+                        .sum()
+                }
+                Interp::Cubic => Table::new(others, Interp::Cubic, false).ok()?.eval(q),
+            };
+            sum += (predicted - v).powi(2);
+        }
+        Some((sum / (n - 2) as f64).sqrt())
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn leave_one_out_in_constant_time_per_node_agrees_with_copies(
+            steps in proptest::collection::vec((0.05f64..20.0, -1.0f64..1.0), 4..40)
+        ) {
+            let mut x = -3.0;
+            let nodes: Vec<(f64, f64)> = steps
+                .iter()
+                .map(|&(step, value)| {
+                    x += step;
+                    (x, value * 1e-2)
+                })
+                .collect();
+            for interp in [Interp::Linear, Interp::Quadratic, Interp::Cubic] {
+                let fast = leave_one_out(&nodes, interp).unwrap();
+                let slow = leave_one_out_by_copies(&nodes, interp).unwrap();
+                proptest::prop_assert!(
+                    (fast - slow).abs() <= 1e-9 * slow.abs().max(1e-6),
+                    "{:?}: {} vs {}", interp, fast, slow
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn ties_in_nearness_take_the_lower_node_as_sorting_did() {
+        // Evenly spaced: node i's neighbours at i±1 and i±2 tie; the lower is taken.
+        let nodes: Vec<(f64, f64)> = (0..9).map(|k| (k as f64, (k * k % 7) as f64)).collect();
+        for interp in [Interp::Quadratic, Interp::Cubic] {
+            let fast = leave_one_out(&nodes, interp).unwrap();
+            let slow = leave_one_out_by_copies(&nodes, interp).unwrap();
+            assert!(
+                (fast - slow).abs() <= 1e-12 * slow.max(1.0),
+                "{fast} vs {slow}"
+            );
+        }
+    }
 }

@@ -65,6 +65,9 @@ pub struct FitReport {
 struct Test<'a> {
     kind: Kind<'a>,
     inputs: Inputs,
+    /// The fit file and where the test is in it (`[[circular]] number 2`), for errors.
+    file: &'a str,
+    key: &'a str,
 }
 
 enum Kind<'a> {
@@ -75,7 +78,22 @@ enum Kind<'a> {
     Ballbar(&'a BallbarFigures),
 }
 
+/// An error of the test at `key` of the fit file `file`, naming both.
+fn in_entry<E: Into<CalibrateError>>(file: &str, key: &str) -> impl FnOnce(E) -> CalibrateError {
+    let (file, key) = (file.to_string(), key.to_string());
+    move |e| CalibrateError::Entry {
+        file,
+        key,
+        source: Box::new(e.into()),
+    }
+}
+
 impl Test<'_> {
+    /// The test's result on `machine`; an error names the test.
+    fn result(&self, machine: &Machine) -> Result<TestResult, CalibrateError> {
+        self.run(machine).map_err(in_entry(self.file, self.key))
+    }
+
     fn run(&self, machine: &Machine) -> Result<TestResult, StandardsError> {
         let pose = match &self.kind {
             Kind::Positioning(s, _) => &s.pose,
@@ -111,7 +129,7 @@ fn residuals(tests: &[Test], machine: &Machine) -> Result<(Vec<f64>, usize), Cal
     let mut all = Vec::new();
     let mut nuisance = 0;
     for test in tests {
-        let result = test.run(machine)?;
+        let result = test.result(machine)?;
         let measured = result
             .measured
             .as_ref()
@@ -120,7 +138,9 @@ fn residuals(tests: &[Test], machine: &Machine) -> Result<(Vec<f64>, usize), Cal
             nuisance += test.nuisance_per_curve();
             let difference: Vec<f64> = m.iter().zip(p).map(|(a, b)| a - b).collect();
             if test.nuisance_per_curve() == 3 {
-                all.extend(least_squares_circle(&result.positions, &difference)?.1);
+                let circle = least_squares_circle(&result.positions, &difference)
+                    .map_err(in_entry(test.file, test.key))?;
+                all.extend(circle.1);
             } else if test.nuisance_per_curve() == 0 {
                 all.extend(difference);
             } else {
@@ -197,37 +217,49 @@ fn temperature_span(unknown: &Unknown, tests: &[Test], machine: &Machine) -> f64
 fn read_tests<'a>(file: &'a FitFile, machine: &Machine) -> Result<Vec<Test<'a>>, CalibrateError> {
     let missing = |key: &str| file.key_error(key, "give the measured results (`csv = \"...\"`)");
     let mut tests: Vec<Test> = Vec::new();
-    for e in &file.positioning {
-        let data = read_positioning_of(&e.spec)?.ok_or_else(|| missing(&e.key))?;
-        let kind = Kind::Positioning(&e.spec, data);
+    let mut push = |kind: Kind<'a>, key: &'a str, inputs: Inputs| {
         tests.push(Test {
             kind,
-            inputs: file.inputs_of(e, machine)?,
-        });
+            inputs,
+            file: &file.file,
+            key,
+        })
+    };
+    for e in &file.positioning {
+        let data = read_positioning_of(&e.spec).map_err(in_entry(&file.file, &e.key))?;
+        let data = data.ok_or_else(|| missing(&e.key))?;
+        push(
+            Kind::Positioning(&e.spec, data),
+            &e.key,
+            file.inputs_of(e, machine)?,
+        );
     }
     for e in &file.diagonal {
-        let m = read_diagonal(&e.spec)?.ok_or_else(|| missing(&e.key))?;
-        let kind = Kind::Diagonal(&e.spec, m);
-        tests.push(Test {
-            kind,
-            inputs: file.inputs_of(e, machine)?,
-        });
+        let m = read_diagonal(&e.spec).map_err(in_entry(&file.file, &e.key))?;
+        let m = m.ok_or_else(|| missing(&e.key))?;
+        push(
+            Kind::Diagonal(&e.spec, m),
+            &e.key,
+            file.inputs_of(e, machine)?,
+        );
     }
     for e in &file.circular {
-        let m = read_circular(&e.spec)?.ok_or_else(|| missing(&e.key))?;
-        let kind = Kind::Circular(&e.spec, m);
-        tests.push(Test {
-            kind,
-            inputs: file.inputs_of(e, machine)?,
-        });
+        let m = read_circular(&e.spec).map_err(in_entry(&file.file, &e.key))?;
+        let m = m.ok_or_else(|| missing(&e.key))?;
+        push(
+            Kind::Circular(&e.spec, m),
+            &e.key,
+            file.inputs_of(e, machine)?,
+        );
     }
     for e in &file.rtest {
-        let m = read_rtest(&e.spec)?.ok_or_else(|| missing(&e.key))?;
-        let kind = Kind::Rotary(&e.spec, m);
-        tests.push(Test {
-            kind,
-            inputs: file.inputs_of(e, machine)?,
-        });
+        let m = read_rtest(&e.spec).map_err(in_entry(&file.file, &e.key))?;
+        let m = m.ok_or_else(|| missing(&e.key))?;
+        push(
+            Kind::Rotary(&e.spec, m),
+            &e.key,
+            file.inputs_of(e, machine)?,
+        );
     }
     for e in &file.ballbar {
         if e.spec.is_empty() {
@@ -236,10 +268,7 @@ fn read_tests<'a>(file: &'a FitFile, machine: &Machine) -> Result<Vec<Test<'a>>,
                 "give a figure to fit: squareness_urad, scale_mismatch_ppm or backlash_um",
             ));
         }
-        tests.push(Test {
-            kind: Kind::Ballbar(&e.spec),
-            inputs: file.inputs_of(e, machine)?,
-        });
+        push(Kind::Ballbar(&e.spec), &e.key, file.inputs_of(e, machine)?);
     }
     if tests.is_empty() {
         return Err(CalibrateError::Parameter(format!(

@@ -16,6 +16,8 @@ use serde::Deserialize;
 use super::ballbar_figures::BallbarFigures;
 use super::unknowns::{declared_inputs, Unknown};
 use super::CalibrateError;
+use crate::error::toml_message;
+use crate::io::input::{confined, Reach};
 use crate::io::read_text;
 use crate::model::inputs::Inputs;
 use crate::model::Machine;
@@ -125,10 +127,11 @@ impl Spec for BallbarFigures {
     }
 }
 
-/// The tests of one kind, each read into its spec with its CSV path resolved against `folder`.
+/// The tests of one kind, each read into its spec with its CSV path resolved against `folder`
+/// (and confined to it as `reach` says).
 fn entries<S: Spec>(
     file: &str,
-    folder: &Path,
+    (folder, reach): (&Path, Reach),
     kind: &str,
     tables: Vec<toml::Table>,
 ) -> Result<Vec<Entry<S>>, CalibrateError> {
@@ -145,7 +148,11 @@ fn entries<S: Spec>(
                 .try_into()
                 .map_err(|e: toml::de::Error| key_error(file, key.clone(), e.message().into()))?;
             if let Some(p) = spec.csv() {
-                *p = folder.join(&*p);
+                *p = confined(folder, p, reach).map_err(|source| CalibrateError::NamedFile {
+                    file: file.to_string(),
+                    key: format!("{key}, csv"),
+                    source,
+                })?;
             }
             Ok(Entry {
                 spec,
@@ -157,20 +164,26 @@ fn entries<S: Spec>(
 }
 
 impl FitFile {
-    /// Reads the file; CSV paths are relative to its folder.
+    /// Reads the file; CSV paths are relative to its folder, and must lie in it or below it.
     pub fn read(path: &Path) -> Result<FitFile, CalibrateError> {
+        FitFile::read_reaching(path, Reach::Folder)
+    }
+
+    /// [`FitFile::read`] with CSV files allowed where `reach` says.
+    pub fn read_reaching(path: &Path, reach: Reach) -> Result<FitFile, CalibrateError> {
         let name = path.display().to_string();
         let text = read_text(path)?;
-        let raw: RawFitFile =
-            toml::from_str(&text).map_err(|e| CalibrateError::Parameter(format!("{name}: {e}")))?;
-        let folder = path.parent().unwrap_or(Path::new(""));
+        let raw: RawFitFile = toml::from_str(&text).map_err(|e| {
+            CalibrateError::Parameter(format!("{name}: {}", toml_message(&e, &text)))
+        })?;
+        let at = (path.parent().unwrap_or(Path::new("")), reach);
         Ok(FitFile {
             estimate: raw.estimate,
-            positioning: entries(&name, folder, "positioning", raw.positioning)?,
-            diagonal: entries(&name, folder, "diagonal", raw.diagonal)?,
-            circular: entries(&name, folder, "circular", raw.circular)?,
-            rtest: entries(&name, folder, "rtest", raw.rtest)?,
-            ballbar: entries(&name, folder, "ballbar", raw.ballbar)?,
+            positioning: entries(&name, at, "positioning", raw.positioning)?,
+            diagonal: entries(&name, at, "diagonal", raw.diagonal)?,
+            circular: entries(&name, at, "circular", raw.circular)?,
+            rtest: entries(&name, at, "rtest", raw.rtest)?,
+            ballbar: entries(&name, at, "ballbar", raw.ballbar)?,
             file: name,
         })
     }

@@ -29,6 +29,22 @@ pub enum CalibrateError {
     Test(#[from] StandardsError),
     #[error("{0}")]
     Parameter(String),
+    /// A test of the fit file (`[[circular]] number 2`) that could not be read or run.
+    #[error("{file}: {key}: {source}")]
+    Entry {
+        file: String,
+        key: String,
+        #[source]
+        source: Box<CalibrateError>,
+    },
+    /// A file a fit file names that cannot be read (or lies outside its folder).
+    #[error("{file}: {key}: {source}")]
+    NamedFile {
+        file: String,
+        key: String,
+        #[source]
+        source: FileError,
+    },
     /// A key of the fit file that does not fit the machine or is not understood.
     #[error("{file}: {key}: {message}")]
     Key {
@@ -39,6 +55,17 @@ pub enum CalibrateError {
 }
 
 input_errors!(CalibrateError);
+
+impl CalibrateError {
+    /// Whether this is a file named outside the folder of the fit file that names it.
+    pub fn is_outside_folder(&self) -> bool {
+        match self {
+            CalibrateError::NamedFile { source, .. } => source.is_outside_folder(),
+            CalibrateError::Entry { source, .. } => source.is_outside_folder(),
+            _ => false,
+        }
+    }
+}
 
 /// The significant digits of the numbers `fit` and `build` write into machine files at most: far
 /// more than any measurement resolves (a laser interferometer resolves about 1e-9 of its range),

@@ -9,6 +9,7 @@ use volmap::engine::{DeviceChoice, Engine, EngineError};
 use volmap::gpu::GpuSampler;
 use volmap::io::embedded;
 use volmap::io::field::FieldFile;
+use volmap::io::input::Reach;
 use volmap::model::grid::{self, Grid};
 use volmap::model::inputs::Inputs;
 use volmap::model::{Command, Machine};
@@ -25,13 +26,43 @@ pub struct MachineArg {
     /// file (TOML).
     #[arg(long)]
     pub machine: Option<String>,
+    #[command(flatten)]
+    pub reach: ReachArg,
 }
 
 impl MachineArg {
     pub fn load(&self) -> Result<Machine, Failure> {
         match &self.machine {
-            Some(name) => load_machine(name),
+            Some(name) => load_machine(name, &self.reach),
             None => Err(missing_machine()),
+        }
+    }
+}
+
+/// `--allow-outside-paths`: where the CSV files a machine file or a fit file names may lie.
+#[derive(clap::Args, Clone, Copy)]
+pub struct ReachArg {
+    /// Read CSV files named in machine files and fit files wherever they lie; without it they
+    /// must lie in the folder of the file that names them, or below it.
+    #[arg(long)]
+    pub allow_outside_paths: bool,
+}
+
+impl ReachArg {
+    pub fn reach(&self) -> Reach {
+        if self.allow_outside_paths {
+            Reach::Anywhere
+        } else {
+            Reach::Folder
+        }
+    }
+
+    /// A failure about a file named outside its folder, with the way round it.
+    pub fn hint(failure: Failure, outside: bool) -> Failure {
+        if outside {
+            failure.hint("--allow-outside-paths reads CSV files wherever they lie")
+        } else {
+            failure
         }
     }
 }
@@ -50,11 +81,13 @@ pub struct DefaultMachineArg {
     /// An embedded machine's name (see `volmap machines`) or a machine file (TOML).
     #[arg(long, default_value = embedded::DEFAULT_MACHINE)]
     pub machine: String,
+    #[command(flatten)]
+    pub reach: ReachArg,
 }
 
 impl DefaultMachineArg {
     pub fn load(&self) -> Result<Machine, Failure> {
-        load_machine(&self.machine)
+        load_machine(&self.machine, &self.reach)
     }
 }
 
@@ -64,11 +97,25 @@ pub struct OptionalMachineArg {
     /// An embedded machine's name (see `volmap machines`) or a machine file (TOML).
     #[arg(long)]
     pub machine: Option<String>,
+    #[command(flatten)]
+    pub reach: ReachArg,
 }
 
 /// The machine `--machine` names.
-pub fn load_machine(name_or_path: &str) -> Result<Machine, Failure> {
-    embedded::load(name_or_path).flag("--machine")
+pub fn load_machine(name_or_path: &str, reach: &ReachArg) -> Result<Machine, Failure> {
+    load_machine_flag(name_or_path, reach, "--machine")
+}
+
+/// The machine a flag (`--machine`, `--base`) names.
+pub fn load_machine_flag(
+    name_or_path: &str,
+    reach: &ReachArg,
+    flag: &str,
+) -> Result<Machine, Failure> {
+    embedded::load_reaching(name_or_path, reach.reach()).map_err(|e| {
+        let outside = e.is_outside_folder();
+        ReachArg::hint(Failure::from(e).context(flag.to_string()), outside)
+    })
 }
 
 /// `--grid`.

@@ -8,7 +8,7 @@ use volmap::io::atomic::ScratchDir;
 use volmap::model::grid::{self, Grid};
 use volmap::model::AxisLetter;
 
-use super::args::{load_machine, DeviceArg, GridArg, JsonArg, PoseArg};
+use super::args::{load_machine_flag, DeviceArg, GridArg, JsonArg, PoseArg, ReachArg};
 use super::failure::{Failure, FlagContext};
 use super::output::write_json;
 
@@ -19,6 +19,8 @@ pub struct BenchArgs {
     /// The machines to measure, comma-separated (embedded names or files).
     #[arg(long, default_value = "vmc-li2015,5axis-hwang2014")]
     machines: String,
+    #[command(flatten)]
+    reach: ReachArg,
     #[command(flatten)]
     grid: GridArg,
     #[command(flatten)]
@@ -43,7 +45,7 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
         .map(str::trim)
         .filter(|n| !n.is_empty())
     {
-        let machine = load_machine(name).map_err(|f| f.context("--machines"))?;
+        let machine = load_machine_flag(name, &args.reach, "--machines")?;
         // Each machine takes the rotary positions of --pose that it has axes for.
         let pose_text: Vec<&str> = args
             .pose

@@ -4,11 +4,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use volmap::calibrate::{self, build};
-use volmap::io::embedded;
 use volmap::model::AxisLetter;
 
+use super::args::{load_machine_flag, ReachArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{out_folder, write_file, written_by};
+use super::output::{check_machine_text, out_folder, write_file, written_by};
 
 #[derive(clap::Args)]
 pub struct BuildArgs {
@@ -25,10 +25,12 @@ pub struct BuildArgs {
     /// The machine file to write.
     #[arg(long)]
     out: PathBuf,
+    #[command(flatten)]
+    reach: ReachArg,
 }
 
 pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
-    let base = embedded::load(&args.base).flag("--base")?;
+    let base = load_machine_flag(&args.base, &args.reach, "--base")?;
     let mut axes = Vec::new();
     for pair in &args.axes {
         let (letter, path) = pair
@@ -80,7 +82,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
     // from its folder, and must read back as a machine before it replaces anything.
     let folder = out_folder(&args.out);
     let text = calibrate::rebase_tables(&text, &base, &folder)?;
-    volmap::model::Machine::from_toml(&text, &args.out.display().to_string(), Some(&folder))?;
+    check_machine_text(&text, &args.out, &folder)?;
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
     println!(
         "{}: {} component table(s) from measurements",

@@ -87,16 +87,6 @@ impl SetupArgs {
 pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     let machine = args.machine.load()?;
     let inputs = args.inputs.on(&machine)?;
-    let same_file = std::fs::canonicalize(&args.out)
-        .ok()
-        .zip(std::fs::canonicalize(&args.program).ok())
-        .is_some_and(|(a, b)| a == b);
-    if same_file {
-        return Err(Failure::input(format!(
-            "--out {} is the input program: volmap never writes over it",
-            args.out.display()
-        )));
-    }
     let options = Options {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
@@ -104,7 +94,10 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         orientation_tolerance_rad: args.orientation.then_some(args.angular_tolerance),
         ..args.setup.options(inputs)?
     };
-    let program = volmap::io::read_bytes(&args.program).flag("--program")?;
+    let program =
+        volmap::io::read_bytes(&args.program, volmap::io::InputKind::Program).flag("--program")?;
+    // Refused before the work, as every writer would refuse it after.
+    volmap::io::input::check_not_input(&args.out).flag("--out")?;
     let bar = progress(None, "compensating", "lines");
     let compensated = nc::compensate_with_progress(
         &machine,

@@ -83,9 +83,10 @@ impl Failure {
             }
             message.push_str(&text);
         }
-        eprintln!("error: {message}");
+        // Whatever a message quotes of the input, it shows a few characters of it.
+        eprintln!("error: {}", volmap::error::capped(&message));
         if let Some(hint) = &self.hint {
-            eprintln!("  hint: {hint}");
+            eprintln!("  hint: {}", volmap::error::capped(hint));
         }
     }
 }

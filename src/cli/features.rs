@@ -68,6 +68,7 @@ pub struct FeaturesArgs {
 /// found as `sample` finds a point's (within 1e-9°). The field must hold the inputs `inputs`
 /// asks for.
 fn open_field(path: &Path, part: &PartFile, inputs: &InputsArg) -> Result<LoadedField, Failure> {
+    volmap::io::input::note_input(path);
     let file = FieldFile::open(path).flag("--field")?;
     inputs.check_field(&file)?;
     open_part(&file, part).flag("--field")
@@ -118,7 +119,10 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             ErrorSource::Field(&field)
         }
         (None, Some(name)) => {
-            machine = args.inputs.machine_at(&load_machine(name)?)?.0;
+            machine = args
+                .inputs
+                .machine_at(&load_machine(name, &args.machine.reach)?)?
+                .0;
             ErrorSource::Exact(&machine)
         }
         (None, None) => return Err(no_error_source()),
@@ -180,7 +184,7 @@ fn run_conformance(
     tolerances: &Path,
     machine_name: &str,
 ) -> Result<ExitCode, Failure> {
-    let loaded = load_machine(machine_name)?;
+    let loaded = load_machine(machine_name, &args.machine.reach)?;
     let file = ToleranceFile::load(tolerances, &loaded).flag("--tolerances")?;
     // The machines are drawn around the machine at the evaluation inputs.
     let (machine, _) = args.inputs.machine_at(&loaded)?;

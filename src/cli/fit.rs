@@ -6,9 +6,9 @@ use std::process::ExitCode;
 
 use volmap::calibrate::{self, fit, identifiability};
 
-use super::args::{JsonArg, MachineArg};
+use super::args::{JsonArg, MachineArg, ReachArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{out_folder, write_file, write_json, written_by};
+use super::output::{check_machine_text, out_folder, write_file, write_json, written_by};
 
 const UM_PER_MM: f64 = 1000.0;
 
@@ -29,7 +29,11 @@ pub struct FitArgs {
 
 pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
     let machine = args.machine.load()?;
-    let file = fit::FitFile::read(&args.measurements).flag("--measurements")?;
+    let file = fit::FitFile::read_reaching(&args.measurements, args.machine.reach.reach())
+        .map_err(|e| {
+            let outside = e.is_outside_folder();
+            ReachArg::hint(Failure::from(e).context("--measurements"), outside)
+        })?;
     let report = fit::fit(&machine, &file)?;
     println!(
         "least-squares fit of {} unknown(s) to {} measured points ({} degrees of freedom)",
@@ -81,7 +85,7 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
         );
         let folder = out_folder(path);
         let text = calibrate::rebase_tables(&text, &machine, &folder)?;
-        volmap::model::Machine::from_toml(&text, &path.display().to_string(), Some(&folder))?;
+        check_machine_text(&text, path, &folder)?;
         write_file(path, |out| out.write_all(text.as_bytes())).flag("--out")?;
         println!("  machine with the estimates: {}", path.display());
     }

@@ -22,7 +22,8 @@ pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
             .ok_or_else(|| {
                 let names: Vec<&str> = embedded::EMBEDDED.iter().map(|(n, _)| *n).collect();
                 Failure::input(format!(
-                    "--show: `{name}` is not an embedded machine (they are {})",
+                    "--show: `{}` is not an embedded machine (they are {})",
+                    volmap::error::excerpt(name),
                     names.join(", ")
                 ))
             })?;

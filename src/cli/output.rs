@@ -81,3 +81,23 @@ pub fn check_plot_paths(paths: &[impl AsRef<Path>], flag: &str) -> Result<(), Fa
     }
     Ok(())
 }
+
+/// Checks that a machine file about to be written to `path` reads back as a machine, its CSV
+/// tables named from `folder` (the file's own). Tables outside that folder (a base machine in
+/// another folder) are read to check them, with a note that reading the file will take
+/// `--allow-outside-paths`.
+pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), Failure> {
+    use volmap::io::input::Reach;
+    use volmap::model::Machine;
+    let name = path.display().to_string();
+    match Machine::from_toml(text, &name, Some(folder)) {
+        Err(e) if e.is_outside_folder() => {
+            Machine::from_toml_reaching(text, &name, Some(folder), Reach::Anywhere)?;
+            eprintln!(
+                "note: {name} names CSV tables outside its folder: commands that read it need --allow-outside-paths"
+            );
+            Ok(())
+        }
+        other => other.map(|_| ()).map_err(Failure::from),
+    }
+}

@@ -28,8 +28,9 @@ pub struct SampleArgs {
     /// pick the part of each point's pose.
     #[arg(long, conflicts_with = "exact")]
     field: Option<PathBuf>,
-    /// A position outside the field's grid: `error` stops naming its line, `skip` leaves its
-    /// row out, `nan` answers NaN (a field is never extrapolated). Default: error.
+    /// A position outside the field's grid (with --exact: outside the machine's travels):
+    /// `error` stops naming its line, `skip` leaves its row out, `nan` answers NaN (a field is
+    /// never extrapolated). Default: error.
     #[arg(long, value_enum)]
     outside: Option<OutsideArg>,
     /// Compute exactly from the machine model (the f64 reference) instead of a field.
@@ -65,14 +66,24 @@ const BATCH_POINTS: usize = 65_536;
 /// Where the values come from: a field (f32 values) or the model at a pose.
 enum Source<'a> {
     Field(FieldSampler<'a>),
-    Exact(Machine, Command),
+    Exact {
+        machine: Machine,
+        pose: Command,
+        path: String,
+        outside: Outside,
+    },
 }
 
 impl Source<'_> {
     fn sample(&mut self, points: &[QueryPoint]) -> Result<Vec<Option<Sample>>, Failure> {
         match self {
             Source::Field(sampler) => Ok(sampler.sample(points)?),
-            Source::Exact(machine, pose) => {
+            Source::Exact {
+                machine,
+                pose,
+                path,
+                outside,
+            } => {
                 // `--pose` sets the rotary axes the CSV has no column for.
                 let points: Vec<QueryPoint> = points
                     .iter()
@@ -88,10 +99,9 @@ impl Source<'_> {
                         p
                     })
                     .collect();
-                Ok(query::sample_exact(machine, &points)
-                    .into_iter()
-                    .map(Some)
-                    .collect())
+                Ok(query::sample_exact_within(
+                    machine, &points, path, *outside,
+                )?)
             }
         }
     }
@@ -102,7 +112,10 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     let file = args
         .field
         .as_deref()
-        .map(FieldFile::open)
+        .map(|path| {
+            volmap::io::input::note_input(path);
+            FieldFile::open(path)
+        })
         .transpose()
         .flag("--field")?;
     if let Some(file) = &file {
@@ -132,11 +145,6 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         Some(OutsideArg::Skip) => Outside::Skip,
         Some(OutsideArg::Nan) => Outside::Nan,
     };
-    if loaded.is_none() && args.outside.is_some() {
-        return Err(Failure::input(
-            "--outside: only a field has a grid to be outside of; give --field FILE.exr",
-        ));
-    }
     let (mut source, precision) = match (&loaded, &args.machine.machine) {
         (Some(loaded), _) => {
             let (sampler, note) = args.device.sampler()?;
@@ -148,14 +156,23 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             (Source::Field(sampler), Precision::F32)
         }
         (None, Some(machine)) if args.exact => {
-            let (machine, inputs) = args.inputs.machine_at(&load_machine(machine)?)?;
+            let (machine, inputs) = args
+                .inputs
+                .machine_at(&load_machine(machine, &args.machine.reach)?)?;
             record = Some(format!(
                 "exactly for {} at {}",
                 machine.name,
                 inputs.describe(&machine)
             ));
             let pose = args.pose.on(&machine)?;
-            (Source::Exact(machine, pose), Precision::F64)
+            query::check_exact_columns(&machine, reader.columns(), &path).flag("--points")?;
+            let source = Source::Exact {
+                machine,
+                pose,
+                path: path.clone(),
+                outside,
+            };
+            (source, Precision::F64)
         }
         _ => {
             return Err(Failure::input(
@@ -210,8 +227,13 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             Outside::Skip => "left out",
             _ => "answered NaN",
         };
+        let of = if args.exact {
+            "the machine's travels"
+        } else {
+            "the field's grid"
+        };
         eprintln!(
-            "note: {outside_count} position(s) outside the field's grid {done} (--outside), \
+            "note: {outside_count} position(s) outside {of} {done} (--outside), \
              the first at line {line} of {path}"
         );
     }

@@ -88,7 +88,8 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
         decimals: args.decimals,
         ..args.setup.options(inputs)?
     };
-    let program = volmap::io::read_bytes(&args.program).flag("--program")?;
+    let program =
+        volmap::io::read_bytes(&args.program, volmap::io::InputKind::Program).flag("--program")?;
     let name = args.program.display().to_string();
     let mut traces = vec![(
         "as-programmed",

@@ -1,17 +1,20 @@
 //! Writing a file whole or not at all: every output goes to a temporary file in the target's
-//! folder (`.NAME.PID.part`, so two runs never share one) and is renamed into place only when it
-//! is complete and on disk. Until then dropping it removes the temporary file, so a failed or
+//! folder (`.NAME.PID.N.part`, created new: no two runs, and no two writers of one run, share
+//! one) and is renamed into place only when it is complete and on disk, so the file a run
+//! reports is the whole file it wrote. An output that is one of the run's inputs is refused
+//! before anything is written ([`super::input::check_not_input`]). Until then dropping it removes the temporary file, so a failed or
 //! interrupted run never leaves half a file under the name asked for.
 //!
 //! Every temporary file alive is registered here, and every scratch folder ([`ScratchDir`]: a
 //! benchmark's fields), so that a signal handler (which runs no destructors) can remove them all
-//! ([`remove_live_temporaries`]); and a run that starts writing
+//! ([`remove_live_temporaries_and_exit`]); and a run that starts writing
 //! `NAME` first removes the temporary files of `NAME` left by runs whose process is gone (killed
 //! beyond any handler, or a power cut), keeping those of runs still alive.
 
 use std::fs::File;
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 use super::FileError;
@@ -27,14 +30,31 @@ pub struct AtomicFile {
 impl AtomicFile {
     /// Starts writing `path` (through a buffer of `buffer_bytes`).
     pub fn create(path: &Path, buffer_bytes: usize) -> Result<AtomicFile, FileError> {
+        super::input::check_not_input(path)?;
         let name = path
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
         remove_stale_temporaries(path, &name);
-        let temp = path.with_file_name(temporary_name(&name, std::process::id()));
-        let file = File::create(&temp).map_err(|e| FileError::write(path, e))?;
-        live().push(temp.clone());
+        // Created and listed under the lock: a signal handler that takes the lock to remove
+        // every temporary file either finds this one listed or stops the process before it
+        // exists.
+        let mut live = live();
+        let (temp, file) = loop {
+            let temp = path.with_file_name(temporary_name(&name, std::process::id()));
+            match std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(&temp)
+            {
+                Ok(file) => break (temp, file),
+                // Left by a process of the same number long gone: take the next name.
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+                Err(e) => return Err(FileError::write(path, e)),
+            }
+        };
+        live.push(temp.clone());
+        drop(live);
         Ok(AtomicFile {
             out: BufWriter::with_capacity(buffer_bytes, file),
             temp,
@@ -129,9 +149,12 @@ pub fn write_atomically(
     file.commit()
 }
 
-/// The temporary name of `name` written by process `pid`.
+/// A new temporary name of `name` written by process `pid`: `.NAME.PID.N.part`, `N` counting
+/// the temporary files of the process.
 fn temporary_name(name: &str, pid: u32) -> String {
-    format!(".{name}.{pid}.part")
+    static COUNT: AtomicU64 = AtomicU64::new(0);
+    let n = COUNT.fetch_add(1, Ordering::Relaxed);
+    format!(".{name}.{pid}.{n}.part")
 }
 
 /// The temporary files being written now.
@@ -180,15 +203,19 @@ fn forget(temp: &Path) {
     live().retain(|t| t != temp);
 }
 
-/// Removes every temporary file being written and every scratch folder: for a signal handler,
-/// before the process exits without running destructors.
-pub fn remove_live_temporaries() {
-    for temp in live().drain(..) {
+/// Removes every temporary file being written and every scratch folder, and exits with `code`:
+/// for a signal handler, which runs no destructors. The lists stay locked until the process
+/// ends, so no writer starts another temporary file or folder meanwhile.
+pub fn remove_live_temporaries_and_exit(code: i32) -> ! {
+    let mut live = live();
+    for temp in live.drain(..) {
         let _ = std::fs::remove_file(temp);
     }
-    for folder in live_folders().drain(..) {
+    let mut folders = live_folders();
+    for folder in folders.drain(..) {
         let _ = std::fs::remove_dir_all(folder);
     }
+    std::process::exit(code)
 }
 
 /// Removes the temporary files of `name` (beside `path`) whose writing process is gone.
@@ -200,21 +227,31 @@ fn remove_stale_temporaries(path: &Path, name: &str) {
     let Ok(entries) = std::fs::read_dir(folder) else {
         return;
     };
-    let prefix = format!(".{name}.");
     for entry in entries.flatten() {
-        let file_name = entry.file_name();
-        let Some(pid) = file_name
-            .to_str()
-            .and_then(|f| f.strip_prefix(&prefix))
-            .and_then(|rest| rest.strip_suffix(".part"))
-            .and_then(|pid| pid.parse::<u32>().ok())
-        else {
+        let Some(pid) = entry.file_name().to_str().and_then(|f| writer_of(f, name)) else {
             continue;
         };
         if pid != std::process::id() && process_is_gone(pid) {
             let _ = std::fs::remove_file(entry.path());
         }
     }
+}
+
+/// The process that wrote `file_name` if it is a temporary file of `name`: `.NAME.PID.N.part`
+/// (or `.NAME.PID.part`, as runs before the count wrote). The temporary file of another output
+/// whose name starts like this one's (`.NAME.99.PID.N.part`, of `NAME.99`) is not.
+fn writer_of(file_name: &str, name: &str) -> Option<u32> {
+    let rest = file_name
+        .strip_prefix('.')?
+        .strip_prefix(name)?
+        .strip_prefix('.')?
+        .strip_suffix(".part")?;
+    let pid = match rest.split_once('.') {
+        Some((pid, n)) if n.bytes().all(|b| b.is_ascii_digit()) => pid,
+        Some(_) => return None,
+        None => rest,
+    };
+    pid.parse().ok()
 }
 
 /// Whether no process `pid` exists (signal 0 checks without sending anything).
@@ -232,4 +269,71 @@ fn process_is_gone(pid: u32) -> bool {
 #[cfg(not(unix))]
 fn process_is_gone(_pid: u32) -> bool {
     false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn two_writers_of_one_file_write_under_names_of_their_own() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.csv");
+        let mut first = AtomicFile::create(&path, 16).unwrap();
+        let mut second = AtomicFile::create(&path, 16).unwrap();
+        assert_ne!(first.temp, second.temp);
+        first.write_all(b"first, whole\n").unwrap();
+        second.write_all(b"second, whole\n").unwrap();
+        first.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "first, whole\n");
+        second.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "second, whole\n");
+        assert_eq!(names(dir.path()), ["out.csv"]);
+    }
+
+    #[test]
+    fn a_file_dropped_unfinished_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.csv");
+        let mut file = AtomicFile::create(&path, 16).unwrap();
+        file.write_all(&[b'x'; 100]).unwrap();
+        drop(file);
+        assert!(names(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn an_input_of_the_run_is_never_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("in.csv");
+        std::fs::write(&path, "X,Y,Z\n").unwrap();
+        super::super::input::read_text(&path).unwrap();
+        let error = AtomicFile::create(&dir.path().join(".").join("in.csv"), 16)
+            .err()
+            .unwrap();
+        assert!(
+            error.to_string().contains("an input of this run"),
+            "{error}"
+        );
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "X,Y,Z\n");
+        assert_eq!(names(dir.path()), ["in.csv"]);
+    }
+
+    #[test]
+    fn stale_names_are_read_as_the_process_that_wrote_them() {
+        let pid = |file_name: &str| writer_of(file_name, "out.csv");
+        assert_eq!(pid(&temporary_name("out.csv", 4242)), Some(4242));
+        assert_eq!(pid(".out.csv.4242.part"), Some(4242));
+        // The temporary file of `out.csv.99` belongs to another output.
+        assert_eq!(pid(".out.csv.99.4242.0.part"), None);
+    }
 }

@@ -6,7 +6,7 @@
 //! Line numbers count every line of the file from 1, so an error names the line a user sees in
 //! an editor. What the columns mean, and which are required, is the caller's.
 
-use crate::error::input_errors;
+use crate::error::{excerpt, input_errors};
 
 /// What is wrong at a line of a CSV file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -41,8 +41,9 @@ pub struct Row<'a> {
 }
 
 impl<'a> Csv<'a> {
-    /// Reads `text`; `path` names the file in errors.
+    /// Reads `text`; `path` names the file in errors. A leading byte-order mark is dropped.
     pub fn new(text: &'a str, path: &'a str) -> Csv<'a> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let lines: Box<dyn Iterator<Item = (usize, &'a str)> + 'a> = Box::new(
             text.lines()
                 .enumerate()
@@ -62,12 +63,14 @@ impl<'a> Csv<'a> {
     }
 
     /// The header row; an empty file is an error that says what the header should name
-    /// (`expected`, e.g. "naming X, Y, Z").
+    /// (`expected`, e.g. "naming X, Y, Z"), and so is a column named twice.
     pub fn header(&mut self, expected: &str) -> Result<Header, CsvError> {
         let (line, text) = self.lines.next().ok_or_else(|| {
             self.error(1, format!("empty file: expected a header row {expected}"))
         })?;
-        Ok(Header::parse(line, text))
+        let header = Header::parse(line, text);
+        header.require_distinct(self.path)?;
+        Ok(header)
     }
 
     /// The records after the header, in order.
@@ -90,6 +93,32 @@ impl Header {
             line,
             names: text.split(',').map(|n| n.trim().to_string()).collect(),
         }
+    }
+
+    /// Requires every column named once (letter case aside: `x` and `X` are one column to the
+    /// readers that take either); `path` names the file in the error.
+    pub fn require_distinct(&self, path: &str) -> Result<(), CsvError> {
+        for (n, name) in self.names.iter().enumerate() {
+            if name.is_empty() {
+                continue;
+            }
+            if let Some(m) = self.names[..n]
+                .iter()
+                .position(|earlier| earlier.eq_ignore_ascii_case(name))
+            {
+                return Err(CsvError {
+                    path: path.to_string(),
+                    line: self.line,
+                    message: format!(
+                        "column `{}` appears twice (columns {} and {})",
+                        excerpt(name),
+                        m + 1,
+                        n + 1
+                    ),
+                });
+            }
+        }
+        Ok(())
     }
 }
 
@@ -128,8 +157,9 @@ impl<'a> Row<'a> {
     pub fn text(&self, index: usize, column: &str) -> Result<&'a str, CsvError> {
         self.fields.get(index).copied().ok_or_else(|| {
             self.error(format!(
-                "has {} fields, column {column} is field {}",
+                "has {} fields, column {} is field {}",
                 self.fields.len(),
+                excerpt(column),
                 index + 1
             ))
         })
@@ -139,12 +169,18 @@ impl<'a> Row<'a> {
     /// e.g. "`deviation`" or "Z").
     pub fn number(&self, index: usize, column: &str) -> Result<f64, CsvError> {
         let field = self.text(index, column)?;
-        let value: f64 = field
-            .parse()
-            .map_err(|_| self.error(format!("`{field}` in column {column} is not a number")))?;
+        let value: f64 = field.parse().map_err(|_| {
+            self.error(format!(
+                "`{}` in column {} is not a number",
+                excerpt(field),
+                excerpt(column)
+            ))
+        })?;
         if !value.is_finite() {
             return Err(self.error(format!(
-                "`{field}` in column {column} is not a finite number"
+                "`{}` in column {} is not a finite number",
+                excerpt(field),
+                excerpt(column)
             )));
         }
         Ok(value)

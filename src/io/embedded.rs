@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use super::input::Reach;
 use super::machine_file::MachineError;
 use crate::model::Machine;
 
@@ -35,14 +36,20 @@ pub fn embedded(name: &str) -> Option<Result<Machine, MachineError>> {
         .map(|(n, text)| Machine::from_toml(text, &format!("<embedded {n}>"), None))
 }
 
-/// A machine by name or path: an embedded name first, then a path to a machine file.
+/// A machine by name or path: an embedded name first, then a path to a machine file (whose CSV
+/// tables lie in its folder or below it).
 pub fn load(name_or_path: &str) -> Result<Machine, MachineError> {
+    load_reaching(name_or_path, Reach::Folder)
+}
+
+/// [`load`] with a machine file's CSV tables allowed where `reach` says.
+pub fn load_reaching(name_or_path: &str, reach: Reach) -> Result<Machine, MachineError> {
     if let Some(machine) = embedded(name_or_path) {
         return machine;
     }
     let path = Path::new(name_or_path);
     if path.exists() {
-        return Machine::from_path(path);
+        return Machine::from_path_reaching(path, reach);
     }
     Err(MachineError::UnknownMachine {
         name: name_or_path.to_string(),

@@ -8,7 +8,8 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::atomic::write_atomically;
-use super::{read_bytes, FileError};
+use super::{read_bytes, FileError, InputKind};
+use crate::error::excerpt;
 use crate::error::{Classify, ErrorKind};
 
 /// What is wrong with a mesh file, or why the PLY could not be written.
@@ -88,7 +89,10 @@ impl Mesh {
 
     /// Reads an STL file, binary or ASCII (told apart by the binary layout's exact size).
     pub fn read_stl(path: &Path) -> Result<Mesh, MeshError> {
-        Mesh::parse_stl(&read_bytes(path)?, &path.display().to_string())
+        Mesh::parse_stl(
+            &read_bytes(path, InputKind::Mesh)?,
+            &path.display().to_string(),
+        )
     }
 
     pub fn parse_stl(bytes: &[u8], path: &str) -> Result<Mesh, MeshError> {
@@ -96,10 +100,12 @@ impl Mesh {
             .get(80..84)
             .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
         let is_binary = binary_count.is_some_and(|n| bytes.len() == 84 + 50 * n);
-        if is_binary || !bytes.trim_ascii_start().starts_with(b"solid") {
+        // ASCII STL saved by an editor may start with a UTF-8 byte-order mark.
+        let text = super::input::without_byte_order_mark(bytes);
+        if is_binary || !text.trim_ascii_start().starts_with(b"solid") {
             return Mesh::parse_binary(bytes, path);
         }
-        match std::str::from_utf8(bytes) {
+        match std::str::from_utf8(text) {
             Ok(text) => Mesh::parse_ascii(text, path),
             // Binary headers may begin with `solid` too: not text, so binary it is.
             Err(_) => Mesh::parse_binary(bytes, path),
@@ -182,7 +188,7 @@ impl Mesh {
                                 line,
                                 format!(
                                     "expected `vertex x y z` with three finite numbers, found `{}`",
-                                    raw.trim()
+                                    excerpt(raw.trim())
                                 ),
                             )
                         })?;
@@ -198,7 +204,7 @@ impl Mesh {
                     triangles.push([corners[0], corners[1], corners[2]]);
                     in_facet = false;
                 }
-                Some(other) => return Err(error(line, format!("unexpected `{other}`"))),
+                Some(other) => return Err(error(line, format!("unexpected `{}`", excerpt(other)))),
             }
         }
         if in_facet {

@@ -7,6 +7,7 @@ pub mod atomic;
 pub mod csv;
 pub mod embedded;
 pub mod field;
+pub mod input;
 pub mod machine_file;
 pub mod mesh;
 pub mod points;
@@ -32,6 +33,19 @@ pub enum FileError {
         #[source]
         source: std::io::Error,
     },
+    #[error("{path}: larger than {limit}, the most {kind} may hold")]
+    TooLarge {
+        path: String,
+        limit: String,
+        kind: &'static str,
+    },
+    #[error(
+        "{path} is an input of this run{}: volmap never writes over its inputs",
+        read_as(path, input)
+    )]
+    OverwritesInput { path: String, input: String },
+    #[error("`{name}` lies outside the folder {folder}: files named in a file must be in its folder or below it")]
+    OutsideFolder { name: String, folder: String },
 }
 
 impl FileError {
@@ -48,24 +62,41 @@ impl FileError {
             source,
         }
     }
+
+    pub fn too_large(path: &Path, kind: input::InputKind) -> FileError {
+        FileError::TooLarge {
+            path: path.display().to_string(),
+            limit: input::describe_bytes(kind.limit_bytes()),
+            kind: kind.name(),
+        }
+    }
+
+    /// Whether this is a file named outside the folder of the file that names it.
+    pub fn is_outside_folder(&self) -> bool {
+        matches!(self, FileError::OutsideFolder { .. })
+    }
+}
+
+/// How the input an output would replace was named, where that differs from the output's name.
+fn read_as(path: &str, input: &str) -> String {
+    if path == input {
+        String::new()
+    } else {
+        format!(" (read as {input})")
+    }
 }
 
 impl Classify for FileError {
     /// A file that cannot be read is the input's fault; one that cannot be written, the work's.
     fn kind(&self) -> ErrorKind {
         match self {
-            FileError::Read { .. } => ErrorKind::Input,
+            FileError::Read { .. }
+            | FileError::TooLarge { .. }
+            | FileError::OverwritesInput { .. }
+            | FileError::OutsideFolder { .. } => ErrorKind::Input,
             FileError::Write { .. } => ErrorKind::Work,
         }
     }
 }
 
-/// Reads a whole text file.
-pub fn read_text(path: &Path) -> Result<String, FileError> {
-    std::fs::read_to_string(path).map_err(|e| FileError::read(path, e))
-}
-
-/// Reads a whole file.
-pub fn read_bytes(path: &Path) -> Result<Vec<u8>, FileError> {
-    std::fs::read(path).map_err(|e| FileError::read(path, e))
-}
+pub use input::{read_bytes, read_text, InputKind};

@@ -7,14 +7,15 @@
 //! ([`SampleWriter`]), so memory holds one batch whatever the number of points.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufRead, BufReader, Read, Write};
 use std::path::Path;
 
 use rayon::prelude::*;
 
 use super::csv::{is_skipped, CsvError, Header, Row};
+use super::input::{describe_bytes, LINE_LIMIT_BYTES};
 use super::FileError;
-use crate::error::input_errors;
+use crate::error::{excerpt, input_errors};
 use crate::model::channels::{Sample, SAMPLE_COLUMNS};
 use crate::model::{AxisLetter, Command};
 
@@ -42,6 +43,8 @@ pub struct QueryPoint {
 /// for a column carried through).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PointColumns {
+    /// The line of the header row.
+    pub line: usize,
     pub names: Vec<String>,
     pub axes: Vec<Option<AxisLetter>>,
     /// Which of the six axis columns are present.
@@ -63,7 +66,8 @@ impl PointColumns {
             }
             if SAMPLE_COLUMNS.iter().any(|c| c.eq_ignore_ascii_case(name)) {
                 return Err(error(format!(
-                    "column `{name}` is one the answer adds ({}): rename it",
+                    "column `{}` is one the answer adds ({}): rename it",
+                    excerpt(name),
                     SAMPLE_COLUMNS.join(", ")
                 )));
             }
@@ -86,6 +90,7 @@ impl PointColumns {
             }
         }
         Ok(PointColumns {
+            line: header.line,
             names: header.names.clone(),
             axes,
             given,
@@ -113,7 +118,7 @@ pub struct PointReader<R> {
 impl PointReader<BufReader<File>> {
     /// Opens the file and reads its header.
     pub fn open(path: &Path) -> Result<Self, PointsError> {
-        let file = File::open(path).map_err(|e| FileError::read(path, e))?;
+        let file = super::input::open_stream(path)?;
         PointReader::new(
             BufReader::with_capacity(1 << 16, file),
             &path.display().to_string(),
@@ -129,6 +134,7 @@ impl<R: BufRead> PointReader<R> {
             path: path.to_string(),
             line: 0,
             columns: PointColumns {
+                line: 0,
                 names: Vec::new(),
                 axes: Vec::new(),
                 given: [false; 6],
@@ -144,6 +150,7 @@ impl<R: BufRead> PointReader<R> {
             .into());
         };
         let header = Header::parse(line, reader.text.trim());
+        header.require_distinct(&reader.path)?;
         reader.columns = PointColumns::of(&header, &reader.path)?;
         Ok(reader)
     }
@@ -157,14 +164,30 @@ impl<R: BufRead> PointReader<R> {
     fn next_record(&mut self) -> Result<Option<usize>, PointsError> {
         loop {
             self.text.clear();
-            let read = self
-                .input
+            let read = (&mut self.input)
+                .take(LINE_LIMIT_BYTES as u64 + 1)
                 .read_line(&mut self.text)
                 .map_err(|e| FileError::read(Path::new(&self.path), e))?;
             if read == 0 {
                 return Ok(None);
             }
             self.line += 1;
+            if read > LINE_LIMIT_BYTES {
+                return Err(CsvError {
+                    path: self.path.clone(),
+                    line: self.line,
+                    message: format!(
+                        "longer than {}, the most a line may hold",
+                        describe_bytes(LINE_LIMIT_BYTES as u64)
+                    ),
+                }
+                .into());
+            }
+            if self.line == 1 {
+                if let Some(rest) = self.text.strip_prefix('\u{feff}') {
+                    self.text = rest.to_string();
+                }
+            }
             if !is_skipped(self.text.trim()) {
                 return Ok(Some(self.line));
             }

@@ -79,7 +79,7 @@ impl ToleranceFile {
             text.parse()
                 .map_err(|e: toml_edit::TomlError| ToleranceError::Toml {
                     file: file.clone(),
-                    message: e.to_string().trim_end().to_string(),
+                    message: crate::error::toml_edit_message(&e, text),
                 })?;
         let reader = Reader {
             file: &file,

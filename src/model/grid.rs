@@ -163,8 +163,12 @@ pub fn parse_dims(text: &str) -> Result<[usize; 3], GridError> {
 /// Rotary axes not named stay at 0.
 pub fn parse_pose(text: &str, machine: &Machine) -> Result<Command, GridError> {
     let mut pose = [0.0; 6];
+    let mut named = [false; 6];
     for (name, value) in poses::named_values(text, || GridError::PoseSyntax(text.to_string()))? {
         let letter = poses::rotary_letter(name, machine)?;
+        if std::mem::replace(&mut named[letter.index()], true) {
+            return Err(poses::axis_error(name, "named twice"));
+        }
         let range = machine.axis(letter).map_or([0.0, 0.0], |a| a.range);
         let degrees = poses::degrees(value).map_err(|what| poses::axis_error(name, what))?;
         if degrees < range[0] || degrees > range[1] {

@@ -76,7 +76,7 @@ pub(super) fn named_values(
 /// The error of axis `name`.
 pub(super) fn axis_error(name: &str, what: impl Into<String>) -> GridError {
     GridError::PoseAxis {
-        axis: name.to_string(),
+        axis: crate::error::excerpt(name).into_owned(),
         what: what.into(),
     }
 }

@@ -144,18 +144,25 @@ impl ToolLengths {
         let mut lengths = ToolLengths::default();
         let bad = || NcError::Option {
             option: NcOption::ToolLengths,
-            value: text.to_string(),
+            value: crate::error::excerpt(text).into_owned(),
             message: "a length in mm, or T1=80,T2=120 per tool".into(),
+        };
+        let length = |value: &str| {
+            value
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(bad)
         };
         for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
             match part.split_once('=') {
-                None => lengths.all = Some(part.parse().map_err(|_| bad())?),
+                None => lengths.all = Some(length(part)?),
                 Some((tool, value)) => {
                     let tool = tool.trim().trim_start_matches(['T', 't']);
-                    lengths.per_tool.insert(
-                        tool.parse().map_err(|_| bad())?,
-                        value.trim().parse().map_err(|_| bad())?,
-                    );
+                    lengths
+                        .per_tool
+                        .insert(tool.parse().map_err(|_| bad())?, length(value)?);
                 }
             }
         }
@@ -206,7 +213,7 @@ impl Default for Options {
 pub fn parse_work_offset(text: &str) -> Result<(u32, [f64; 6]), NcError> {
     let bad = || NcError::Option {
         option: NcOption::WorkOffsets,
-        value: text.to_string(),
+        value: crate::error::excerpt(text).into_owned(),
         message: "expected G54=X,Y,Z (mm), e.g. G54=100,50,-200".into(),
     };
     let (name, values) = text.split_once('=').ok_or_else(bad)?;
@@ -226,6 +233,16 @@ pub fn parse_work_offset(text: &str) -> Result<(u32, [f64; 6]), NcError> {
     if values.len() != 3 && values.len() != 6 {
         return Err(bad());
     }
+    if let Some(n) = values.iter().position(|v| !v.is_finite()) {
+        return Err(NcError::Option {
+            option: NcOption::WorkOffsets,
+            value: crate::error::excerpt(text).into_owned(),
+            message: format!(
+                "G{number}: its {} value is not a finite number",
+                ["X", "Y", "Z", "A", "B", "C"][n]
+            ),
+        });
+    }
     let mut offset = [0.0; 6];
     offset[..values.len()].copy_from_slice(&values);
     Ok((number, offset))
@@ -239,8 +256,9 @@ pub fn read_work_offsets(path: &std::path::Path) -> Result<Vec<(u32, [f64; 6])>,
         path: name.clone(),
         message,
     };
+    let text = read_text(path)?;
     let table: std::collections::BTreeMap<String, Vec<f64>> =
-        toml::from_str(&read_text(path)?).map_err(|e| file_error(e.to_string()))?;
+        toml::from_str(&text).map_err(|e| file_error(crate::error::toml_message(&e, &text)))?;
     table
         .into_iter()
         .map(|(key, values)| {

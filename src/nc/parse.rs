@@ -2,6 +2,7 @@
 //! the line so the compensated program can change numbers and nothing else.
 
 use super::NcError;
+use crate::error::excerpt;
 
 /// A word: its letter (upper case), value, and the byte range of its number in the line.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,6 +49,8 @@ impl Line {
 /// characters, invalid UTF-8) is an error naming the first line that is not; a line that cannot
 /// be read is one too, unless `pass_unread` keeps it, wordless, to be copied as it is.
 pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<Line>, NcError> {
+    // A program saved by an editor may start with a UTF-8 byte-order mark.
+    let bytes = crate::io::input::without_byte_order_mark(bytes);
     let text = match std::str::from_utf8(bytes) {
         Ok(t) => t,
         Err(e) => {
@@ -161,10 +164,22 @@ pub(super) fn parse_line(
                             if text.is_empty() {
                                 format!("`{c}` without a number")
                             } else {
-                                format!("`{c}{text}`: not a number")
+                                format!("`{c}{}`: not a number", excerpt(text))
                             },
                         )
                     })?;
+                let whole = value.fract() == 0.0 && (0.0..=u32::MAX as f64).contains(&value);
+                if c.eq_ignore_ascii_case(&'T') && !whole {
+                    return Err(NcError::line(
+                        path,
+                        number,
+                        format!(
+                            "`{c}{}`: a tool number is a whole number from 0 to {}",
+                            excerpt(text),
+                            u32::MAX
+                        ),
+                    ));
+                }
                 words.push(Word {
                     letter: c.to_ascii_uppercase(),
                     value,
@@ -185,7 +200,12 @@ pub(super) fn parse_line(
                 return Err(NcError::line(
                     path,
                     number,
-                    format!("cannot read `{other}` here"),
+                    format!(
+                        "cannot read `{}` here",
+                        body.get(i..)
+                            .and_then(|rest| rest.chars().next())
+                            .unwrap_or(other)
+                    ),
                 ));
             }
         }

@@ -14,6 +14,10 @@ use super::NcError;
 /// The deepest nesting of calls followed (Fanuc allows four levels).
 const MAX_DEPTH: usize = 8;
 
+/// The most blocks a program may have once its calls are expanded: nested calls repeated up to
+/// 1000 times each would otherwise expand past any memory.
+pub const MAX_EXPANDED_BLOCKS: usize = 4_000_000;
+
 fn is_call(line: &Line) -> bool {
     line.words
         .iter()
@@ -139,6 +143,11 @@ fn expand_line(
     for _ in 0..repeats as usize {
         for body_line in &lines[start..end] {
             expand_line(lines, body_line, bodies, path, depth + 1, out)?;
+        }
+        if out.len() > MAX_EXPANDED_BLOCKS {
+            return Err(error(format!(
+                "the calls expand to more than {MAX_EXPANDED_BLOCKS} blocks"
+            )));
         }
     }
     Ok(())

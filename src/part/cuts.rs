@@ -108,6 +108,25 @@ impl Evaluator<'_> {
         command[2] = tip.z;
         match &self.errors {
             Errors::Exact(twin) => {
+                // As with a field, the machine's error is not asked where it cannot go.
+                let beyond = twin.real().axes.iter().find(|a| {
+                    let i = a.letter.index();
+                    i < 3 && !(a.range[0]..=a.range[1]).contains(&command[i])
+                });
+                if let Some(axis) = beyond {
+                    return Err(FeatureError::Feature {
+                        file: self.file.to_string(),
+                        feature: feature.to_string(),
+                        message: format!(
+                            "the cutter position {}={:.3} mm lies outside the travel of {} ({} to {})",
+                            axis.letter,
+                            command[axis.letter.index()],
+                            axis.letter,
+                            axis.range[0],
+                            axis.range[1]
+                        ),
+                    });
+                }
                 let d = twin.deviation(&command);
                 Ok((d.volumetric_mm, d.orientation_rad))
             }

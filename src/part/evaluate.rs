@@ -17,6 +17,7 @@ use super::profile::DatumSurfaces;
 use super::{tolerance, ErrorSource, Evaluation, FeatureError, FeatureResult, Verdict};
 use crate::io::mesh::Mesh;
 use crate::model::channels::Sample;
+use crate::model::{AxisLetter, Command, Machine};
 use crate::reference::Twin;
 
 /// What the features evaluated so far leave for the datums of later ones.
@@ -87,11 +88,39 @@ pub fn evaluate(
             });
         }
     }
+    if let ErrorSource::Exact(machine) = &source {
+        check_pose_on(machine, &pose, file)?;
+    }
     let errors = match source {
         ErrorSource::Exact(machine) => Errors::Exact(Box::new(Twin::of(machine))),
         ErrorSource::Field(field) => Errors::Field(field),
     };
     evaluate_with(part, errors, file)
+}
+
+/// Checks the part's pose (`placement.pose_deg`) against the machine: an axis it lacks, or a
+/// position outside the axis's travel, is an error naming the placement.
+fn check_pose_on(machine: &Machine, pose: &Command, file: &str) -> Result<(), FeatureError> {
+    for letter in [AxisLetter::A, AxisLetter::B, AxisLetter::C] {
+        let degrees = pose[letter.index()];
+        let message = match machine.axis(letter) {
+            None if degrees != 0.0 => format!(
+                "pose_deg: {letter}={degrees}°, but the machine (chain {}) has no {letter} axis",
+                machine.chain.hwang_notation()
+            ),
+            Some(axis) if !(axis.range[0]..=axis.range[1]).contains(&degrees) => format!(
+                "pose_deg: {letter}={degrees}° lies outside the travel of {letter} ({} to {})",
+                axis.range[0], axis.range[1]
+            ),
+            _ => continue,
+        };
+        return Err(FeatureError::Feature {
+            file: file.to_string(),
+            feature: "(placement)".into(),
+            message,
+        });
+    }
+    Ok(())
 }
 
 /// Every cutter position the evaluation of `part` asks the machine's error at.

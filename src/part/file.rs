@@ -282,7 +282,7 @@ impl PartFile {
     pub fn parse(text: &str, file: &str) -> Result<PartFile, FeatureError> {
         let part: PartFile = toml::from_str(text).map_err(|e| FeatureError::Toml {
             file: file.to_string(),
-            message: e.to_string().trim_end().replace('\n', "\n  "),
+            message: crate::error::toml_message(&e, text),
         })?;
         let check = Check { file };
         check.positive("(cutter)", "radius_mm", part.cutter.radius_mm)?;

@@ -9,12 +9,13 @@ mod slice;
 
 pub use deformed::{deformed_grid, DeformedGrid};
 pub use sample::{
-    open_sampler, sample_exact, sample_field, sample_field_gpu, sample_field_gpu_within,
-    sample_field_within, sample_fields, FieldSampler, Outside, SampledField,
+    check_exact_columns, open_sampler, sample_exact, sample_exact_within, sample_field,
+    sample_field_gpu, sample_field_gpu_within, sample_field_within, sample_fields, FieldSampler,
+    Outside, SampledField,
 };
 pub use slice::{field_slice, field_slice_at_pose, FieldSlice, Quantity};
 
-use crate::error::{Classify, ErrorKind};
+use crate::error::{shown, Classify, ErrorKind};
 use crate::gpu::GpuError;
 use crate::io::field::FieldError;
 use crate::io::points::PointsError;
@@ -24,7 +25,7 @@ use crate::io::points::PointsError;
 pub enum QueryError {
     #[error(transparent)]
     Points(#[from] PointsError),
-    #[error("{path}: line {line}: {axis}={value} lies outside the field's grid ({lo} to {hi}); a field is not extrapolated")]
+    #[error("{path}: line {line}: {axis}={} lies outside the field's grid ({lo} to {hi}); a field is not extrapolated", shown(*.value))]
     Outside {
         path: String,
         line: usize,
@@ -34,7 +35,7 @@ pub enum QueryError {
         hi: f64,
     },
     #[error(
-        "{path}: line {line}: {axis}={value}°, but the field holds the pose {axis}={field}° only"
+        "{path}: line {line}: {axis}={}°, but the field holds the pose {axis}={field}° only", shown(*.value)
     )]
     Pose {
         path: String,
@@ -61,6 +62,22 @@ pub enum QueryError {
         count: usize,
         field: String,
         missing: String,
+    },
+    #[error("{path}: line {line}: column {axis}: the machine (chain {chain}) has no {axis} axis")]
+    NoAxis {
+        path: String,
+        line: usize,
+        axis: char,
+        chain: String,
+    },
+    #[error("{path}: line {line}: {axis}={} lies outside the machine's travel ({lo} to {hi})", shown(*.value))]
+    OutsideTravel {
+        path: String,
+        line: usize,
+        axis: char,
+        value: f64,
+        lo: f64,
+        hi: f64,
     },
     #[error(transparent)]
     Field(#[from] FieldError),

@@ -10,7 +10,7 @@ use super::QueryError;
 use crate::engine::DeviceChoice;
 use crate::gpu::GpuSampler;
 use crate::io::field::{FieldError, FieldFile, FieldInfo, GridCell, LoadedField};
-use crate::io::points::QueryPoint;
+use crate::io::points::{PointColumns, QueryPoint};
 use crate::model::channels::Sample;
 use crate::model::Machine;
 use crate::reference::Twin;
@@ -166,6 +166,7 @@ pub struct SampledField {
 
 impl SampledField {
     pub fn open(path: &Path) -> Result<SampledField, FieldError> {
+        crate::io::input::note_input(path);
         SampledField::of(FieldFile::open(path)?)
     }
 
@@ -493,6 +494,72 @@ pub fn sample_field_gpu_within(
                     .map(|x| x as f64)
             })
         })
+        .collect();
+    Ok(with_nan(samples, outside))
+}
+
+/// Checks the columns of a points file against the machine sampled exactly: a rotary column
+/// for an axis the machine lacks is an error naming it.
+pub fn check_exact_columns(
+    machine: &Machine,
+    columns: &PointColumns,
+    path: &str,
+) -> Result<(), QueryError> {
+    for letter in columns.axes.iter().flatten() {
+        if machine.axis(*letter).is_none() {
+            return Err(QueryError::NoAxis {
+                path: path.to_string(),
+                line: columns.line,
+                axis: letter.as_char(),
+                chain: machine.chain.hwang_notation(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// [`sample_exact`] for positions within the machine's travels: a position with an axis
+/// outside its range is an error naming its line and the coordinate, or left out or answered
+/// NaN as `outside` says (the model is not evaluated where the machine cannot go).
+pub fn sample_exact_within(
+    machine: &Machine,
+    points: &[QueryPoint],
+    path: &str,
+    outside: Outside,
+) -> Result<Vec<Option<Sample>>, QueryError> {
+    let axes: Vec<(usize, char, [f64; 2])> = machine
+        .axes
+        .iter()
+        .map(|a| (a.letter.index(), a.letter.as_char(), a.range))
+        .collect();
+    let beyond = |p: &QueryPoint| {
+        axes.iter()
+            .find(|(i, _, r)| !(r[0]..=r[1]).contains(&p.command[*i]))
+            .map(|&(i, axis, [lo, hi])| QueryError::OutsideTravel {
+                path: path.to_string(),
+                line: p.line,
+                axis,
+                value: p.command[i],
+                lo,
+                hi,
+            })
+    };
+    let mut inside = Vec::with_capacity(points.len());
+    let mut within = Vec::with_capacity(points.len());
+    for p in points {
+        match beyond(p) {
+            Some(e) if outside == Outside::Error => return Err(e),
+            Some(_) => within.push(false),
+            None => {
+                within.push(true);
+                inside.push(p.clone());
+            }
+        }
+    }
+    let mut values = sample_exact(machine, &inside).into_iter();
+    let samples = within
+        .into_iter()
+        .map(|w| w.then(|| values.next().expect("one value per point inside")))
         .collect();
     Ok(with_nan(samples, outside))
 }

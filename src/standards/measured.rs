@@ -80,13 +80,19 @@ impl Measured {
                 return Err(csv
                     .error(
                         header.line,
-                        format!("unknown column `{column}`; the columns are: {expected}"),
+                        format!(
+                            "unknown column `{}`; the columns are: {expected}",
+                            crate::error::excerpt(column)
+                        ),
                     )
                     .into());
             };
             if found[n] {
                 return Err(csv
-                    .error(header.line, format!("column `{column}` appears twice"))
+                    .error(
+                        header.line,
+                        format!("column `{}` appears twice", crate::error::excerpt(column)),
+                    )
                     .into());
             }
             found[n] = true;

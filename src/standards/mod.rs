@@ -72,7 +72,7 @@ pub enum StandardsError {
     Csv(#[from] CsvError),
     #[error("{0}")]
     Parameter(String),
-    #[error("{what}: {axis}={value} lies outside the travel of {axis} ({lo} to {hi})")]
+    #[error("{what}: {axis}={} lies outside the travel of {axis} ({lo} to {hi})", crate::error::shown(*.value))]
     OutsideTravel {
         what: String,
         axis: AxisLetter,

@@ -4,11 +4,16 @@ use volmap::model::{AxisLetter, ErrorFunction, Interp, Machine, Table};
 use volmap::part::{evaluate, ErrorSource, FeatureError, PartFile, Verdict};
 use AxisLetter::*;
 
+/// Travels with room around the parts, whose cutter positions reach a radius beyond them.
 fn gantry() -> Machine {
     Machine::nominal(
         "gantry",
         "FFXYZ",
-        &[(X, [0.0, 400.0]), (Y, [0.0, 300.0]), (Z, [-100.0, 100.0])],
+        &[
+            (X, [-100.0, 500.0]),
+            (Y, [-100.0, 400.0]),
+            (Z, [-100.0, 100.0]),
+        ],
     )
     .unwrap()
 }

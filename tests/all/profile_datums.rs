@@ -7,11 +7,16 @@ use volmap::model::{AxisLetter, ErrorFunction, Machine};
 use volmap::part::{evaluate, ErrorSource, Evaluation, FeatureResult, PartFile};
 use AxisLetter::*;
 
+/// Travels with room around the parts, whose cutter positions reach a radius beyond them.
 fn gantry() -> Machine {
     Machine::nominal(
         "gantry",
         "FFXYZ",
-        &[(X, [0.0, 400.0]), (Y, [0.0, 300.0]), (Z, [-100.0, 100.0])],
+        &[
+            (X, [-100.0, 500.0]),
+            (Y, [-100.0, 400.0]),
+            (Z, [-100.0, 100.0]),
+        ],
     )
     .unwrap()
 }

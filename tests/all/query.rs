@@ -167,7 +167,14 @@ fn bad_point_files_name_the_line() {
             "X,Y,Z,ve.x\n1,2,3,4\n",
             "column `ve.x` is one the answer adds",
         ),
-        ("X,Y,Z,x\n1,2,3,4\n", "column X appears twice"),
+        (
+            "X,Y,Z,x\n1,2,3,4\n",
+            "column `x` appears twice (columns 1 and 4)",
+        ),
+        (
+            "X,Y,Z,id,id\n1,2,3,a,b\n",
+            "column `id` appears twice (columns 4 and 5)",
+        ),
         ("id,,X,Y,Z\n1,2,3,4,5\n", "column 2 has no name"),
         ("X,Y,Z\n1,2,3\n4,5\n", "line 3: 2 fields"),
         ("X,Y,Z\n1,2,abc\n", "line 2: `abc` in column Z"),

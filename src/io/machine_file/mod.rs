@@ -10,8 +10,9 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::csv::{Csv, CsvError};
+use super::input::Reach;
 use super::{read_text, FileError};
-use crate::error::input_errors;
+use crate::error::{excerpt, input_errors, toml_message};
 
 use crate::model::chain::{AxisLetter, Chain, ChainError};
 use crate::model::errorfn::TableError;
@@ -85,6 +86,13 @@ pub enum MachineError {
 
 input_errors!(MachineError);
 
+impl MachineError {
+    /// Whether this is a CSV table named outside the machine file's folder.
+    pub fn is_outside_folder(&self) -> bool {
+        matches!(self, MachineError::CsvFile { source, .. } if source.is_outside_folder())
+    }
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawMachine {
@@ -124,24 +132,41 @@ fn default_reference_c() -> f64 {
 }
 
 impl Machine {
-    /// Reads a machine file; CSV tables are found relative to the file's folder.
+    /// Reads a machine file; CSV tables are found relative to the file's folder, and must lie
+    /// in it or below it.
     pub fn from_path(path: &Path) -> Result<Machine, MachineError> {
+        Machine::from_path_reaching(path, Reach::Folder)
+    }
+
+    /// [`Machine::from_path`] with CSV tables allowed where `reach` says.
+    pub fn from_path_reaching(path: &Path, reach: Reach) -> Result<Machine, MachineError> {
         let file = path.display().to_string();
         let text = read_text(path)?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        Machine::from_toml(&text, &file, Some(&base))
+        Machine::from_toml_reaching(&text, &file, Some(&base), reach)
     }
 
     /// Parses machine-file text. `file` names it in errors; `csv_base` is the folder CSV paths are
-    /// relative to (`None`: CSV tables are not allowed, as in embedded machines).
+    /// relative to (`None`: CSV tables are not allowed, as in embedded machines), and which they
+    /// must lie in or below.
     pub fn from_toml(
         text: &str,
         file: &str,
         csv_base: Option<&Path>,
     ) -> Result<Machine, MachineError> {
+        Machine::from_toml_reaching(text, file, csv_base, Reach::Folder)
+    }
+
+    /// [`Machine::from_toml`] with CSV tables allowed where `reach` says.
+    pub fn from_toml_reaching(
+        text: &str,
+        file: &str,
+        csv_base: Option<&Path>,
+        reach: Reach,
+    ) -> Result<Machine, MachineError> {
         let raw: RawMachine = toml::from_str(text).map_err(|e| MachineError::Toml {
             file: file.to_string(),
-            message: e.to_string().trim_end().replace('\n', "\n  "),
+            message: toml_message(&e, text),
         })?;
         let chain = Chain::parse(&raw.chain).map_err(|source| MachineError::Chain {
             file: file.to_string(),
@@ -154,6 +179,7 @@ impl Machine {
         let mut reader = Reader {
             file: file.to_string(),
             csv_base: csv_base.map(Path::to_path_buf),
+            reach,
             csv_files: Vec::new(),
             chain: chain.clone(),
             thermal_inputs: thermal
@@ -240,6 +266,8 @@ impl Machine {
 struct Reader {
     file: String,
     csv_base: Option<PathBuf>,
+    /// Where CSV tables may lie.
+    reach: Reach,
     csv_files: Vec<(String, String)>,
     chain: Chain,
     /// `[thermal].inputs`, the names `per_kelvin` may use.
@@ -472,15 +500,19 @@ fn read_column(text: &str, path: &str, column: &str) -> Result<Vec<(f64, f64)>, 
             csv.error(
                 header.line,
                 format!(
-                    "has no column `{column}` (its columns: {})",
-                    header.names.join(", ")
+                    "has no column `{}` (its columns: {})",
+                    excerpt(column),
+                    excerpt(&header.names.join(", "))
                 ),
             )
         })?;
     if index == 0 {
         return Err(csv.error(
             header.line,
-            format!("column `{column}` is the position column; name a value column"),
+            format!(
+                "column `{}` is the position column; name a value column",
+                excerpt(column)
+            ),
         ));
     }
     let position = format!("`{}`", header.names[0]);

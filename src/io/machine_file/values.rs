@@ -4,6 +4,7 @@
 //! location and spindle errors with their `per_kelvin` terms.
 
 use super::{read_column, MachineError, Reader};
+use crate::io::input::confined;
 use crate::io::read_text;
 use crate::model::errorfn::{ErrorFunction, Interp, Table};
 use crate::model::table2d::Table2d;
@@ -438,12 +439,13 @@ impl Reader {
         let Some(base) = &self.csv_base else {
             return Err(self.key_error(key, "CSV tables need a machine file on disk (embedded machines carry their tables inline)"));
         };
-        let path = base.join(csv);
-        let text = read_text(&path).map_err(|source| MachineError::CsvFile {
+        let file_error = |source| MachineError::CsvFile {
             file: self.file.clone(),
             key: key.to_string(),
             source,
-        })?;
+        };
+        let path = confined(base, std::path::Path::new(csv), self.reach).map_err(file_error)?;
+        let text = read_text(&path).map_err(file_error)?;
         let csv_name = path.display().to_string();
         let rows = read_column(&text, &csv_name, column).map_err(|source| MachineError::Csv {
             file: self.file.clone(),

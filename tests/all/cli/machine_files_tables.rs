@@ -1,10 +1,13 @@
 //! Machine files with CSV tables, written by `build --out` and `fit --out` into another folder
 //! than their base: the tables the base names are found from the new file's folder, and the
-//! written file maps exactly like the base with the measured or fitted values in.
+//! written file maps exactly like the base with the measured or fitted values in. Tables outside
+//! the new file's folder are read only where the reader allows it (`--allow-outside-paths`):
+//! the command says so.
 
 use std::path::Path;
 
 use predicates::prelude::*;
+use volmap::io::input::Reach;
 use volmap::model::Machine;
 use volmap::reference::deviation;
 
@@ -72,16 +75,19 @@ fn build_into_another_folder_keeps_the_bases_csv_tables() {
     .unwrap();
     std::fs::create_dir_all(dir.path().join("out/deeper")).unwrap();
     let build = |out: &str| {
-        volmap()
+        let output = volmap()
             .current_dir(dir.path())
             .args(["build", "--base", "base/machine.toml", "--axis", "X=x.csv"])
             .args(["--out", out])
-            .assert()
-            .success();
+            .output()
+            .unwrap();
+        assert!(output.status.success());
+        String::from_utf8(output.stderr).unwrap()
     };
-    // Beside the base no path changes; two folders away the table is reached from there.
-    build("base/beside.toml");
-    build("out/deeper/built.toml");
+    // Beside the base no path changes; two folders away the table is reached from there, and
+    // the command notes that reading the file needs --allow-outside-paths.
+    assert_eq!(build("base/beside.toml"), "");
+    assert!(build("out/deeper/built.toml").contains("--allow-outside-paths"));
     let moved = std::fs::read_to_string(dir.path().join("out/deeper/built.toml")).unwrap();
     assert!(
         moved.contains("csv = \"../../base/tables/y.csv\""),
@@ -90,7 +96,11 @@ fn build_into_another_folder_keeps_the_bases_csv_tables() {
     let beside = std::fs::read_to_string(dir.path().join("base/beside.toml")).unwrap();
     assert!(beside.contains("csv = \"tables/y.csv\""), "{beside}");
     let beside = Machine::from_path(&dir.path().join("base/beside.toml")).unwrap();
-    let moved = Machine::from_path(&dir.path().join("out/deeper/built.toml")).unwrap();
+    let moved_path = dir.path().join("out/deeper/built.toml");
+    assert!(Machine::from_path(&moved_path)
+        .unwrap_err()
+        .is_outside_folder());
+    let moved = Machine::from_path_reaching(&moved_path, Reach::Anywhere).unwrap();
     assert_eq!(largest_difference(&beside, &moved), 0.0);
     // The built X positioning is in: the file differs from the base by it (6.5 µm at X = 1000).
     let base = Machine::from_path(&base).unwrap();
@@ -149,7 +159,8 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
         .stdout(
             predicates::str::contains("valuation")
                 .and(predicates::str::contains("condition number")),
-        );
+        )
+        .stderr(predicates::str::contains("--allow-outside-paths"));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/fit.json")).unwrap())
             .unwrap();
@@ -174,7 +185,8 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
             .replace(EC0Y_BASE, &format!("EC0Y = {estimate:?}")),
     )
     .unwrap();
-    let fitted = Machine::from_path(&dir.path().join("out/fitted.toml")).unwrap();
+    let fitted =
+        Machine::from_path_reaching(&dir.path().join("out/fitted.toml"), Reach::Anywhere).unwrap();
     let expected = Machine::from_path(&expected_path).unwrap();
     assert_eq!(largest_difference(&fitted, &expected), 0.0);
 }

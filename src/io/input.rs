@@ -1,0 +1,296 @@
+//! Reading inputs: every file volmap reads goes through here, whole with a size bound per kind
+//! ([`read_text`], [`read_bytes`]) or streamed a line at a time with a bound on each line
+//! ([`open_stream`]), so that no input (a device such as `/dev/zero`, a file of one endless line)
+//! reads until memory runs out.
+//!
+//! Every file read is also noted as an input of the run: [`check_not_input`] (which every writer
+//! of `io::atomic` asks before it starts) refuses to write over any of them, so no output of a
+//! run replaces one of its own inputs.
+//!
+//! Files an input names (the CSV tables of a machine file or a fit file) are confined to the
+//! folder of the file that names them, and below it, unless the caller allows more
+//! ([`Reach`], [`confined`]).
+
+use std::fs::File;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use super::FileError;
+
+/// The most bytes a text input may hold: machine files and their CSV tables, part files, fit
+/// files and their measured CSV files, tolerance files, work offset files.
+pub const TEXT_LIMIT_BYTES: u64 = 64 << 20;
+
+/// The most bytes an NC program may hold.
+pub const PROGRAM_LIMIT_BYTES: u64 = 256 << 20;
+
+/// The most bytes an STL mesh may hold (about 10 million triangles in binary STL).
+pub const MESH_LIMIT_BYTES: u64 = 512 << 20;
+
+/// The most bytes one line of a streamed input (a points CSV) may hold.
+pub const LINE_LIMIT_BYTES: usize = 64 << 10;
+
+/// The kind of a file read whole, which sets its size bound.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InputKind {
+    /// A text file: [`TEXT_LIMIT_BYTES`].
+    Text,
+    /// An NC program: [`PROGRAM_LIMIT_BYTES`].
+    Program,
+    /// An STL mesh: [`MESH_LIMIT_BYTES`].
+    Mesh,
+}
+
+impl InputKind {
+    /// The most bytes a file of this kind may hold.
+    pub const fn limit_bytes(self) -> u64 {
+        match self {
+            InputKind::Text => TEXT_LIMIT_BYTES,
+            InputKind::Program => PROGRAM_LIMIT_BYTES,
+            InputKind::Mesh => MESH_LIMIT_BYTES,
+        }
+    }
+
+    /// What the limit is for, in messages.
+    pub const fn name(self) -> &'static str {
+        match self {
+            InputKind::Text => "a text input",
+            InputKind::Program => "an NC program",
+            InputKind::Mesh => "an STL mesh",
+        }
+    }
+}
+
+/// A byte count as people read it: `64 MiB`, `64 KiB`.
+pub fn describe_bytes(bytes: u64) -> String {
+    match bytes {
+        b if b >= 1 << 20 && b % (1 << 20) == 0 => format!("{} MiB", b >> 20),
+        b if b >= 1 << 10 && b % (1 << 10) == 0 => format!("{} KiB", b >> 10),
+        b => format!("{b} bytes"),
+    }
+}
+
+/// The UTF-8 byte-order mark some editors on Windows put first in a text file.
+const BYTE_ORDER_MARK: &[u8] = b"\xEF\xBB\xBF";
+
+/// `bytes` without a leading UTF-8 byte-order mark.
+pub fn without_byte_order_mark(bytes: &[u8]) -> &[u8] {
+    bytes.strip_prefix(BYTE_ORDER_MARK).unwrap_or(bytes)
+}
+
+/// Reads a whole file of `kind`, at most its limit; a leading byte-order mark is kept (binary
+/// files have none to drop; text readers drop it).
+pub fn read_bytes(path: &Path, kind: InputKind) -> Result<Vec<u8>, FileError> {
+    let file = open(path)?;
+    let limit = kind.limit_bytes();
+    if file
+        .metadata()
+        .is_ok_and(|m| m.is_file() && m.len() > limit)
+    {
+        return Err(FileError::too_large(path, kind));
+    }
+    let mut bytes = Vec::new();
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| FileError::read(path, e))?;
+    if bytes.len() as u64 > limit {
+        return Err(FileError::too_large(path, kind));
+    }
+    Ok(bytes)
+}
+
+/// Reads a whole text file ([`InputKind::Text`]) as UTF-8, without a leading byte-order mark.
+pub fn read_text(path: &Path) -> Result<String, FileError> {
+    let mut bytes = read_bytes(path, InputKind::Text)?;
+    if bytes.starts_with(BYTE_ORDER_MARK) {
+        bytes.drain(..BYTE_ORDER_MARK.len());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        FileError::read(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("not UTF-8 text (byte {at})"),
+            ),
+        )
+    })
+}
+
+/// Opens a file to be read a line at a time (lines of at most [`LINE_LIMIT_BYTES`]: the
+/// reader's to check), noting it as an input of the run.
+pub fn open_stream(path: &Path) -> Result<File, FileError> {
+    open(path)
+}
+
+/// Opens `path` for reading and notes it as an input.
+fn open(path: &Path) -> Result<File, FileError> {
+    let file = File::open(path).map_err(|e| FileError::read(path, e))?;
+    if file.metadata().is_ok_and(|m| m.is_dir()) {
+        return Err(FileError::read(
+            path,
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "a folder, not a file"),
+        ));
+    }
+    note_input(path);
+    Ok(file)
+}
+
+/// What identifies a file whatever path names it: its canonical path, and on Unix its device
+/// and inode (a hard link has another path but the same inode).
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Identity {
+    canonical: PathBuf,
+    inode: Option<(u64, u64)>,
+}
+
+impl Identity {
+    /// The identity of an existing file, `None` for a path that names nothing.
+    fn of(path: &Path) -> Option<Identity> {
+        let canonical = std::fs::canonicalize(path).ok()?;
+        Some(Identity {
+            inode: inode(&canonical),
+            canonical,
+        })
+    }
+
+    fn is(&self, other: &Identity) -> bool {
+        self.canonical == other.canonical || (self.inode.is_some() && self.inode == other.inode)
+    }
+
+    /// Whether the file read is still where it was read: a file deleted since may have left
+    /// its inode to another.
+    fn still_there(&self) -> bool {
+        inode(&self.canonical) == self.inode
+    }
+}
+
+#[cfg(unix)]
+fn inode(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+
+#[cfg(not(unix))]
+fn inode(_path: &Path) -> Option<(u64, u64)> {
+    None
+}
+
+/// The files read so far by this process: the path as named and what it is.
+fn inputs() -> std::sync::MutexGuard<'static, Vec<(PathBuf, Identity)>> {
+    static INPUTS: Mutex<Vec<(PathBuf, Identity)>> = Mutex::new(Vec::new());
+    INPUTS.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Notes `path` as an input of this run (for readers outside this module, such as field files).
+pub fn note_input(path: &Path) {
+    if let Some(identity) = Identity::of(path) {
+        let mut inputs = inputs();
+        inputs.retain(|(_, i)| i.still_there());
+        if !inputs.iter().any(|(_, i)| i.is(&identity)) {
+            inputs.push((path.to_path_buf(), identity));
+        }
+    }
+}
+
+/// Refuses `path` as an output when it is a file this run has read: an output never replaces
+/// one of the run's inputs.
+pub fn check_not_input(path: &Path) -> Result<(), FileError> {
+    let Some(identity) = Identity::of(path) else {
+        return Ok(());
+    };
+    match inputs()
+        .iter()
+        .find(|(_, i)| i.still_there() && i.is(&identity))
+    {
+        Some((input, _)) => Err(FileError::OverwritesInput {
+            path: path.display().to_string(),
+            input: input.display().to_string(),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Where the files an input names may lie.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Reach {
+    /// In the folder of the file that names them, or below it.
+    #[default]
+    Folder,
+    /// Anywhere the user can read.
+    Anywhere,
+}
+
+/// `name` (as written in the file at `folder`) joined to `folder`, refused where it lies outside
+/// `folder` and `reach` does not allow that. Links are followed: a link in the folder to a file
+/// outside it lies outside.
+pub fn confined(folder: &Path, name: &Path, reach: Reach) -> Result<PathBuf, FileError> {
+    let path = folder.join(name);
+    if reach == Reach::Anywhere {
+        return Ok(path);
+    }
+    let folder_for_canonical = if folder.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        folder
+    };
+    let inside = match (
+        std::fs::canonicalize(folder_for_canonical),
+        std::fs::canonicalize(&path),
+    ) {
+        (Ok(f), Ok(p)) => p.starts_with(f),
+        // A file that does not exist is reported missing by its reader; judge it by its name.
+        (_, Err(_)) => lexically_inside(name),
+        (Err(_), Ok(_)) => false,
+    };
+    if inside {
+        Ok(path)
+    } else {
+        Err(FileError::OutsideFolder {
+            name: crate::error::excerpt(&name.display().to_string()).into_owned(),
+            folder: folder_for_canonical.display().to_string(),
+        })
+    }
+}
+
+/// Whether a relative name stays in its folder by its components alone (`a/../b` does,
+/// `../b` and `/b` do not).
+fn lexically_inside(name: &Path) -> bool {
+    use std::path::Component;
+    let mut depth = 0usize;
+    for component in name.components() {
+        match component {
+            Component::Normal(_) => depth += 1,
+            Component::CurDir => {}
+            Component::ParentDir => match depth.checked_sub(1) {
+                Some(d) => depth = d,
+                None => return false,
+            },
+            Component::RootDir | Component::Prefix(_) => return false,
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_read_as_people_write_them() {
+        assert_eq!(describe_bytes(TEXT_LIMIT_BYTES), "64 MiB");
+        assert_eq!(describe_bytes(LINE_LIMIT_BYTES as u64), "64 KiB");
+        assert_eq!(describe_bytes(1000), "1000 bytes");
+    }
+
+    #[test]
+    fn names_stay_inside_by_their_components() {
+        assert!(lexically_inside(Path::new("t.csv")));
+        assert!(lexically_inside(Path::new("a/../t.csv")));
+        assert!(lexically_inside(Path::new("./a/t.csv")));
+        assert!(!lexically_inside(Path::new("../t.csv")));
+        assert!(!lexically_inside(Path::new("a/../../t.csv")));
+        assert!(!lexically_inside(Path::new("/etc/passwd")));
+    }
+}
