@@ -11,6 +11,7 @@ mod design;
 mod features;
 mod field;
 mod field_inputs;
+mod field_storage;
 mod golden;
 mod gpu;
 mod gpu_sparse;

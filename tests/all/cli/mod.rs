@@ -3,6 +3,7 @@
 mod compensate;
 mod compensate_orientation;
 mod design;
+mod field_files;
 mod finite;
 mod hardening_inputs;
 mod hardening_messages;
