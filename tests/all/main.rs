@@ -8,6 +8,7 @@ mod cli;
 mod common;
 mod cpu;
 mod design;
+mod export;
 mod features;
 mod field;
 mod field_inputs;

@@ -3,6 +3,7 @@
 mod compensate;
 mod compensate_orientation;
 mod design;
+mod export;
 mod inputs;
 mod interrupt;
 mod machine_files;
