@@ -12,13 +12,15 @@ use super::failure::{Failure, FlagContext};
 use super::output::{check_plot_paths, progress, write_json, write_plot, written_by};
 
 const UM_PER_MM: f64 = 1000.0;
+/// Below this the structure's remainder is the arithmetic's, mm.
+const NEGLIGIBLE_MM: f64 = 1e-6;
 
 #[derive(clap::Args)]
 pub struct ExportArgs {
     #[command(flatten)]
     machine: MachineArg,
-    /// The controller format: grid-csv (see the README for each format's tables, limits and
-    /// how to load them).
+    /// The controller format: grid-csv, linuxcnc, klipper or marlin (see the README for each
+    /// format's tables, limits and how to load them).
     #[arg(long)]
     format: String,
     /// Where to write: the file for a one-file format (grid-csv, klipper, marlin), a folder
@@ -95,6 +97,15 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
     bar.finish_and_clear();
     let exported = result.map_err(|e| flag_of(e, size_flag))?;
     print_report(&exported.report);
+    let r = &exported.report;
+    if r.residual.max_mm > r.before.max_mm {
+        eprintln!(
+            "warning: the {} table leaves a larger largest error than the machine has without it ({} against {}): it holds too little of this machine's error to help",
+            r.format,
+            um(r.residual.max_mm),
+            um(r.before.max_mm)
+        );
+    }
     if let Some(limit) = args.max_residual {
         exported.check_residual(limit).flag("--max-residual")?;
     }
@@ -169,7 +180,9 @@ fn print_report(r: &Report) {
         println!("  directions             the control picks each axis's table by the direction it moves; the residual is for the approach above");
     }
     println!("  holds                  {}", r.holds);
-    if r.structural_mm > 0.0 || !r.not_held.is_empty() {
+    if r.not_held.is_empty() && r.structural_mm < NEGLIGIBLE_MM {
+        println!("  cannot hold            nothing of this machine's correction at the pose");
+    } else {
         println!(
             "  cannot hold            up to {} of the correction at any table size; of each error alone:",
             um(r.structural_mm)

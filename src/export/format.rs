@@ -124,9 +124,14 @@ pub trait Format: Sync {
         points: Option<[usize; 3]>,
         spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError>;
-    /// Reads the files as the control reads them; what does not read is an error naming the
-    /// file and line.
-    fn read(&self, files: &[WrittenFile]) -> Result<Box<dyn Control>, ExportError>;
+    /// Reads the files as the control reads them, on a machine whose X, Y, Z travels (the
+    /// control's own limits) are `travel_mm`; what does not read is an error naming the file
+    /// and line.
+    fn read(
+        &self,
+        files: &[WrittenFile],
+        travel_mm: &[[f64; 2]; 3],
+    ) -> Result<Box<dyn Control>, ExportError>;
 }
 
 /// What a control does with the tables it loaded.

@@ -121,7 +121,11 @@ impl Format for GridCsv {
         }])
     }
 
-    fn read(&self, files: &[WrittenFile]) -> Result<Box<dyn Control>, ExportError> {
+    fn read(
+        &self,
+        files: &[WrittenFile],
+        _travel_mm: &[[f64; 2]; 3],
+    ) -> Result<Box<dyn Control>, ExportError> {
         let file = &files[0];
         Ok(Box::new(read_grid(&file.text, &file.name)?))
     }

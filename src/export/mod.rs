@@ -17,6 +17,10 @@ pub mod nodes;
 pub mod residual;
 
 mod grid_csv;
+mod klipper;
+mod linuxcnc;
+mod marlin;
+mod skew;
 
 use std::path::{Path, PathBuf};
 
@@ -31,7 +35,12 @@ pub use format::{Control, Format, Layout, Limits, Nodes, Structure, TableInfo, T
 pub use residual::{EvaluationGrid, Figures, NotHeld};
 
 /// Every format volmap writes, in the order `--format` lists them.
-pub static FORMATS: &[&dyn Format] = &[&grid_csv::GridCsv];
+pub static FORMATS: &[&dyn Format] = &[
+    &grid_csv::GridCsv,
+    &linuxcnc::LinuxCnc,
+    &klipper::Klipper,
+    &marlin::Marlin,
+];
 
 /// The format named `name`.
 pub fn format_named(name: &str) -> Result<&'static dyn Format, ExportError> {
@@ -84,6 +93,13 @@ pub enum ExportError {
         spacing_mm: f64,
         min_mm: f64,
         limits_from: &'static str,
+    },
+    #[error("{what} would be {value}: {format} holds {holds}")]
+    BeyondFormat {
+        format: &'static str,
+        what: String,
+        value: f64,
+        holds: &'static str,
     },
     #[error("a spacing of {0} mm: it must be a positive number of mm")]
     BadSpacing(f64),
@@ -293,7 +309,7 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     let ranges = fitting.ranges;
     let (points, spacing) = table_points(format, request.size, &ranges)?;
     let files = format.write(&fitting, points, spacing)?;
-    let control = format.read(&files)?;
+    let control = format.read(&files, &ranges)?;
     let tables = control.tables();
     let table_points = tables.iter().map(|t| t.points).max().unwrap_or(2);
     let n = match request.evaluation_points {

@@ -6,6 +6,8 @@
 //! minimax over candidates, solved exactly by dynamic programming. Where a format demands
 //! equidistant nodes, [`equidistant`] gives them.
 
+use rayon::prelude::*;
+
 /// A piecewise-linear table: strictly increasing positions and their values; linear between
 /// nodes, the end value outside.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,21 +37,33 @@ pub fn equidistant(start: f64, spacing: f64, n: usize) -> Vec<f64> {
     (0..n).map(|i| start + i as f64 * spacing).collect()
 }
 
-/// The largest distance of `f` at the candidates strictly between `i` and `j` from the chord
-/// through `(q_i, f_i)` and `(q_j, f_j)`.
-fn chord_error(q: &[f64], f: &[f64], i: usize, j: usize) -> f64 {
-    let slope = (f[j] - f[i]) / (q[j] - q[i]);
-    ((i + 1)..j)
-        .map(|m| (f[m] - (f[i] + slope * (q[m] - q[i]))).abs())
-        .fold(0.0, f64::max)
+/// The largest distance of any of the curves `f` at the candidates strictly between `i` and `j`
+/// from its chord through `(q_i, f_i)` and `(q_j, f_j)`.
+fn chord_error(q: &[f64], f: &[&[f64]], i: usize, j: usize) -> f64 {
+    let mut worst: f64 = 0.0;
+    for f in f {
+        let slope = (f[j] - f[i]) / (q[j] - q[i]);
+        for m in (i + 1)..j {
+            worst = worst.max((f[m] - (f[i] + slope * (q[m] - q[i]))).abs());
+        }
+    }
+    worst
 }
 
-/// Chooses `n` of the candidate positions `q` (strictly increasing) as nodes, the first and
-/// the last always among them, no two closer than `min_spacing`, so that the largest distance
-/// of `f` (the curve at the candidates) from the chords between consecutive nodes is the
-/// smallest possible. Returns the indices of the nodes in `q`, in order; with `n` at least the
-/// number of candidates, every candidate.
-pub fn free_nodes(q: &[f64], f: &[f64], n: usize, min_spacing: f64) -> Vec<usize> {
+/// Chooses at most `n` of the candidate positions `q` (strictly increasing) as the nodes of
+/// tables of the curves `f` (their values at the candidates; the tables share their nodes), the
+/// first and the last candidate always among them, no two closer than `min_spacing`, so that
+/// the largest distance of any curve from its chords between consecutive nodes is the smallest
+/// possible. Of the choices within `tolerance` of that smallest error, the one with the fewest
+/// nodes. Returns the indices of the nodes in `q`, in order; with `n` at least the number of
+/// candidates, every candidate.
+pub fn free_nodes(
+    q: &[f64],
+    f: &[&[f64]],
+    n: usize,
+    min_spacing: f64,
+    tolerance: f64,
+) -> Vec<usize> {
     let m = q.len();
     if n >= m || m <= 2 {
         return (0..m).collect();
@@ -58,6 +72,7 @@ pub fn free_nodes(q: &[f64], f: &[f64], n: usize, min_spacing: f64) -> Vec<usize
     // cost[i][j]: the chord error of a segment from candidate i to candidate j.
     let allowed = |i: usize, j: usize| q[j] - q[i] >= min_spacing * (1.0 - 1e-12);
     let cost: Vec<Vec<f64>> = (0..m)
+        .into_par_iter()
         .map(|i| {
             (0..m)
                 .map(|j| {
@@ -92,10 +107,11 @@ pub fn free_nodes(q: &[f64], f: &[f64], n: usize, min_spacing: f64) -> Vec<usize
             from[s][j] = at;
         }
     }
-    // Fewer segments may do as well: take the fewest that reach the best error, then every
-    // node that choice needs (a table may have fewer points than asked where they suffice).
-    let target = best[n - 1][m - 1];
-    let segments = (1..n).find(|&s| best[s][m - 1] <= target).unwrap_or(n - 1);
+    // Fewer segments may do as well: take the fewest within the tolerance of the best.
+    let target = (1..n).map(|s| best[s][m - 1]).fold(f64::INFINITY, f64::min);
+    let segments = (1..n)
+        .find(|&s| best[s][m - 1] <= target + tolerance)
+        .unwrap_or(n - 1);
     let mut nodes = vec![m - 1];
     let mut j = m - 1;
     for s in (1..=segments).rev() {
@@ -143,9 +159,9 @@ mod tests {
             .iter()
             .map(|&x| if x < 37.0 { x } else { 37.0 - 2.0 * (x - 37.0) })
             .collect();
-        assert_eq!(free_nodes(&q, &f, 3, 0.0), vec![0, 37, 100]);
+        assert_eq!(free_nodes(&q, &[&f], 3, 0.0, 1e-12), vec![0, 37, 100]);
         // More nodes than the curve needs: the fewest that do as well.
-        assert_eq!(free_nodes(&q, &f, 10, 0.0), vec![0, 37, 100]);
+        assert_eq!(free_nodes(&q, &[&f], 10, 0.0, 1e-12), vec![0, 37, 100]);
     }
 
     #[test]
@@ -162,7 +178,7 @@ mod tests {
                 .map(|(&x, &y)| (t.eval(x) - y).abs())
                 .fold(0.0, f64::max)
         };
-        let free = free_nodes(&q, &f, 6, 0.0);
+        let free = free_nodes(&q, &[&f], 6, 0.0, 0.0);
         let even: Vec<usize> = (0..6).map(|i| i * 40).collect();
         assert_eq!((free[0], free[5]), (0, 200));
         assert!(worst(&free) < 0.5 * worst(&even));
@@ -186,7 +202,7 @@ mod tests {
     fn free_nodes_keep_the_minimum_spacing() {
         let q: Vec<f64> = (0..=100).map(|i| i as f64).collect();
         let f: Vec<f64> = q.iter().map(|&x| (x / 7.0).sin()).collect();
-        let nodes = free_nodes(&q, &f, 30, 5.0);
+        let nodes = free_nodes(&q, &[&f], 30, 5.0, 0.0);
         assert!(nodes.windows(2).all(|w| q[w[1]] - q[w[0]] >= 5.0));
         assert_eq!(nodes.last(), Some(&100));
     }
