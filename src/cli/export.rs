@@ -99,8 +99,17 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
     print_report(&exported.report);
     let r = &exported.report;
     if r.residual.max_mm > r.before.max_mm {
+        let why = if r.residual_offset_free.max_mm < r.before_offset_free.max_mm {
+            format!(
+                "less a work offset it leaves {} against {}: what it adds is a constant offset, which a work offset (touch-off) takes up",
+                um(r.residual_offset_free.max_mm),
+                um(r.before_offset_free.max_mm)
+            )
+        } else {
+            "it holds too little of this machine's error to help".to_string()
+        };
         eprintln!(
-            "warning: the {} table leaves a larger largest error than the machine has without it ({} against {}): it holds too little of this machine's error to help",
+            "warning: the {} table leaves a larger largest error than the machine has without it ({} against {}); {why}",
             r.format,
             um(r.residual.max_mm),
             um(r.before.max_mm)
@@ -135,7 +144,7 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
         | ExportError::TooFewPoints { .. }
         | ExportError::SpacingTooSmall { .. }
         | ExportError::BadSpacing(_) => Some(size_flag),
-        ExportError::NothingHeld { .. } => Some("--format"),
+        ExportError::NothingHeld { .. } | ExportError::BeyondFormat { .. } => Some("--format"),
         ExportError::BadEvaluationGrid { .. } => Some("--residual-grid"),
         ExportError::Singular => Some("--pose"),
         ExportError::MissingAxes { .. } | ExportError::NoSolution { .. } => Some("--machine"),
@@ -175,6 +184,11 @@ fn print_report(r: &Report) {
         um(r.residual.max_mm),
         um(r.residual.rms_mm),
         at(r.residual.at_mm)
+    );
+    println!(
+        "  less a work offset     largest {} before, {} after (each less its mean over the grid)",
+        um(r.before_offset_free.max_mm),
+        um(r.residual_offset_free.max_mm)
     );
     if r.uses_direction {
         println!("  directions             the control picks each axis's table by the direction it moves; the residual is for the approach above");

@@ -42,7 +42,7 @@ impl Format for GridCsv {
             nodes: Nodes::Equidistant,
             min_points: 2,
             max_points: 101,
-            min_spacing_mm: 1.0,
+            min_spacing_mm: 0.1,
             default_points: 21,
             source: "volmap's limits for the generic grid",
         }
@@ -196,9 +196,9 @@ pub fn read_grid(text: &str, name: &str) -> Result<Grid, ExportError> {
     for (d, q) in axes.iter().enumerate() {
         if q.len() > 2 {
             let step = q[1] - q[0];
-            if q.windows(2)
-                .any(|w| ((w[1] - w[0]) - step).abs() > 1e-6 * step.abs())
-            {
+            // Positions written to DECIMALS decimals differ from an even step by their rounding.
+            let slack = 2.0 * 10f64.powi(-(DECIMALS as i32)) + 1e-9 * step.abs();
+            if q.windows(2).any(|w| ((w[1] - w[0]) - step).abs() > slack) {
                 return Err(read_error(
                     name,
                     header.line,

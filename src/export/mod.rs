@@ -170,6 +170,10 @@ pub struct Report {
     pub grid: EvaluationGrid,
     pub before: Figures,
     pub residual: Figures,
+    /// Both less their mean vector over the grid: what is left once a work offset (a
+    /// touch-off) takes up the constant part, which no table needs to hold.
+    pub before_offset_free: Figures,
+    pub residual_offset_free: Figures,
     /// What the format holds and cannot hold, in words.
     pub holds: &'static str,
     /// Whether the control picks forward or reverse tables by the approach direction.
@@ -348,6 +352,8 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
         grid,
         before: measured.before,
         residual: measured.residual,
+        before_offset_free: measured.before_offset_free,
+        residual_offset_free: measured.residual_offset_free,
         holds: format.holds(),
         uses_direction: format.uses_direction(),
         structural_mm,

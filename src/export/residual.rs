@@ -6,6 +6,7 @@
 //! `c_ctrl(t)` the command the control moves to with the tables as written ([`Control`]);
 //! before: `|VE(t)| = |p_real(t) − p_ideal(t)|`.
 
+use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::fitting::{structural_remainder, uniform, Field, AVERAGING_POINTS};
@@ -86,6 +87,10 @@ impl Figures {
 pub struct Measured {
     pub before: Figures,
     pub residual: Figures,
+    /// The same less their mean vector over the grid: what is left after a work offset (a
+    /// touch-off) takes up the constant part.
+    pub before_offset_free: Figures,
+    pub residual_offset_free: Figures,
     pub largest_applied_mm: f64,
 }
 
@@ -105,6 +110,10 @@ pub fn targets(grid: &EvaluationGrid, ranges: &[[f64; 2]; 3]) -> Vec<[f64; 3]> {
     t
 }
 
+/// At one target: the error before, the residual (vectors, mm) and the size of the correction
+/// the control applied.
+type PointFigures = (Vector3<f64>, Vector3<f64>, f64);
+
 /// The residual of `control` on the machine of `field` (at the inputs asked, axes approaching
 /// in `approach`) over `grid`.
 pub fn measure(
@@ -116,24 +125,36 @@ pub fn measure(
 ) -> Measured {
     let targets = targets(grid, ranges);
     let twin = field.twin();
-    let per_point: Vec<(f64, f64, f64)> = targets
+    let per_point: Vec<PointFigures> = targets
         .par_iter()
         .map(|&xyz| {
             let t: Command = field.command(xyz);
             let ideal = twin.ideal_tip(&t);
-            let before = (twin.real_tip(&t) - ideal).norm();
+            let before = twin.real_tip(&t) - ideal;
             let c = control.command(&t, approach);
-            let after = (twin.real_tip(&c) - ideal).norm();
+            let after = twin.real_tip(&c) - ideal;
             let applied =
                 ((c[0] - t[0]).powi(2) + (c[1] - t[1]).powi(2) + (c[2] - t[2]).powi(2)).sqrt();
             (before, after, applied)
         })
         .collect();
-    let before: Vec<f64> = per_point.iter().map(|p| p.0).collect();
-    let after: Vec<f64> = per_point.iter().map(|p| p.1).collect();
+    let figures = |pick: fn(&PointFigures) -> Vector3<f64>| {
+        let vectors: Vec<Vector3<f64>> = per_point.iter().map(pick).collect();
+        let mean = vectors.iter().sum::<Vector3<f64>>() / vectors.len().max(1) as f64;
+        let plain: Vec<f64> = vectors.iter().map(|v| v.norm()).collect();
+        let offset_free: Vec<f64> = vectors.iter().map(|v| (v - mean).norm()).collect();
+        (
+            Figures::of(&plain, &targets),
+            Figures::of(&offset_free, &targets),
+        )
+    };
+    let (before, before_offset_free) = figures(|p| p.0);
+    let (residual, residual_offset_free) = figures(|p| p.1);
     Measured {
-        before: Figures::of(&before, &targets),
-        residual: Figures::of(&after, &targets),
+        before,
+        residual,
+        before_offset_free,
+        residual_offset_free,
         largest_applied_mm: per_point.iter().map(|p| p.2).fold(0.0, f64::max),
     }
 }

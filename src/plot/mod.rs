@@ -15,12 +15,14 @@ use crate::io::FileError;
 
 mod bars;
 mod charts;
+mod log_charts;
 mod maps;
 mod png;
 mod svg;
 
 pub use bars::{bar_chart, histogram, stacked, Bar};
 pub use charts::{line_chart, polar_chart, ticks, Marker, Series};
+pub use log_charts::log_chart;
 pub use maps::{colour, colour_map, deformed_grid};
 
 #[derive(Debug, thiserror::Error)]

@@ -277,8 +277,8 @@ fn table_sizes_beyond_the_format_limits_are_refused_saying_so() {
         "1 points is fewer than a grid-csv table needs: at least 2"
     );
     assert_eq!(
-        text(TableSize::Spacing(0.5)),
-        "a spacing of 0.5 mm is below the smallest a grid-csv table takes: 1 mm (volmap's limits for the generic grid)"
+        text(TableSize::Spacing(0.05)),
+        "a spacing of 0.05 mm is below the smallest a grid-csv table takes: 0.1 mm (volmap's limits for the generic grid)"
     );
     assert_eq!(
         text(TableSize::Spacing(5.0)),

@@ -147,7 +147,7 @@ fn linuxcnc_holds_a_pure_positioning_error_to_rounding() {
     let m = machine(POSITIONING);
     for approach in ["X=+", "X=-,Y=-,Z=-"] {
         let inputs = Inputs::parse("", approach, &m).unwrap();
-        let e = exported(&m, &inputs, "linuxcnc", TableSize::Default, 41);
+        let e = exported(&m, &inputs, "linuxcnc", TableSize::Points(33), 41);
         let r = &e.report;
         assert!(r.before.max_mm > 0.015);
         // Trims to 7 decimals: 5e-8 mm each; the nominals' rounding moves them by less.

@@ -9,6 +9,7 @@ mod common;
 mod cpu;
 mod design;
 mod export;
+mod export_figure;
 mod export_formats;
 mod features;
 mod field;

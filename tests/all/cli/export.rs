@@ -89,8 +89,8 @@ fn bad_table_sizes_exit_2_naming_the_flag() {
     let out = dir.path().join("g.csv");
     let cases: [(&[&str], &str); 5] = [
         (
-            &["--spacing", "0.25"],
-            "error: --spacing: a spacing of 0.25 mm is below the smallest a grid-csv table takes: 1 mm",
+            &["--spacing", "0.025"],
+            "error: --spacing: a spacing of 0.025 mm is below the smallest a grid-csv table takes: 0.1 mm",
         ),
         (
             &["--points", "500"],
@@ -178,4 +178,125 @@ fn a_sweep_of_table_sizes_prints_and_plots_the_residual() {
     );
     let svg = std::fs::read_to_string(&plot).unwrap();
     assert!(svg.contains("points per table") && svg.contains("residual (µm)"));
+}
+
+#[test]
+fn linuxcnc_writes_a_folder_of_joint_files_and_ini_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("lc");
+    volmap()
+        .args(["export", "--machine", "gantry-2m", "--format", "linuxcnc"])
+        .args([
+            "--points",
+            "9",
+            "--approach",
+            "Y=-",
+            "--residual-grid",
+            "11",
+            "--out",
+        ])
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(
+            predicate::str::contains("table joint 1 (Y)")
+                .and(predicate::str::contains("table matrixkins"))
+                .and(predicate::str::contains("approach X+ Y- Z+"))
+                .and(predicate::str::contains(
+                    "the control picks each axis's table by the direction it moves",
+                ))
+                .and(predicate::str::contains("EZY")),
+        );
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "linuxcnc.ini",
+            "volmap_joint0_X.comp",
+            "volmap_joint1_Y.comp",
+            "volmap_joint2_Z.comp",
+            "volmap_matrixkins.hal"
+        ]
+    );
+    // The rows come first: LinuxCNC stops reading at the first line that is not three numbers.
+    let x = std::fs::read_to_string(out.join("volmap_joint0_X.comp")).unwrap();
+    let first = x.lines().next().unwrap();
+    assert_eq!(first.split_whitespace().count(), 3, "{first}");
+    assert!(first.split_whitespace().all(|w| w.parse::<f64>().is_ok()));
+    // A folder export refused by --max-residual creates nothing.
+    let refused = dir.path().join("refused");
+    volmap()
+        .args(["export", "--machine", "gantry-2m", "--format", "linuxcnc"])
+        .args([
+            "--points",
+            "5",
+            "--residual-grid",
+            "11",
+            "--max-residual",
+            "0.001",
+            "--out",
+        ])
+        .arg(&refused)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("nothing written"));
+    assert!(!refused.exists());
+    // --out naming a file for a folder format.
+    let file = dir.path().join("file");
+    std::fs::write(&file, "x").unwrap();
+    volmap()
+        .args(["export", "--machine", "gantry-2m", "--format", "linuxcnc"])
+        .args(["--points", "5", "--residual-grid", "11", "--out"])
+        .arg(&file)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "is not a folder: a linuxcnc export writes several files into a folder",
+        ));
+}
+
+#[test]
+fn skew_formats_refuse_what_they_cannot_hold_naming_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("skew.cfg");
+    volmap()
+        .args([
+            "export",
+            "--machine",
+            "vmc-dobariya2015",
+            "--format",
+            "klipper",
+            "--out",
+        ])
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::starts_with(
+            "error: --format: klipper can hold none of this machine's errors: three skew factors",
+        ));
+    volmap()
+        .args(["export", "--machine", "vmc-li2015", "--format", "marlin", "--points", "3", "--out"])
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::starts_with(
+            "error: --points: marlin holds fixed factors, not tables: there is no table size to choose",
+        ));
+    assert!(!out.exists());
+    // A skew that leaves more than the machine had says so, and still writes what was asked.
+    volmap()
+        .args(["export", "--machine", "vmc-li2015", "--format", "klipper", "--out"])
+        .arg(&out)
+        .assert()
+        .success()
+        .stderr(predicate::str::starts_with(
+            "warning: the klipper table leaves a larger largest error than the machine has without it",
+        ));
+    assert!(std::fs::read_to_string(&out)
+        .unwrap()
+        .contains("[skew_correction volmap]\nxy_skew = "));
 }
