@@ -297,7 +297,7 @@ fn sweep(
             "{} residual of {} against table size",
             first.format, first.machine
         );
-        let drawing = plot::line_chart(&title, "points per table", "residual (µm)", &series)?;
+        let drawing = plot::log_chart(&title, "points per table", "residual (µm)", &series, true)?;
         write_plot(&drawing, path)?;
     }
     if let Some(path) = &args.json.json {

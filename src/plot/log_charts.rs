@@ -150,13 +150,14 @@ pub fn log_chart(
         (x0 + 14.0, y0 - tall + 6.0),
         (x1 - wide - 8.0, y0 - tall + 6.0),
     ];
+    // The frame legend() draws from (x, y), widened by a marker's size.
     let hidden = |&(x, y): &(f64, f64)| {
+        let (left, top) = (x - 6.0 - 8.0, y - 16.0 - 8.0);
+        let (right, bottom) = (x - 6.0 + wide + 8.0, y - 16.0 + tall + 8.0);
         pixels
             .iter()
             .flatten()
-            .filter(|p| {
-                p[0] >= x - 12.0 && p[0] <= x + wide && p[1] >= y - 22.0 && p[1] <= y + tall
-            })
+            .filter(|p| p[0] >= left && p[0] <= right && p[1] >= top && p[1] <= bottom)
             .count()
     };
     let (lx, ly) = corners
