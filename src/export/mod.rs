@@ -16,7 +16,9 @@ pub mod format;
 pub mod nodes;
 pub mod residual;
 
+mod axis_tables;
 mod grid_csv;
+mod siemens;
 
 use std::path::{Path, PathBuf};
 
@@ -31,7 +33,10 @@ pub use format::{Control, Format, Layout, Limits, Nodes, Structure, TableInfo, T
 pub use residual::{EvaluationGrid, Figures, NotHeld};
 
 /// Every format volmap writes, in the order `--format` lists them.
-pub static FORMATS: &[&dyn Format] = &[&grid_csv::GridCsv];
+pub static FORMATS: &[&dyn Format] = &[
+    &grid_csv::GridCsv,
+    &siemens::Siemens,
+];
 
 /// The format named `name`.
 pub fn format_named(name: &str) -> Result<&'static dyn Format, ExportError> {

@@ -9,6 +9,7 @@ mod common;
 mod cpu;
 mod design;
 mod export;
+mod export_siemens;
 mod features;
 mod field;
 mod field_inputs;
