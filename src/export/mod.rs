@@ -18,6 +18,7 @@ pub mod residual;
 
 mod axis_tables;
 mod grid_csv;
+mod heidenhain;
 mod siemens;
 
 use std::path::{Path, PathBuf};
@@ -36,6 +37,7 @@ pub use residual::{EvaluationGrid, Figures, NotHeld};
 pub static FORMATS: &[&dyn Format] = &[
     &grid_csv::GridCsv,
     &siemens::Siemens,
+    &heidenhain::Heidenhain,
 ];
 
 /// The format named `name`.

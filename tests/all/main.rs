@@ -9,6 +9,7 @@ mod common;
 mod cpu;
 mod design;
 mod export;
+mod export_heidenhain;
 mod export_siemens;
 mod features;
 mod field;
