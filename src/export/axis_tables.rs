@@ -14,7 +14,7 @@
 //! Heidenhain format chooses free nodes shared by the curves of one table
 //! ([`free_nodes_of_curves`]).
 
-use super::fitting::{Field, Fitting};
+use super::fitting::{Field, Fitting, LINEAR};
 use super::format::Term;
 use super::ExportError;
 use crate::model::inputs::Approach;
@@ -36,6 +36,8 @@ pub struct AxisCurves {
     /// `minus[j]`, where axis `j` has reversal terms: `minus[j][k]`, what the correction of axis
     /// `k` gains as a function of axis `j` while `j` approaches `−` (at `positions[j]`).
     pub minus: [Option<[Vec<f64>; 3]>; 3],
+    /// What the own-axis curve `plus[k][k]` took from the cross curves' starts.
+    pub own_shift: [f64; 3],
 }
 
 /// Whether `machine` has an error value with a `reverse` form on axis `letter`.
@@ -54,21 +56,25 @@ fn field_approaching(fitting: &Fitting, approach: [Approach; 3]) -> Result<Field
     Field::new(fitting.machine.at(&inputs), fitting.pose)
 }
 
-/// Fits the curves of the correction at `positions` (per linear axis).
-pub fn fit(fitting: &Fitting, positions: [Vec<f64>; 3]) -> Result<AxisCurves, ExportError> {
-    let linear = [AxisLetter::X, AxisLetter::Y, AxisLetter::Z];
-    let reversing: [bool; 3] = linear.map(|l| has_reversal(fitting.machine, l));
+/// The field every linear axis approaching `+` at, where it is not the one asked.
+fn plus_field(fitting: &Fitting) -> Result<Option<Field>, ExportError> {
+    let reverses = LINEAR.iter().any(|&l| has_reversal(fitting.machine, l));
     let asked_plus = fitting.inputs.approach[..3]
         .iter()
         .all(|&a| a == Approach::Positive);
-    let plus_field;
-    let plus_of = if asked_plus || !reversing.contains(&true) {
+    if asked_plus || !reverses {
         // The field asked is the all-`+` one (no linear axis reverses, or none approaches `−`).
-        fitting.field()
+        Ok(None)
     } else {
-        plus_field = field_approaching(fitting, [Approach::Positive; 3])?;
-        &plus_field
-    };
+        field_approaching(fitting, [Approach::Positive; 3]).map(Some)
+    }
+}
+
+/// Fits the curves of the correction at `positions` (per linear axis).
+pub fn fit(fitting: &Fitting, positions: [Vec<f64>; 3]) -> Result<AxisCurves, ExportError> {
+    let reversing: [bool; 3] = LINEAR.map(|l| has_reversal(fitting.machine, l));
+    let plus_field = plus_field(fitting)?;
+    let plus_of = plus_field.as_ref().unwrap_or(fitting.field());
     let plus = fitting.additive(plus_of, ALL_CURVES, positions.clone())?;
     let mut minus: [Option<[Vec<f64>; 3]>; 3] = Default::default();
     for j in (0..3).filter(|&j| reversing[j]) {
@@ -89,18 +95,39 @@ pub fn fit(fitting: &Fitting, positions: [Vec<f64>; 3]) -> Result<AxisCurves, Ex
         std::array::from_fn(|k| std::array::from_fn(|i| plus.table(k, i)));
     // Each cross curve starts at zero: a squareness reads `y·tan γ`, a straightness starts
     // from its first point; the own-axis curve takes the difference (the sum is unchanged).
+    let mut own_shift = [0.0; 3];
     for (k, row) in tables.iter_mut().enumerate() {
         for i in (0..3).filter(|&i| i != k) {
             let start = row[i][0];
             row[i].iter_mut().for_each(|v| *v -= start);
-            row[k].iter_mut().for_each(|v| *v += start);
+            own_shift[k] += start;
         }
+        row[k].iter_mut().for_each(|v| *v += own_shift[k]);
     }
     Ok(AxisCurves {
         plus: tables,
         positions,
         minus,
+        own_shift,
     })
+}
+
+/// The own-axis curves `f_kk` of `curves` (the same fit, the same constants) at other positions,
+/// `at[k]` along each axis `k`.
+pub fn own_curves_at(
+    fitting: &Fitting,
+    curves: &AxisCurves,
+    at: [Vec<f64>; 3],
+) -> Result<[Vec<f64>; 3], ExportError> {
+    let plus_field = plus_field(fitting)?;
+    let plus_of = plus_field.as_ref().unwrap_or(fitting.field());
+    let fit = fitting.additive(plus_of, ALL_CURVES, at)?;
+    Ok(std::array::from_fn(|k| {
+        fit.table(k, k)
+            .iter()
+            .map(|v| v + curves.own_shift[k])
+            .collect()
+    }))
 }
 
 /// The largest distance of the curves at the candidates strictly between `i` and `j` from their

@@ -14,7 +14,9 @@
 //!
 //! Every table is equidistant: point `N` at `MIN + N·STEP`, `(MAX − MIN)/STEP + 1` points;
 //! linear between points; the first and last values hold outside `[MIN, MAX]`. The tables of
-//! all axes sum. **Sign**: a table holds the error, actual − commanded position ("A positive
+//! all axes sum. A CEC table reads the setpoint of its basic axis; an MSEC table the actual
+//! position of its axis (the encoder's), so its values are the error as a function of where
+//! the axis is, as a laser measures it. **Sign**: a table holds the error, actual − commanded position ("A positive
 //! compensation value causes the corresponding machine axis to move in the negative
 //! direction."), so the value written is the negated command correction, `−d`.
 //!
@@ -96,8 +98,20 @@ impl Format for Siemens {
             let [lo, hi] = fitting.ranges[d];
             Grid::new(lo, hi, points[d], spacing_mm)
         });
-        let curves = axis_tables::fit(fitting, grids.each_ref().map(Grid::positions))?;
-        let tables = tables(&grids, &curves);
+        let positions = grids.each_ref().map(Grid::positions);
+        let curves = axis_tables::fit(fitting, positions.clone())?;
+        // MSEC reads the axis's actual position, `q = t + f_kk(t)`: its value at point `q` is
+        // −f_kk at the target `t` that puts the axis there (to first order `t = q − f_kk(q)`;
+        // what is left is the curve's slope squared times the correction).
+        let targets: [Vec<f64>; 3] = std::array::from_fn(|k| {
+            positions[k]
+                .iter()
+                .zip(&curves.plus[k][k])
+                .map(|(q, f)| q - f)
+                .collect()
+        });
+        let own = axis_tables::own_curves_at(fitting, &curves, targets)?;
+        let tables = tables(&grids, &curves, &own);
         let mut files = vec![WrittenFile {
             name: MSEC_FILE.into(),
             text: msec_program(fitting, &tables),
@@ -206,10 +220,11 @@ impl Table {
     }
 }
 
-/// The tables of `curves`: an MSEC table per axis (always, so a reload overwrites what an
-/// earlier one left), then the CEC tables that hold something: the cross tables by basic axis
-/// X, Y, Z and compensated axis, then the negative-direction tables of reversing axes.
-fn tables(grids: &[Grid; 3], curves: &AxisCurves) -> Vec<Table> {
+/// The tables of `curves`: an MSEC table per axis from `own` (the own-axis curves at the targets
+/// that put each axis on the points; always, so a reload overwrites what an earlier one left),
+/// then the CEC tables that hold something: the cross tables by basic axis X, Y, Z and
+/// compensated axis, then the negative-direction tables of reversing axes.
+fn tables(grids: &[Grid; 3], curves: &AxisCurves, own: &[Vec<f64>; 3]) -> Vec<Table> {
     // The table holds the error: the negated command correction.
     let error = |d: &[f64]| d.iter().map(|v| -v).collect::<Vec<f64>>();
     let mut out: Vec<Table> = (0..3)
@@ -219,7 +234,7 @@ fn tables(grids: &[Grid; 3], curves: &AxisCurves) -> Vec<Table> {
             output: k,
             direction: 0,
             grid: grids[k],
-            values: error(&curves.plus[k][k]),
+            values: error(&own[k]),
         })
         .collect();
     let mut cec = Vec::new();
@@ -389,6 +404,9 @@ pub struct Loaded {
     pub input: usize,
     pub output: usize,
     pub direction: i8,
+    /// Whether the control looks it up at the axis's actual position (MSEC) rather than at
+    /// the setpoint (CEC).
+    pub at_actual: bool,
     pub grid: Grid,
     /// The error at the points, linear between them, end values beyond.
     pub error: Pwl,
@@ -401,35 +419,43 @@ pub struct Sinumerik {
 }
 
 impl Sinumerik {
-    /// The error the tables hold for the axes at `target`, each moving in `approach`: the sum
-    /// over the tables read in that direction, per output axis.
-    pub fn error(&self, target: &Command, approach: &[Approach; 6]) -> [f64; 3] {
-        let mut e = [0.0; 3];
-        for t in &self.tables {
+    /// The command for `target`, each axis moving in `approach`. The CEC tables read the
+    /// setpoints (the target) and move their compensated axes by minus their sum; then each
+    /// axis's MSEC table reads its actual position `c` and moves it by minus its value there:
+    /// `c = s − v(c)`, `s` the setpoint after CEC, solved by fixed-point steps (the tables'
+    /// slopes are far below one).
+    pub fn command(&self, target: &Command, approach: &[Approach; 6]) -> Command {
+        let mut c = *target;
+        for t in self.tables.iter().filter(|t| !t.at_actual) {
             let read = match t.direction {
                 0 => true,
                 1 => approach[t.input] == Approach::Positive,
                 _ => approach[t.input] == Approach::Negative,
             };
             if read {
-                e[t.output] += t.error.eval(target[t.input]);
+                c[t.output] -= t.error.eval(target[t.input]);
             }
         }
-        e
+        for t in self.tables.iter().filter(|t| t.at_actual) {
+            let setpoint = c[t.output];
+            let mut actual = setpoint;
+            for _ in 0..50 {
+                let next = setpoint - t.error.eval(actual);
+                let done = (next - actual).abs() < 1e-13;
+                actual = next;
+                if done {
+                    break;
+                }
+            }
+            c[t.output] = actual;
+        }
+        c
     }
 }
 
 impl Control for Sinumerik {
-    /// The tables are looked up at the commanded positions (CEC reads the setpoint; MSEC the
-    /// actual position, which differs from it by the correction: a second-order difference),
-    /// and each axis moves by the negated error.
     fn command(&self, target: &Command, approach: &[Approach; 6]) -> Command {
-        let e = self.error(target, approach);
-        let mut c = *target;
-        for k in 0..3 {
-            c[k] -= e[k];
-        }
-        c
+        Sinumerik::command(self, target, approach)
     }
 
     fn tables(&self) -> Vec<TableInfo> {

@@ -17,10 +17,12 @@ use volmap::reference::Twin;
 use crate::cli::volmap;
 use crate::export::{dense, machine, request, residual};
 
-/// A table as read here: which axis it reads, which it moves, in which direction of the input
-/// axis (0 both, −1 negative), its points and the error at them.
+/// A table as read here: which axis it reads (at its actual position for MSEC, at the setpoint
+/// for CEC), which it moves, in which direction of the input axis (0 both, −1 negative), its
+/// points and the error at them.
 #[derive(Debug, Clone, PartialEq)]
 struct Table {
+    actual: bool,
     input: usize,
     output: usize,
     direction: i32,
@@ -49,6 +51,7 @@ fn tables(files: &[WrittenFile]) -> Vec<Table> {
     let mut msec: BTreeMap<usize, Table> = BTreeMap::new();
     let mut cec: BTreeMap<usize, Table> = BTreeMap::new();
     let empty = Table {
+        actual: false,
         input: 9,
         output: 9,
         direction: 0,
@@ -71,6 +74,7 @@ fn tables(files: &[WrittenFile]) -> Vec<Table> {
                 assert_eq!(at[0], "0", "measuring system 1: {line}");
                 let k = axis(at[at.len() - 1]);
                 let t = msec.entry(k).or_insert(Table {
+                    actual: true,
                     input: k,
                     output: k,
                     ..empty.clone()
@@ -124,10 +128,11 @@ fn lookup(t: &Table, x: f64) -> f64 {
 }
 
 /// The command the control moves to for target `t`, the axes approaching as `approach` says:
-/// each axis moved by minus the sum of the errors its tables read.
+/// each axis moved by minus the errors its CEC tables read at the setpoints, then by minus its
+/// MSEC table's value at the position it ends up at (`c = s − v(c)`, by bisection here).
 fn command(tables: &[Table], t: [f64; 3], approach: [Approach; 3]) -> [f64; 3] {
     let mut c = t;
-    for table in tables {
+    for table in tables.iter().filter(|t| !t.actual) {
         let read = match table.direction {
             0 => true,
             1 => approach[table.input] == Approach::Positive,
@@ -136,6 +141,19 @@ fn command(tables: &[Table], t: [f64; 3], approach: [Approach; 3]) -> [f64; 3] {
         if read {
             c[table.output] -= lookup(table, t[table.input]);
         }
+    }
+    for table in tables.iter().filter(|t| t.actual) {
+        let s = c[table.output];
+        let (mut lo, mut hi) = (s - 1.0, s + 1.0);
+        for _ in 0..80 {
+            let mid = 0.5 * (lo + hi);
+            if mid + lookup(table, mid) < s {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        c[table.output] = 0.5 * (lo + hi);
     }
     c
 }
@@ -213,8 +231,9 @@ range = [0.0, 200.0]
 
 #[test]
 fn siemens_holds_a_pure_positioning_error_in_msec_with_hand_derived_values() {
-    // EXX = k·x: the real X tip at command c is c·(1 + k), the correction d = −k·x/(1 + k), the
-    // table the error −d = +k·x/(1 + k): positive where the axis travels too far.
+    // EXX = k·x: the real X tip at command c is c·(1 + k); MSEC reads the actual position, so
+    // its table is the error there, +k·c, as a laser measures it: positive where the axis
+    // travels too far. The control then stands at c = x − k·c, whose tip is on x.
     let m = machine(SCALE_X);
     let inputs = Inputs::default();
     let exported = export::export(siemens(), &request(&m, &inputs, TableSize::Points(5))).unwrap();
@@ -223,12 +242,12 @@ fn siemens_holds_a_pure_positioning_error_in_msec_with_hand_derived_values() {
     let text = &exported.files[0].text;
     let k = 1e-4;
     for (n, x) in [0.0, 100.0, 200.0, 300.0, 400.0].iter().enumerate() {
-        let hand = k * x / (1.0 + k);
+        let hand = k * x;
         let line = format!("$AA_ENC_COMP[0,{n},X1]={hand:.6}");
         assert!(text.lines().any(|l| l == line), "{line} in\n{text}");
     }
     for line in [
-        "$AA_ENC_COMP[0,4,X1]=0.039996",
+        "$AA_ENC_COMP[0,4,X1]=0.040000",
         "$AA_ENC_COMP_STEP[0,X1]=100.0",
         "$AA_ENC_COMP_MIN[0,X1]=0.0",
         "$AA_ENC_COMP_MAX[0,X1]=400.0",

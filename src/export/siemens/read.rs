@@ -100,6 +100,7 @@ struct Pending {
     input: Option<usize>,
     output: Option<usize>,
     direction: i8,
+    at_actual: bool,
 }
 
 fn number(file: &str, a: &Assignment) -> Result<f64, ExportError> {
@@ -209,6 +210,7 @@ fn table(file: &str, name: String, p: Pending) -> Result<Loaded, ExportError> {
         input,
         output,
         direction: p.direction,
+        at_actual: p.at_actual,
         grid,
         error: Pwl {
             q: equidistant(min, step, points),
@@ -238,6 +240,7 @@ fn read_msec(file: &WrittenFile) -> Result<Vec<Loaded>, ExportError> {
             line: a.line,
             input: Some(k),
             output: Some(k),
+            at_actual: true,
             ..Pending::default()
         });
         match a.name.as_str() {
