@@ -16,10 +16,13 @@ pub mod format;
 pub mod nodes;
 pub mod residual;
 
+mod axis_tables;
 mod grid_csv;
+mod heidenhain;
 mod klipper;
 mod linuxcnc;
 mod marlin;
+mod siemens;
 mod skew;
 
 use std::path::{Path, PathBuf};
@@ -40,6 +43,8 @@ pub static FORMATS: &[&dyn Format] = &[
     &linuxcnc::LinuxCnc,
     &klipper::Klipper,
     &marlin::Marlin,
+    &siemens::Siemens,
+    &heidenhain::Heidenhain,
 ];
 
 /// The format named `name`.

@@ -11,6 +11,8 @@ mod design;
 mod export;
 mod export_figure;
 mod export_formats;
+mod export_heidenhain;
+mod export_siemens;
 mod features;
 mod field;
 mod field_inputs;
