@@ -124,7 +124,7 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
         | ExportError::TooFewPoints { .. }
         | ExportError::SpacingTooSmall { .. }
         | ExportError::BadSpacing(_) => Some(size_flag),
-        ExportError::NothingHeld { .. } => Some("--format"),
+        ExportError::NothingHeld { .. } | ExportError::Unrepresentable { .. } => Some("--format"),
         ExportError::BadEvaluationGrid { .. } => Some("--residual-grid"),
         ExportError::Singular => Some("--pose"),
         ExportError::MissingAxes { .. } | ExportError::NoSolution { .. } => Some("--machine"),

@@ -127,6 +127,19 @@ pub trait Format: Sync {
     /// Reads the files as the control reads them; what does not read is an error naming the
     /// file and line.
     fn read(&self, files: &[WrittenFile]) -> Result<Box<dyn Control>, ExportError>;
+    /// [`Format::read`] for the machine the files were written for. A control that runs its own
+    /// kinematic model (the ISG kernel's volumetric compensation) takes the error parameters
+    /// from the files and the nominal kinematics from its own configuration, which the files do
+    /// not carry: such a format reads them here, with `fitting`'s machine as that
+    /// configuration. Every other format reads the files alone.
+    fn read_for(
+        &self,
+        files: &[WrittenFile],
+        fitting: &Fitting,
+    ) -> Result<Box<dyn Control>, ExportError> {
+        let _ = fitting;
+        self.read(files)
+    }
 }
 
 /// What a control does with the tables it loaded.

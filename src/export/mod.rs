@@ -16,6 +16,8 @@ pub mod format;
 pub mod nodes;
 pub mod residual;
 
+mod fanuc;
+mod fanuc_lattice;
 mod grid_csv;
 
 use std::path::{Path, PathBuf};
@@ -31,7 +33,11 @@ pub use format::{Control, Format, Layout, Limits, Nodes, Structure, TableInfo, T
 pub use residual::{EvaluationGrid, Figures, NotHeld};
 
 /// Every format volmap writes, in the order `--format` lists them.
-pub static FORMATS: &[&dyn Format] = &[&grid_csv::GridCsv];
+pub static FORMATS: &[&dyn Format] = &[
+    &grid_csv::GridCsv,
+    &fanuc::FanucPitch,
+    &fanuc_lattice::FanucLattice,
+];
 
 /// The format named `name`.
 pub fn format_named(name: &str) -> Result<&'static dyn Format, ExportError> {
@@ -101,6 +107,11 @@ pub enum ExportError {
         rms_um: f64,
         before_um: f64,
         limit_um: f64,
+    },
+    #[error("a {format} table cannot hold this machine's correction: {message}")]
+    Unrepresentable {
+        format: &'static str,
+        message: String,
     },
     #[error("{0} is not a folder: a {1} export writes several files into a folder")]
     NotAFolder(String, &'static str),
@@ -293,7 +304,7 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     let ranges = fitting.ranges;
     let (points, spacing) = table_points(format, request.size, &ranges)?;
     let files = format.write(&fitting, points, spacing)?;
-    let control = format.read(&files)?;
+    let control = format.read_for(&files, &fitting)?;
     let tables = control.tables();
     let table_points = tables.iter().map(|t| t.points).max().unwrap_or(2);
     let n = match request.evaluation_points {
