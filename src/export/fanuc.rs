@@ -132,6 +132,14 @@ impl PitchTable {
         values[(j - lo) as usize] as f64 * self.magnification as f64 * DETECTION_UNIT_MM
     }
 
+    /// Where the first and the last point lie, mm.
+    pub fn point_positions_mm(&self) -> [f64; 2] {
+        [
+            self.position_mm(self.first_number - self.reference_number),
+            self.position_mm(self.last_number - self.reference_number),
+        ]
+    }
+
     /// The position of grid index `j`, mm.
     pub fn position_mm(&self, j: i64) -> f64 {
         (self.reference_units + j * self.interval_units) as f64 * DETECTION_UNIT_MM
@@ -156,7 +164,6 @@ impl Control for PitchControl {
         self.tables
             .iter()
             .map(|t| {
-                let (lo, hi) = t.index_range();
                 let interval = t.interval_units as f64 * DETECTION_UNIT_MM;
                 let reverse = match &t.reverse {
                     Some(r) => format!(
@@ -166,19 +173,20 @@ impl Control for PitchControl {
                     ),
                     None => String::new(),
                 };
+                let [from, to] = t.point_positions_mm();
                 TableInfo {
                     name: format!("{} pitch", text::AXES[t.axis]),
                     size: format!(
-                        "points {}-{} (reference {}), interval {} mm from {} to {} mm, magnification {}{reverse}",
+                        "points {}-{} (reference {}) at {} to {} mm, interval {} mm, magnification {}{reverse}",
                         t.first_number,
                         t.last_number,
                         t.reference_number,
+                        text::real(from),
+                        text::real(to),
                         text::real(interval),
-                        text::real(t.position_mm(lo)),
-                        text::real(t.position_mm(hi)),
                         t.magnification
                     ),
-                    points: (hi - lo + 1) as usize,
+                    points: (t.last_number - t.first_number + 1) as usize,
                 }
             })
             .collect()

@@ -145,10 +145,10 @@ fn notes_text(fitting: &Fitting, tables: &[PitchTable], at_reference_mm: &[f64])
     text += "  staircase (the value of the point at or below the position); the residual volmap reports is for\n";
     text += "  that staircase.\n\n";
     for (t, offset) in tables.iter().zip(at_reference_mm) {
-        let (lo, hi) = t.index_range();
+        let [from, to] = t.point_positions_mm();
         let interval = t.interval_units as f64 * DETECTION_UNIT_MM;
         text += &format!(
-            "{} (axis {}): 3620 = {}, 3621 = {}, 3622 = {}, 3623 = {}, 3624 = {} mm: points from {} to {} mm\n",
+            "{} (axis {}): 3620 = {}, 3621 = {}, 3622 = {}, 3623 = {}, 3624 = {} mm: points at {} to {} mm\n",
             AXES[t.axis],
             t.axis + 1,
             t.reference_number,
@@ -156,8 +156,8 @@ fn notes_text(fitting: &Fitting, tables: &[PitchTable], at_reference_mm: &[f64])
             t.last_number,
             t.magnification,
             real(interval),
-            real(t.position_mm(lo)),
-            real(t.position_mm(hi)),
+            real(from),
+            real(to),
         );
         text += &format!(
             "  interval {} mm: the control takes it where the rapid traverse rate is at most {:.0} mm/min (interval >= rate / 7500)\n",

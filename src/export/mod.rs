@@ -19,6 +19,7 @@ pub mod residual;
 mod fanuc;
 mod fanuc_lattice;
 mod grid_csv;
+mod isg;
 
 use std::path::{Path, PathBuf};
 
@@ -37,6 +38,7 @@ pub static FORMATS: &[&dyn Format] = &[
     &grid_csv::GridCsv,
     &fanuc::FanucPitch,
     &fanuc_lattice::FanucLattice,
+    &isg::Isg,
 ];
 
 /// The format named `name`.
@@ -108,7 +110,7 @@ pub enum ExportError {
         before_um: f64,
         limit_um: f64,
     },
-    #[error("a {format} table cannot hold this machine's correction: {message}")]
+    #[error("the {format} export cannot hold this machine's errors: {message}")]
     Unrepresentable {
         format: &'static str,
         message: String,

@@ -9,6 +9,8 @@ mod common;
 mod cpu;
 mod design;
 mod export;
+mod export_fanuc;
+mod export_isg;
 mod features;
 mod field;
 mod field_inputs;
