@@ -242,8 +242,8 @@ impl Format for FanucPitch {
         let points = points.unwrap_or([self.limits().default_points; 3]);
         let mut tables = Vec::new();
         let mut at_reference_mm = Vec::new();
-        for axis in 0..3 {
-            let (table, offset) = fit_table(fitting, axis, points[axis], spacing_mm)?;
+        for (axis, &n) in points.iter().enumerate() {
+            let (table, offset) = fit_table(fitting, axis, n, spacing_mm)?;
             tables.push(table);
             at_reference_mm.push(offset);
         }

@@ -192,7 +192,7 @@ fn notes_text(fitting: &Fitting, tables: &[PitchTable], at_reference_mm: &[f64])
 }
 
 /// One `N…` block of a record: its number and the text after it; or the `%` lines.
-fn blocks<'a>(file: &'a WrittenFile) -> Result<Vec<(usize, u32, &'a str)>, ExportError> {
+fn blocks(file: &WrittenFile) -> Result<Vec<(usize, u32, &str)>, ExportError> {
     let name = &file.name;
     let mut lines = file
         .text

@@ -23,7 +23,10 @@ use super::fitting::{breakpoints, Fitting};
 use super::format::{Control, Format, Layout, Limits, Nodes, Structure, WrittenFile};
 use super::nodes::candidates;
 use super::ExportError;
-use crate::model::{AxisLetter, ErrorFunction, Machine, COMPONENT_NAMES};
+use nalgebra::Vector3;
+
+use crate::model::{Axis, AxisLetter, Command, ErrorFunction, Machine, COMPONENT_NAMES};
+use crate::reference::{error_transform, rot_about, spindle_error, Transform};
 
 #[path = "isg_read.rs"]
 pub mod read;
@@ -124,7 +127,7 @@ impl Format for Isg {
     }
 
     fn holds(&self) -> &'static str {
-        "the volumetric compensation holds the machine's geometric errors themselves (component errors as tables, position errors) and corrects the tool position at any pose, to within linear interpolation between the written nodes; not reversal (written at the approach asked), not temperature terms (written at the temperatures asked), not the spindle errors EXS-EBS (no ISG parameter), not the tool orientation"
+        "the volumetric compensation holds the machine's geometric errors themselves (component errors as tables, position errors) and corrects the tool position at any pose, to within linear interpolation between the written nodes; not reversal (written at the approach asked), not temperature terms (written at the temperatures asked), not the tool orientation; the spindle errors, which have no ISG parameter, are folded into the errors of the last axis before the tool"
     }
 
     fn write(
@@ -144,25 +147,60 @@ impl Format for Isg {
         };
         let mut constants = Vec::new();
         let mut tables = Vec::new();
+        // The spindle error has no ISG parameter: it is folded into the last axis before the
+        // tool (in the order the transforms multiply).
+        let last = *machine
+            .chain
+            .product_order()
+            .last()
+            .expect("a chain has axes");
+        let spindle = spindle_error(&machine);
+        let spindle_free = machine.spindle == [0.0; 5];
         for letter in AxisLetter::ALL {
             let Some(axis) = machine.axis(letter) else {
                 continue;
             };
-            for n in 0..6 {
-                if axis.location[n] != 0.0 {
+            for (c, &v) in COMPONENT_NAMES.iter().zip(&axis.location) {
+                if v != 0.0 {
                     constants.push(Parameter {
-                        name: format!("{}0{letter}", COMPONENT_NAMES[n]),
+                        name: format!("{c}0{letter}"),
                         arguments: Vec::new(),
                         nodes: Vec::new(),
-                        values: vec![axis.location[n]],
+                        values: vec![v],
                     });
                 }
             }
-            for n in 0..6 {
-                if let Some(f) = axis.components[n].as_ref().filter(|f| !f.is_zero()) {
-                    let name = format!("E{}{letter}", COMPONENT_NAMES[n]);
-                    tables.push(tabulate(&machine, letter, name, f, &count, spacing_mm)?);
+            let folds = (!spindle_free && letter == last).then_some(&spindle);
+            let mut args: Vec<AxisLetter> = axis
+                .components
+                .iter()
+                .flatten()
+                .flat_map(|f| arguments(f, letter))
+                .collect();
+            if folds.is_some() && !letter.is_linear() {
+                args.push(letter);
+            }
+            args.sort_by_key(|a| a.index());
+            args.dedup();
+            for (n, c) in COMPONENT_NAMES.iter().enumerate() {
+                let own = axis.components[n].as_ref().filter(|f| !f.is_zero());
+                let value = |command: &Command| components(axis, folds, command)[n];
+                let args = match (own, folds) {
+                    (Some(f), None) => arguments(f, letter),
+                    (_, Some(_)) => args.clone(),
+                    (None, None) => continue,
+                };
+                if own.is_none() && {
+                    let mut probe = [0.0; 6];
+                    probe[letter.index()] = 0.5 * (axis.range[0] + axis.range[1]);
+                    value(&probe) == 0.0
+                } {
+                    continue;
                 }
+                // A constant: a table of the axis's own two ends.
+                let args = if args.is_empty() { vec![letter] } else { args };
+                let name = format!("E{c}{letter}");
+                tables.push(tabulate(&machine, name, args, &value, &count, spacing_mm)?);
             }
         }
         for (d, v) in machine.tool_offset_mm.iter().enumerate() {
@@ -229,31 +267,54 @@ pub fn arguments(f: &ErrorFunction, own: AxisLetter) -> Vec<AxisLetter> {
     out
 }
 
-/// `f` (an error of axis `own`) with the axes `arguments` at `at`.
-fn eval(f: &ErrorFunction, own: AxisLetter, arguments: &[AxisLetter], at: &[f64]) -> f64 {
+/// `value` with the axes `arguments` at `at` (every other axis at 0).
+fn eval(value: &dyn Fn(&Command) -> f64, arguments: &[AxisLetter], at: &[f64]) -> f64 {
     let mut command = [0.0; 6];
     for (a, v) in arguments.iter().zip(at) {
         command[a.index()] = *v;
     }
-    f.eval_at(command[own.index()], &command)
+    value(&command)
 }
 
-/// The error `f` of axis `own` tabulated for the control: its arguments, nodes chosen per
-/// argument (`count(b)` of them, equidistant at `spacing_mm` along a linear axis where asked),
-/// its values on the full grid of the nodes.
+/// The six component errors of `axis` at `command`, times `S` where the spindle error `S` is
+/// folded into it (the last axis before the tool): `E'(q) = E(q) · S` for a linear axis,
+/// `E(q) · Rot_u(q) · S · Rot_u(q)⁻¹` for a rotary one, so that `A(q) · S = L · Trans(q·u) ·
+/// E'(q)`, resp. `L · E'(q) · Rot_u(q)`, exactly.
+fn components(axis: &Axis, spindle: Option<&Transform>, command: &Command) -> [f64; 6] {
+    let q = command[axis.letter.index()];
+    let e = axis.component_values_at(q, command);
+    let Some(s) = spindle else {
+        return e;
+    };
+    let folded = if axis.letter.is_linear() {
+        error_transform(e) * s
+    } else {
+        let r = rot_about(Vector3::from(axis.unit_vector()), q.to_radians());
+        error_transform(e) * r * s * r.transpose()
+    };
+    let m = folded;
+    // Rot(a, b, c) = Rx(a)·Ry(b)·Rz(c): m02 = sin b, m12 = −sin a cos b, m01 = −cos b sin c.
+    [
+        m[(0, 3)],
+        m[(1, 3)],
+        m[(2, 3)],
+        (-m[(1, 2)]).atan2(m[(2, 2)]),
+        m[(0, 2)].clamp(-1.0, 1.0).asin(),
+        (-m[(0, 1)]).atan2(m[(0, 0)]),
+    ]
+}
+
+/// An error tabulated for the control: `args`, the axes it depends on (at most two), nodes
+/// chosen per argument (`count(b)` of them, equidistant at `spacing_mm` along a linear axis
+/// where asked), `value` on the full grid of the nodes.
 fn tabulate(
     machine: &Machine,
-    own: AxisLetter,
     name: String,
-    f: &ErrorFunction,
+    args: Vec<AxisLetter>,
+    value: &dyn Fn(&Command) -> f64,
     count: &dyn Fn(AxisLetter) -> usize,
     spacing_mm: Option<f64>,
 ) -> Result<Parameter, ExportError> {
-    let mut args = arguments(f, own);
-    if args.is_empty() {
-        // A constant component error: a table of its own axis's two ends.
-        args.push(own);
-    }
     if args.len() > 2 {
         return Err(ExportError::Unrepresentable {
             format: "isg",
@@ -295,7 +356,7 @@ fn tabulate(
                                 if args.len() == 2 {
                                     at[1 - i] = s;
                                 }
-                                eval(f, own, &args, &at)
+                                eval(value, &args, &at)
                             })
                             .collect()
                     })
@@ -312,13 +373,13 @@ fn tabulate(
     match nodes.len() {
         1 => {
             for &x in &nodes[0] {
-                values.push(eval(f, own, &args, &[x]));
+                values.push(eval(value, &args, &[x]));
             }
         }
         _ => {
             for &x in &nodes[0] {
                 for &y in &nodes[1] {
-                    values.push(eval(f, own, &args, &[x, y]));
+                    values.push(eval(value, &args, &[x, y]));
                 }
             }
         }
@@ -469,10 +530,13 @@ fn errors_text(
         .map(|(v, name)| format!("{name} = {v}"))
         .collect();
     if !spindle.is_empty() {
+        let last = machine.chain.product_order().last().copied();
         text += &format!(
-            "// not written (no ISG parameter): spindle errors {}\n",
-            spindle.join(", ")
+            "// the spindle errors {} have no ISG parameter: they are folded into the component errors of {}, the last axis\n",
+            spindle.join(", "),
+            last.map_or(String::new(), |a| a.to_string())
         );
+        text += "// before the tool (E'(q) = E(q)*S; for a rotary axis E(q)*Rot(q)*S*Rot(q)^-1): those are the errors of both together\n";
     }
     let row = |cells: &[String]| -> String {
         let line: String = cells.iter().map(|c| format!("{c:<18} ")).collect();

@@ -15,6 +15,9 @@ use crate::model::inputs::Approach;
 use crate::model::table2d::Table2d;
 use crate::model::{AxisLetter, Command, ErrorFunction, Interp, Table, COMPONENT_NAMES};
 
+/// The configuration list: lower-case key → (line, value).
+pub type Config = BTreeMap<String, (usize, String)>;
+
 /// A parameter read back and the line of its block's header.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadParameter {
@@ -29,8 +32,8 @@ fn find<'a>(files: &'a [WrittenFile], name: &str) -> Result<&'a WrittenFile, Exp
         .ok_or_else(|| read_error(name, 0, "the file is missing"))
 }
 
-/// The configuration list: lower-case key → (line, value).
-pub fn read_config(file: &WrittenFile) -> Result<BTreeMap<String, (usize, String)>, ExportError> {
+/// Reads the configuration list.
+pub fn read_config(file: &WrittenFile) -> Result<Config, ExportError> {
     let mut out = BTreeMap::new();
     for (i, raw) in file.text.lines().enumerate() {
         let line = raw.trim();
@@ -243,9 +246,7 @@ fn finish_block(
 
 /// Reads and checks the configuration list and the parameter file (what the control can do
 /// without the machine).
-pub fn check_files(
-    files: &[WrittenFile],
-) -> Result<(BTreeMap<String, (usize, String)>, Vec<ReadParameter>), ExportError> {
+pub fn check_files(files: &[WrittenFile]) -> Result<(Config, Vec<ReadParameter>), ExportError> {
     let config = read_config(find(files, CONFIG)?)?;
     let get = |key: &str| config.get(key).map(|(l, v)| (*l, v.as_str()));
     match get("interpolation") {

@@ -467,3 +467,40 @@ fn fanuc_3d_holds_a_scale_error_in_whole_microns() {
     );
     assert!(exported.files[0].text.contains("ADDED to the command"));
 }
+
+#[test]
+fn fanuc_reading_back_names_the_file_and_line_of_what_does_not_read() {
+    let m = machine(SCALE_X);
+    let inputs = Inputs::default();
+    let fitting = export::Fitting::new(&m, &inputs, [0.0; 6], Vec::new()).unwrap();
+    let written = fanuc()
+        .write(&fitting, Some([9, 7, 5]), Some(50.0))
+        .unwrap();
+    assert!(fanuc().read_for(&written, &fitting).is_ok());
+    let broken = |name: &str, from: &str, to: &str| -> String {
+        let mut files = written.clone();
+        let f = files.iter_mut().find(|f| f.name == name).unwrap();
+        assert!(f.text.contains(from), "{from}");
+        f.text = f.text.replacen(from, to, 1);
+        match fanuc().read_for(&files, &fitting) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("{name}: `{to}` read"),
+        }
+    };
+    assert_eq!(
+        broken("PITCH.TXT", "N10003P-5\n", "N10003P300\n"),
+        "reading back PITCH.TXT: line 5: 300 is outside -128…127"
+    );
+    assert_eq!(
+        broken("PITCH.TXT", "N10003P-5\n", "N10003-5\n"),
+        "reading back PITCH.TXT: line 5: a data block reads N<10000 + point>P<value>"
+    );
+    assert_eq!(
+        broken("PITCHPRM.TXT", "N03621Q1A1P0", "N03621Q1A1P5"),
+        "reading back PITCHPRM.TXT: line 2: axis 1: 3621 <= 3620 < 3622 within 0-1023 fails: 5, 0, 8"
+    );
+    assert_eq!(
+        broken("PITCHPRM.TXT", "A3P50.000\n%\n", "A3P50.000\n"),
+        "reading back PITCHPRM.TXT: line 6: no closing `%`"
+    );
+}

@@ -318,16 +318,34 @@ fn isg_round_trip_gives_the_reported_residual() {
 }
 
 #[test]
-fn isg_spindle_errors_stay_in_the_residual() {
-    // No ISG parameter takes the spindle errors: a machine of them alone keeps them whole.
-    let m = machine(&HAND.replace("[axes.Z]", "[spindle]\nEXS = 0.003\n[axes.Z]"));
+fn isg_folds_the_spindle_errors_into_the_last_axis() {
+    // No ISG parameter takes the spindle errors: they go into the errors of the last axis
+    // before the tool, exactly (E_Z · S). Z has no errors of its own here: E_Z' = S, so EXZ is
+    // EXS and EAZ is EAS; the tilt's effect at the tool tip (100 mm) is held too.
+    let m = machine(&HAND.replace("[axes.Z]", "[spindle]\nEXS = 0.003\nEAS = 2.0e-5\n[axes.Z]"));
     let inputs = Inputs::default();
     let exported =
         export::export(isg(), &request(&m, &inputs, TableSize::Default, [0.0; 6])).unwrap();
     let text = file(&exported.files, "volcomp_errors.csv");
-    assert!(text.contains("// not written (no ISG parameter): spindle errors EXS = 0.003"));
+    assert!(text.contains("// the spindle errors EXS = 0.003, EAS = 0.00002 have no ISG parameter: they are folded into the component errors of Z"), "{text}");
+    let found = blocks(text);
+    let block = |name: &str| {
+        found
+            .iter()
+            .find(|b| b.0.iter().any(|h| h == name))
+            .unwrap()
+    };
+    assert_eq!(block("EXZ").1, [[0.0, 0.003], [200.0, 0.003]]);
+    assert_eq!(block("EAZ").1, [[0.0, 2.0e-5], [200.0, 2.0e-5]]);
+    assert!(
+        found.iter().all(|b| !b.0.contains(&"EYZ".to_string())),
+        "a zero error not written"
+    );
     let r = &exported.report;
-    assert!((r.residual.max_mm - 0.003).abs() < 3e-8, "{:?}", r.residual);
+    assert!(r.before.max_mm > 0.005);
+    // As in the hand case, only the correction taking X past the end of its travel (here 3 µm
+    // below 0, where the table holds EXX(0) while the polynomial goes on) leaves 1e-5 × 3 µm.
+    assert!(r.residual.max_mm < 4e-8, "{:?}", r.residual);
 }
 
 #[test]
@@ -411,4 +429,62 @@ fn isg_refuses_an_error_of_three_axes() {
         e,
         "the isg export cannot hold this machine's errors: EZX depends on 3 axes at once (X, Y, Z); volmap writes tables of at most two arguments"
     );
+}
+
+#[test]
+fn isg_reading_back_names_the_file_and_line_of_what_does_not_read() {
+    let m = machine(HAND);
+    let inputs = Inputs::default();
+    let fitting = export::Fitting::new(&m, &inputs, [0.0; 6], Vec::new()).unwrap();
+    let written = isg().write(&fitting, Some([5, 5, 5]), None).unwrap();
+    assert!(isg().read_for(&written, &fitting).is_ok());
+    let broken = |name: &str, from: &str, to: &str| -> String {
+        let mut files = written.clone();
+        let f = files.iter_mut().find(|f| f.name == name).unwrap();
+        assert!(f.text.contains(from), "{from}");
+        f.text = f.text.replacen(from, to, 1);
+        match isg().read_for(&files, &fitting) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("{name}: `{to}` read"),
+        }
+    };
+    let csv = "volcomp_errors.csv";
+    let line_of = |text: &str| {
+        1 + file(&written, csv)
+            .lines()
+            .position(|l| l.starts_with(text))
+            .unwrap()
+    };
+    assert_eq!(
+        broken(csv, "X                  EXX", "X                  EXQ"),
+        format!(
+            "reading back {csv}: line {}: `EXQ` is not an identifier of the ISG volumetric compensation",
+            line_of("X                  EXX")
+        )
+    );
+    assert_eq!(
+        broken(csv, "400.000000         0.004000000", "400.000000"),
+        format!(
+            "reading back {csv}: line {}: 1 values under a header of 2 columns",
+            line_of("400.000000         0.004000000")
+        )
+    );
+    assert_eq!(
+        broken(
+            csv,
+            "400.000000         0.004000000",
+            "400.000000         4,0e-3"
+        ),
+        format!(
+            "reading back {csv}: line {}: `4,0e-3` is not a number",
+            line_of("400.000000         0.004000000")
+        )
+    );
+    let chain = format!("{:<24} XYZ", "chain");
+    assert!(
+        broken("vol_comp_0.lis", &chain, &format!("{:<24} XZY", "chain"))
+            .ends_with("chain XZY is not the machine's XYZ")
+    );
+    assert!(broken("vol_comp_0.lis", "ISG_CSV", "ETALON_EXCHANGE")
+        .ends_with("file_format[0] ETALON_EXCHANGE: not ISG_CSV"));
 }

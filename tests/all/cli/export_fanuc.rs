@@ -77,7 +77,9 @@ fn isg_writes_the_configuration_list_the_parameters_and_the_start_up_lines() {
                 "isg: ISG kernel / Beckhoff TwinCAT CNC volumetric compensation",
             )
             .and(predicate::str::contains("pose                   B=30 C=45"))
-            .and(predicate::str::contains("not the spindle errors")),
+            .and(predicate::str::contains(
+                "the spindle errors, which have no ISG parameter, are folded",
+            )),
         );
     for name in [
         "vol_comp_0.lis",
