@@ -20,6 +20,7 @@ mod fanuc;
 mod fanuc_lattice;
 mod grid_csv;
 mod isg;
+mod isg_axis;
 
 use std::path::{Path, PathBuf};
 
@@ -39,6 +40,7 @@ pub static FORMATS: &[&dyn Format] = &[
     &fanuc::FanucPitch,
     &fanuc_lattice::FanucLattice,
     &isg::Isg,
+    &isg_axis::IsgAxis,
 ];
 
 /// The format named `name`.

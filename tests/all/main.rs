@@ -11,6 +11,7 @@ mod design;
 mod export;
 mod export_fanuc;
 mod export_isg;
+mod export_isg_axis;
 mod features;
 mod field;
 mod field_inputs;

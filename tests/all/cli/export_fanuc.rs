@@ -146,3 +146,32 @@ fn bad_requests_exit_2_naming_the_problem() {
         assert!(!out.exists(), "{flags:?} wrote {}", out.display());
     }
 }
+
+#[test]
+fn isg_axis_writes_a_list_per_axis_and_the_start_up_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("lists");
+    volmap()
+        .args(["export", "--machine", "gantry-2m", "--format", "isg-axis"])
+        .args(["--approach", "Y=-", "--out"])
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(
+            predicate::str::contains("table Y leadscrew      21 points at 0 to 2000 mm, bilateral")
+                .and(predicate::str::contains(
+                    "table Y plane          21 x 21 points over X, Z at 150 x 50 mm",
+                )),
+        );
+    for name in [
+        "achskw_x.lis",
+        "achskw_y.lis",
+        "achskw_z.lis",
+        "hochlauf_axis_comp.lis",
+    ] {
+        assert!(out.join(name).is_file(), "{name}");
+    }
+    let y = std::fs::read_to_string(out.join("achskw_y.lis")).unwrap();
+    assert!(y.ends_with("End\n") && y.contains("kw.ssfk.bilateral                        1\n"));
+    no_temporaries(&out);
+}
