@@ -144,7 +144,9 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
         | ExportError::TooFewPoints { .. }
         | ExportError::SpacingTooSmall { .. }
         | ExportError::BadSpacing(_) => Some(size_flag),
-        ExportError::NothingHeld { .. } | ExportError::BeyondFormat { .. } => Some("--format"),
+        ExportError::NothingHeld { .. }
+        | ExportError::BeyondFormat { .. }
+        | ExportError::Unrepresentable { .. } => Some("--format"),
         ExportError::BadEvaluationGrid { .. } => Some("--residual-grid"),
         ExportError::Singular => Some("--pose"),
         ExportError::MissingAxes { .. } | ExportError::NoSolution { .. } => Some("--machine"),

@@ -132,6 +132,18 @@ pub trait Format: Sync {
         files: &[WrittenFile],
         travel_mm: &[[f64; 2]; 3],
     ) -> Result<Box<dyn Control>, ExportError>;
+    /// [`Format::read`] for the machine the files were written for. A control that runs its own
+    /// kinematic model (the ISG kernel's volumetric compensation) takes the error parameters
+    /// from the files and the nominal kinematics from its own configuration, which the files do
+    /// not carry: such a format reads them here, with `fitting`'s machine as that
+    /// configuration. Every other format reads the files alone, on the travels of `fitting`.
+    fn read_for(
+        &self,
+        files: &[WrittenFile],
+        fitting: &Fitting,
+    ) -> Result<Box<dyn Control>, ExportError> {
+        self.read(files, &fitting.ranges)
+    }
 }
 
 /// What a control does with the tables it loaded.

@@ -17,8 +17,12 @@ pub mod nodes;
 pub mod residual;
 
 mod axis_tables;
+mod fanuc;
+mod fanuc_lattice;
 mod grid_csv;
 mod heidenhain;
+mod isg;
+mod isg_axis;
 mod klipper;
 mod linuxcnc;
 mod marlin;
@@ -45,6 +49,10 @@ pub static FORMATS: &[&dyn Format] = &[
     &marlin::Marlin,
     &siemens::Siemens,
     &heidenhain::Heidenhain,
+    &fanuc::FanucPitch,
+    &fanuc_lattice::FanucLattice,
+    &isg::Isg,
+    &isg_axis::IsgAxis,
 ];
 
 /// The format named `name`.
@@ -122,6 +130,11 @@ pub enum ExportError {
         rms_um: f64,
         before_um: f64,
         limit_um: f64,
+    },
+    #[error("the {format} export cannot hold this machine's errors: {message}")]
+    Unrepresentable {
+        format: &'static str,
+        message: String,
     },
     #[error("{0} is not a folder: a {1} export writes several files into a folder")]
     NotAFolder(String, &'static str),
@@ -318,7 +331,7 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     let ranges = fitting.ranges;
     let (points, spacing) = table_points(format, request.size, &ranges)?;
     let files = format.write(&fitting, points, spacing)?;
-    let control = format.read(&files, &ranges)?;
+    let control = format.read_for(&files, &fitting)?;
     let tables = control.tables();
     let table_points = tables.iter().map(|t| t.points).max().unwrap_or(2);
     let n = match request.evaluation_points {

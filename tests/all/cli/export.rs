@@ -26,7 +26,7 @@ fn export_writes_the_grid_and_reports_the_residual() {
         .arg(&json)
         .assert()
         .success()
-        .stderr(predicate::str::contains("error").not())
+        .stderr(predicate::str::contains("error:").not())
         .stdout(
             predicate::str::contains("grid-csv: generic 3-D correction grid (CSV) for 3-axis VMC")
                 .and(predicate::str::contains(

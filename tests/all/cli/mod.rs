@@ -4,6 +4,7 @@ mod compensate;
 mod compensate_orientation;
 mod design;
 mod export;
+mod export_fanuc;
 mod inputs;
 mod interrupt;
 mod machine_files;
