@@ -1,7 +1,9 @@
 //! Sums of one-dimensional tables, one per (corrected axis, input axis) pair: what the SINUMERIK
 //! (MSEC and CEC) and the HEIDENHAIN (`*.COM`) tables hold. The correction is fitted as
 //!
-//!     d_k(t) ≈ Σ_i f_ki(t_i)        k, i ∈ {X, Y, Z}
+//! ```text
+//! d_k(t) ≈ Σ_i f_ki(t_i)        k, i ∈ {X, Y, Z}
+//! ```
 //!
 //! (the additive fit of [`Fitting::additive`], every term a curve, each cross curve `f_ki`
 //! zero at the start of axis `i`'s travel and the rest of row `k`'s constant carried by the
