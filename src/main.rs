@@ -3,7 +3,8 @@
 //! Exit codes: 0 success; 1 a failure while working (GPU, file system); 2 bad input (machine
 //! file, grid, pose, field file, part file, CSV, command-line values); 3 `features` found a
 //! feature the machine is unfit for; 4 `--check` found the field further from the f64 reference
-//! than the tolerance; 130 and 143 interrupted by SIGINT or SIGTERM (its temporary files removed).
+//! than the tolerance; 130, 143 and 129 interrupted by SIGINT, SIGTERM or SIGHUP, 141 its standard
+//! output closed under it (its temporary files removed).
 
 mod cli;
 

@@ -71,7 +71,7 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
         // allocated or compiled is held or reused, whatever the order of the machines.
         let (engine, note) = args.device.engine()?;
         if note.is_some() && n == 0 {
-            eprintln!("volmap: no GPU adapter found: GPU paths left out");
+            errln!("volmap: no GPU adapter found: GPU paths left out");
         }
         if let Engine::Gpu(g) = &engine {
             adapter = Some(g.adapter_name().to_string());
@@ -83,7 +83,7 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
             scratch.path(),
             args.reference_points,
             args.runs as usize,
-            |step| eprintln!("bench: {}: {step}", machine.name),
+            |step| errln!("bench: {}: {step}", machine.name),
         );
         drop(engine);
         results.push(
@@ -101,7 +101,7 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
         warm_up_s: bench::WARM_UP_SECONDS,
         machines: results,
     };
-    print!("{}", bench::table(&report));
+    out!("{}", bench::table(&report));
     if let Some(path) = &args.json.json {
         write_json(path, &report)?;
     }

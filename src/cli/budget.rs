@@ -94,7 +94,7 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
     }
     let (engine, note) = args.device.engine()?;
     if let Some(note) = note {
-        eprintln!("volmap: {note}");
+        errln!("volmap: {note}");
     }
     let tolerances = &file.tolerances;
 
@@ -138,7 +138,7 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         if let Some(path) = &args.per_sample {
             let text = budget_report::per_sample_csv(&machine, &study, &stats);
             write_file(path, |out| out.write_all(text.as_bytes())).flag("--per-sample")?;
-            eprintln!("per-sample: {}", path.display());
+            errln!("per-sample: {}", path.display());
         }
         histogram = Some((stats.iter().map(|s| s.max_ve_mm).collect::<Vec<_>>(), spec));
         if args.allocate {
@@ -163,7 +163,7 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
                     file.scaled_text(|t| chosen[t].then_some(allocation.factor))
                 );
                 write_file(out, |w| w.write_all(text.as_bytes())).flag("--out")?;
-                println!("  scaled tolerances written to {}", out.display());
+                outln!("  scaled tolerances written to {}", out.display());
             }
         }
     }
@@ -218,19 +218,25 @@ fn print_budget(machine: &Machine, args: &BudgetArgs, grids: &[Grid], budget: &B
         [_] => String::new(),
         _ => format!(" over {} poses", grids.len()),
     };
-    println!(
+    outln!(
         "Error budget of {}: {} toleranced terms of {}, each alone at its limit on the ideal machine, grid {nx}x{ny}x{nz}{over}",
         machine.name,
         budget.rows.len(),
         args.tolerances.display()
     );
-    println!(
+    outln!(
         "  {:<16} {:>22} {:>12} {:>12} {:>12} {:>16} {:>7}  worst at",
-        "term", "limit", "max |VE| mm", "RMS |VE| mm", "max |OE| rad", "largest axis mm", "share"
+        "term",
+        "limit",
+        "max |VE| mm",
+        "RMS |VE| mm",
+        "max |OE| rad",
+        "largest axis mm",
+        "share"
     );
     for row in &budget.rows {
         let (axis, largest) = row.stats.largest_axis();
-        println!(
+        outln!(
             "  {:<16} {:>22} {:>12.6} {:>12.6} {:>12.3e} {:>16} {:>6.1}%  {}",
             row.tolerance.perturbation.target.key(),
             limit_text(&row.tolerance),
@@ -246,7 +252,7 @@ fn print_budget(machine: &Machine, args: &BudgetArgs, grids: &[Grid], budget: &B
                 .join(" ")
         );
     }
-    println!(
+    outln!(
         "  total (root sum of squares of max |VE|): {:.6} mm",
         budget.total_rss_mm
     );
@@ -270,7 +276,7 @@ fn run_allocation(
     study: &Study,
     target: &Target,
 ) -> Result<Allocation, Failure> {
-    println!(
+    outln!(
         "Allocation: the largest common factor on {} of the {} tolerances for which {:.1}% of {} machines hold max |VE| ≤ {} mm",
         target.chosen.iter().filter(|&&c| c).count(),
         target.chosen.len(),
@@ -285,7 +291,7 @@ fn run_allocation(
         target,
         |factor, fraction| {
             bar.suspend(|| {
-                println!(
+                outln!(
                     "  factor {factor:<12.6} {:>6.2}% within the specification",
                     100.0 * fraction
                 )
@@ -297,7 +303,7 @@ fn run_allocation(
     bar.finish_and_clear();
     let allocation = result?;
     let w = allocation.within.fraction;
-    println!(
+    outln!(
         "  largest factor {:.6}: {:.2}% of the machines within (95% CI {:.2}% to {:.2}%), {} Monte Carlo runs on the same draws",
         allocation.factor,
         100.0 * w.fraction,

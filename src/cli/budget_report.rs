@@ -68,13 +68,19 @@ fn statistics(mc: &MonteCarlo) -> [(&'static str, &'static str, Summary); 6] {
 /// Prints the Monte Carlo statistics; `inputs` are the evaluation inputs of the machine the
 /// samples are drawn around, in words.
 pub fn print_monte_carlo(mc: &MonteCarlo, engine: String, inputs: &str) {
-    println!(
+    outln!(
         "Monte Carlo: {} machines built to the tolerances around the machine at {inputs} (seed {}), each field's statistics on the {engine}",
         mc.samples, mc.seed
     );
-    println!(
+    outln!(
         "  {:<16} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12}",
-        "statistic", "mean", "std", "P5", "P50", "P95", "P99"
+        "statistic",
+        "mean",
+        "std",
+        "P5",
+        "P50",
+        "P95",
+        "P99"
     );
     for (_, label, s) in statistics(mc) {
         let cell = |v: f64| {
@@ -84,7 +90,7 @@ pub fn print_monte_carlo(mc: &MonteCarlo, engine: String, inputs: &str) {
                 format!("{v:>12.6}")
             }
         };
-        println!(
+        outln!(
             "  {label:<16} {} {} {} {} {} {}",
             cell(s.mean),
             cell(s.std),
@@ -95,7 +101,7 @@ pub fn print_monte_carlo(mc: &MonteCarlo, engine: String, inputs: &str) {
         );
     }
     if let Some(w) = &mc.within_spec {
-        println!(
+        outln!(
             "  within {} mm: {:.2}% of the machines (95% CI {:.2}% to {:.2}%)",
             w.spec_mm,
             100.0 * w.fraction.fraction,

@@ -84,14 +84,17 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
     let text = calibrate::rebase_tables(&text, &base, &folder)?;
     check_machine_text(&text, &args.out, &folder)?;
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
-    println!(
+    outln!(
         "{}: {} component table(s) from measurements",
         args.out.display(),
         built.len()
     );
-    println!(
+    outln!(
         "  {:<5} {:>5}  {:<10} {:>32}  why",
-        "error", "nodes", "interp", "leave-one-out RMS (µm or µrad)"
+        "error",
+        "nodes",
+        "interp",
+        "leave-one-out RMS (µm or µrad)"
     );
     for c in &built {
         let scores: Vec<String> = c
@@ -104,7 +107,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
                 )
             })
             .collect();
-        println!(
+        outln!(
             "  {:<5} {:>5}  {:<10} {:>32}  {}",
             c.name,
             c.nodes.len(),

@@ -121,24 +121,24 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         ),
     );
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
-    println!("{}: compensated for {}", args.out.display(), machine.name);
-    println!(
+    outln!("{}: compensated for {}", args.out.display(), machine.name);
+    outln!(
         "  inputs                      {} (at the start; then each axis approaches in the direction it moves)",
         report.inputs.description
     );
-    println!("  points compensated          {}", report.points);
-    println!(
+    outln!("  points compensated          {}", report.points);
+    outln!(
         "  largest correction          {:.4} mm",
         report.largest_correction_mm
     );
-    println!("  blocks changed              {}", report.blocks_changed);
-    println!("  blocks added                {}", report.blocks_added);
-    println!(
+    outln!("  blocks changed              {}", report.blocks_changed);
+    outln!("  blocks added                {}", report.blocks_added);
+    outln!(
         "  largest tool-tip error along the feed moves: {:.4} mm before, {:.4} mm after (chord tolerance {} mm)",
         report.largest_error_before_mm, report.largest_error_after_mm, options.chord_tolerance_mm
     );
     if report.cycle_holes_expanded > 0 {
-        println!(
+        outln!(
             "  canned cycle holes          {} expanded into rapid and feed moves, each compensated",
             report.cycle_holes_expanded
         );
@@ -149,26 +149,26 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
             .iter()
             .map(|p| format!("{} ({})", p.line, p.code))
             .collect();
-        println!(
+        outln!(
             "  not compensated             {} blocks passed as they are, lines {}: the errors above cover the compensated moves only",
             lines.len(),
             lines.join(", ")
         );
     }
     if let Some(tolerance) = options.orientation_tolerance_rad {
-        println!(
+        outln!(
             "  largest tool orientation error along the feed moves: {:.3e} rad before, {:.3e} rad after (angular tolerance {tolerance:e} rad)",
             report.largest_orientation_error_before_rad, report.largest_orientation_error_after_rad
         );
     }
     if report.take_ups > 0 {
-        println!(
+        outln!(
             "  take-ups at reversals       {} (an axis with a reversal error turns)",
             report.take_ups
         );
     }
     if report.against_direction > 0 {
-        eprintln!(
+        errln!(
             "warning: {} compensated pieces run against the programmed direction of an axis with a reversal error: the machine approaches them the other way than they were compensated for",
             report.against_direction
         );

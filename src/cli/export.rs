@@ -108,7 +108,7 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
         } else {
             "it holds too little of this machine's error to help".to_string()
         };
-        eprintln!(
+        errln!(
             "warning: the {} table leaves a larger largest error than the machine has without it ({} against {}); {why}",
             r.format,
             um(r.residual.max_mm),
@@ -124,7 +124,7 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
         .expect("clap requires --out without --sweep-points");
     let paths = exported.write(out).flag("--out")?;
     for path in &paths {
-        println!("  wrote                  {}", path.display());
+        outln!("  wrote                  {}", path.display());
     }
     if let Some(path) = &args.json.json {
         let written: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
@@ -163,48 +163,48 @@ fn um(mm: f64) -> String {
 }
 
 fn print_report(r: &Report) {
-    println!("{}: {} for {}", r.format, r.controller, r.machine);
-    println!("  inputs                 {}", r.inputs);
-    println!("  pose                   {}", r.pose);
+    outln!("{}: {} for {}", r.format, r.controller, r.machine);
+    outln!("  inputs                 {}", r.inputs);
+    outln!("  pose                   {}", r.pose);
     for t in &r.tables {
-        println!("  table {:<16} {}", t.name, t.size);
+        outln!("  table {:<16} {}", t.name, t.size);
     }
     let g = &r.grid;
-    println!(
+    outln!(
         "  residual measured on   {} x {} x {} points over the travels at the pose (spacing {:.3} x {:.3} x {:.3} mm)",
         g.points[0], g.points[1], g.points[2], g.spacing_mm[0], g.spacing_mm[1], g.spacing_mm[2]
     );
     let at = |a: [f64; 3]| format!("X={:.3} Y={:.3} Z={:.3}", a[0], a[1], a[2]);
-    println!(
+    outln!(
         "  error before           largest {}, RMS {} (largest at {})",
         um(r.before.max_mm),
         um(r.before.rms_mm),
         at(r.before.at_mm)
     );
-    println!(
+    outln!(
         "  residual               largest {}, RMS {} (largest at {})",
         um(r.residual.max_mm),
         um(r.residual.rms_mm),
         at(r.residual.at_mm)
     );
-    println!(
+    outln!(
         "  less a work offset     largest {} before, {} after (each less its mean over the grid)",
         um(r.before_offset_free.max_mm),
         um(r.residual_offset_free.max_mm)
     );
     if r.uses_direction {
-        println!("  directions             the control picks each axis's table by the direction it moves; the residual is for the approach above");
+        outln!("  directions             the control picks each axis's table by the direction it moves; the residual is for the approach above");
     }
-    println!("  holds                  {}", r.holds);
+    outln!("  holds                  {}", r.holds);
     if r.not_held.is_empty() && r.structural_mm < NEGLIGIBLE_MM {
-        println!("  cannot hold            nothing of this machine's correction at the pose");
+        outln!("  cannot hold            nothing of this machine's correction at the pose");
     } else {
-        println!(
+        outln!(
             "  cannot hold            up to {} of the correction at any table size; of each error alone:",
             um(r.structural_mm)
         );
         for n in &r.not_held {
-            println!(
+            outln!(
                 "    {:<8} {} of the {} it causes alone",
                 n.error,
                 um(n.not_held_mm),
@@ -247,21 +247,27 @@ fn sweep(
     }
     bar.finish_and_clear();
     let first = &rows[0].1;
-    println!(
+    outln!(
         "{}: {} for {} ({}; pose {})",
-        first.format, first.controller, first.machine, first.inputs, first.pose
+        first.format,
+        first.controller,
+        first.machine,
+        first.inputs,
+        first.pose
     );
-    println!(
+    outln!(
         "  error before: largest {}, RMS {}",
         um(first.before.max_mm),
         um(first.before.rms_mm)
     );
-    println!(
+    outln!(
         "  {:>7} {:>16} {:>16}",
-        "points", "residual max", "residual RMS"
+        "points",
+        "residual max",
+        "residual RMS"
     );
     for (n, r) in &rows {
-        println!(
+        outln!(
             "  {n:>7} {:>16} {:>16}",
             um(r.residual.max_mm),
             um(r.residual.rms_mm)

@@ -4,6 +4,7 @@
 //! here the command line adds which flag it came from.
 
 use std::fmt::Display;
+use std::io::Write;
 use std::process::ExitCode;
 
 use volmap::error::{Classify, ErrorKind};
@@ -84,9 +85,11 @@ impl Failure {
             message.push_str(&text);
         }
         // Whatever a message quotes of the input, it shows a few characters of it.
-        eprintln!("error: {}", volmap::error::capped(&message));
+        // A closed standard error has nobody to tell: no panic over it.
+        let mut err = std::io::stderr().lock();
+        let _ = writeln!(err, "error: {}", volmap::error::capped(&message));
         if let Some(hint) = &self.hint {
-            eprintln!("  hint: {}", volmap::error::capped(hint));
+            let _ = writeln!(err, "  hint: {}", volmap::error::capped(hint));
         }
     }
 }

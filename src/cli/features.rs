@@ -132,10 +132,16 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         ErrorSource::Field(field) => field.info.inputs.describe(),
     };
     let rows = part::evaluate(&part, source, &part_name)?;
-    println!("{} ({} features) at {at}", part.name, rows.len());
-    println!(
+    outln!("{} ({} features) at {at}", part.name, rows.len());
+    outln!(
         "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} {:<16} worst point (commanded X Y Z, mm)",
-        "feature", "kind", "error mm", "tolerance mm", "safety", "verdict", "against"
+        "feature",
+        "kind",
+        "error mm",
+        "tolerance mm",
+        "safety",
+        "verdict",
+        "against"
     );
     for r in &rows {
         let safety = r.safety.map_or("-".to_string(), |s| format!("{s:.2}"));
@@ -153,7 +159,7 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             Evaluation::BestFit => "best fit".to_string(),
             Evaluation::Datums => format!("datums {}", r.datums.join(" ")),
         };
-        println!(
+        outln!(
             "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:<16} {:.3} {:.3} {:.3}{area}",
             r.name,
             r.kind,
@@ -192,7 +198,7 @@ fn run_conformance(
     let samples = check_samples(args.samples.unwrap_or(1)).flag("--samples")?;
     let (engine, note) = args.device.engine()?;
     if let Some(note) = note {
-        eprintln!("volmap: {note}");
+        errln!("volmap: {note}");
     }
     let study = Study {
         machine: &machine,
@@ -206,7 +212,7 @@ fn run_conformance(
     });
     bar.finish_and_clear();
     let rows = rows?;
-    println!(
+    outln!(
         "{} ({} features) on {samples} machines built to {} around {} at {} (seed {}), VE and OE on the {}; fit where at least {:.1}% conform",
         part.name,
         rows.len(),
@@ -217,12 +223,19 @@ fn run_conformance(
         engine.name(),
         100.0 * confidence
     );
-    println!(
+    outln!(
         "  {:<24} {:<18} {:>12} {:>12} {:>12} {:>12} {:>11} {:>17}  verdict",
-        "feature", "kind", "tolerance mm", "nominal mm", "P50 mm", "P95 mm", "conforming", "95% CI"
+        "feature",
+        "kind",
+        "tolerance mm",
+        "nominal mm",
+        "P50 mm",
+        "P95 mm",
+        "conforming",
+        "95% CI"
     );
     for r in &rows {
-        println!(
+        outln!(
             "  {:<24} {:<18} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>10.2}% {:>17}  {}",
             r.name,
             r.kind,

@@ -35,7 +35,7 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
             ReachArg::hint(Failure::from(e).context("--measurements"), outside)
         })?;
     let report = fit::fit(&machine, &file)?;
-    println!(
+    outln!(
         "least-squares fit of {} unknown(s) to {} measured points ({} degrees of freedom)",
         report.estimates.len(),
         report.points,
@@ -48,23 +48,30 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
         .max()
         .unwrap_or(6)
         .max(6);
-    println!(
+    outln!(
         "  {:<width$} {:>14} {:>14} {:>14}  unit",
-        "error", "as given", "estimate", "uncertainty"
+        "error",
+        "as given",
+        "estimate",
+        "uncertainty"
     );
     for e in &report.estimates {
-        println!(
+        outln!(
             "  {:<width$} {:>14.6e} {:>14.6e} {:>14.3e}  {}",
-            e.name, e.initial, e.value, e.uncertainty, e.unit
+            e.name,
+            e.initial,
+            e.value,
+            e.uncertainty,
+            e.unit
         );
     }
     print_identifiability(&report, width);
-    println!(
+    outln!(
         "  RMS residual: {:.3} µm with the machine as given, {:.3} µm with the estimates",
         report.rms_before_mm * UM_PER_MM,
         report.rms_after_mm * UM_PER_MM
     );
-    println!("  (uncertainty: one standard uncertainty, from the residuals)");
+    outln!("  (uncertainty: one standard uncertainty, from the residuals)");
     if let Some(path) = &args.out {
         let text = fit::fitted_machine_toml(&machine, &report.estimates)?;
         let names: Vec<&str> = report.estimates.iter().map(|e| e.name.as_str()).collect();
@@ -87,7 +94,7 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
         let text = calibrate::rebase_tables(&text, &machine, &folder)?;
         check_machine_text(&text, path, &folder)?;
         write_file(path, |out| out.write_all(text.as_bytes())).flag("--out")?;
-        println!("  machine with the estimates: {}", path.display());
+        outln!("  machine with the estimates: {}", path.display());
     }
     if let Some(path) = &args.json.json {
         write_json(path, &report)?;
@@ -99,12 +106,15 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
 /// the measured values.
 fn print_identifiability(report: &fit::FitReport, width: usize) {
     let figures = &report.identifiability;
-    println!(
+    outln!(
         "  what the tests see (from the model and the tests' positions, not the measured values):"
     );
-    println!(
+    outln!(
         "  {:<width$} {:>20} {:>12} {:>10}",
-        "error", "sensitivity", "independence", "valuation"
+        "error",
+        "sensitivity",
+        "independence",
+        "valuation"
     );
     for (c, e) in report.estimates.iter().enumerate() {
         let weak = if figures.valuation[c] < identifiability::VALUATION_WEAK {
@@ -112,7 +122,7 @@ fn print_identifiability(report: &fit::FitReport, width: usize) {
         } else {
             ""
         };
-        println!(
+        outln!(
             "  {:<width$} {:>20} {:>12.4} {:>10.3}{weak}",
             e.name,
             format!("{:.3e} mm/({})", figures.sensitivity[c], e.unit),
@@ -120,18 +130,18 @@ fn print_identifiability(report: &fit::FitReport, width: usize) {
             figures.valuation[c],
         );
     }
-    println!(
+    outln!(
         "  condition number {:.3} (of the readings' Jacobian, columns scaled to unit norm)",
         figures.condition_number
     );
     if report.estimates.len() > 1 {
-        println!("  correlations of the estimates:");
+        outln!("  correlations of the estimates:");
         for (a, row) in figures.correlation.iter().enumerate() {
             let cells: Vec<String> = row.iter().map(|r| format!("{r:+7.4}")).collect();
-            println!("  {:<width$} {}", report.estimates[a].name, cells.join(" "));
+            outln!("  {:<width$} {}", report.estimates[a].name, cells.join(" "));
         }
     }
-    println!(
+    outln!(
         "  (sensitivity: RMS change of the readings per unit of the error; independence: the part of it no other estimate imitates, 0 to 1; valuation: 1 µm of a length or 10 µrad of an angle, per K for a coefficient, in standard uncertainties were the instruments to scatter 1 µm; below {} the tests barely resolve it)",
         identifiability::VALUATION_WEAK
     );

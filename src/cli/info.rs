@@ -23,8 +23,8 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         let mut reader = file.reader(0)?;
         let stats = field_stats(&mut reader)?;
         print_summary(reader.info(), &stats);
-        println!("  stored      {}", file.storage(0));
-        println!("  field       {}", args.file.display());
+        outln!("  stored      {}", file.storage(0));
+        outln!("  field       {}", args.file.display());
         return Ok(ExitCode::SUCCESS);
     }
     let mut names = Vec::with_capacity(file.parts());
@@ -37,8 +37,8 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         names.push(file.name(part));
     }
     print_sweep_summary(&file.info(total.max_ve_pose), &names, &stats, &total);
-    println!("  stored      {}", file.storage(0));
-    println!(
+    outln!("  stored      {}", file.storage(0));
+    outln!(
         "  field       {} ({} parts, one per pose)",
         args.file.display(),
         file.parts()

@@ -27,14 +27,14 @@ pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
                     names.join(", ")
                 ))
             })?;
-        print!("{text}");
+        out!("{text}");
         return Ok(ExitCode::SUCCESS);
     }
-    println!("{:<18} {:<9} {:<6} description", "name", "chain", "axes");
+    outln!("{:<18} {:<9} {:<6} description", "name", "chain", "axes");
     for (name, _) in embedded::EMBEDDED {
         let machine = embedded::load(name)?;
         let axes = machine.chain.axes().count();
-        println!(
+        outln!(
             "{name:<18} {:<9} {axes:<6} {}",
             machine.chain.hwang_notation(),
             machine.description

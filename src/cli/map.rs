@@ -120,7 +120,7 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     }
     let (engine, note) = args.device.engine()?;
     if let Some(note) = note {
-        eprintln!("volmap: {note}");
+        errln!("volmap: {note}");
     }
     let options = MapOptions {
         chunk_points: args.chunk_points,
@@ -134,7 +134,7 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
         sweep::print_map_summary(&machine, grids, &summary);
         print_time(summary.seconds, summary.stats.points);
         print_stored(&options.storage, summary.times.write.bytes);
-        println!(
+        outln!(
             "  field       {} ({} parts, one per pose)",
             args.out.display(),
             grids.len()
@@ -152,9 +152,9 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     print_summary(&info, &summary.stats);
     print_time(summary.seconds, summary.stats.points);
     print_stored(&options.storage, summary.times.write.bytes);
-    println!("  field       {}", args.out.display());
+    outln!("  field       {}", args.out.display());
     if let Some(vti) = &args.vti {
-        println!("  VTK image   {}", vti.display());
+        outln!("  VTK image   {}", vti.display());
     }
     Ok(print_check(summary.check.as_ref()))
 }
@@ -179,7 +179,7 @@ pub fn map_failure(error: EngineError, machine: &Machine, out: &std::path::Path)
 }
 
 fn print_time(seconds: f64, points: u64) {
-    println!(
+    outln!(
         "  time        {:.3} s, {:.2} Mpts/s",
         seconds,
         points as f64 / seconds.max(1e-9) / 1e6
@@ -188,7 +188,7 @@ fn print_time(seconds: f64, points: u64) {
 
 /// How the field file stores its values, and its size.
 fn print_stored(storage: &Storage, bytes: u64) {
-    println!(
+    outln!(
         "  stored      {}, {:.1} MB",
         storage.describe(),
         bytes as f64 / 1e6
@@ -198,7 +198,7 @@ fn print_stored(storage: &Storage, bytes: u64) {
 /// Prints the spot check, if there was one: exit code 4 when it failed.
 fn print_check(check: Option<&CheckResult>) -> ExitCode {
     if let Some(check) = check {
-        println!(
+        outln!(
             "  check       {} points against the f64 reference: max ΔVE {:.3e} mm, max ΔOE {:.3e} rad (tolerance {:e} mm, {:e} rad): {}",
             check.points,
             check.max_ve_diff_mm,
@@ -231,7 +231,7 @@ pub fn print_summary(info: &FieldInfo, stats: &FieldStats) {
             format!("{a}={}°", info.pose_deg[index])
         })
         .collect();
-    println!(
+    outln!(
         "volmap: {} ({}), grid {}x{}x{} = {} points{}",
         info.machine_name,
         info.chain,
@@ -245,9 +245,9 @@ pub fn print_summary(info: &FieldInfo, stats: &FieldStats) {
             format!(", pose {}", pose.join(" "))
         }
     );
-    println!("  device      {}", info.device);
-    println!("  inputs      {}", info.inputs.describe());
-    println!(
+    outln!("  device      {}", info.device);
+    outln!("  inputs      {}", info.inputs.describe());
+    outln!(
         "  max |VE|    {:.6} mm at point ({}, {}, {}): {} mm",
         stats.max_ve_mm,
         ijk[0],
@@ -255,6 +255,6 @@ pub fn print_summary(info: &FieldInfo, stats: &FieldStats) {
         ijk[2],
         at.join(" ")
     );
-    println!("  RMS |VE|    {:.6} mm", stats.rms_ve_mm());
-    println!("  max |OE|    {:.3e} rad", stats.max_oe_rad);
+    outln!("  RMS |VE|    {:.6} mm", stats.rms_ve_mm());
+    outln!("  max |OE|    {:.3e} rad", stats.max_oe_rad);
 }

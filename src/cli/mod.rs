@@ -1,6 +1,33 @@
 //! The command line: one file per subcommand, the arguments they share ([`args`]), the one place
 //! errors become exit codes ([`failure`]) and the one place for output ([`output`]).
 
+// Defined before the commands' modules, so every one of them has them in scope.
+
+/// `print!` to standard output through [`output::print_out`]: a closed standard output ends the
+/// command quietly, never with a panic.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::output::print_out(format_args!($($arg)*))
+    };
+}
+
+/// `println!` to standard output through [`output::print_out`].
+macro_rules! outln {
+    () => {
+        $crate::cli::output::print_out(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::output::print_out(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `eprintln!` to standard error through [`output::print_err`].
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::cli::output::print_err(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 pub mod args;
 pub mod bench;
 pub mod budget;

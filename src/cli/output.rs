@@ -10,6 +10,39 @@ use volmap::plot::Drawing;
 
 use super::failure::{Failure, FlagContext};
 
+/// Writes to standard output. A closed standard output (`volmap … | head`) ends the command
+/// quietly, as Unix tools end, with 141 (128 + SIGPIPE); any other failure to write it ends the
+/// command with an error and exit code 1 (`> /dev/full`). Either way the temporary files of the
+/// command are removed first, and nothing panics.
+pub fn print_out(args: std::fmt::Arguments) {
+    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
+        stdout_failed(&e)
+    }
+}
+
+/// Writes to standard error: warnings and notes beside a command's output. A closed standard
+/// error ends the command quietly as a closed standard output does; a message nobody can read
+/// is dropped.
+pub fn print_err(args: std::fmt::Arguments) {
+    if let Err(e) = std::io::stderr().lock().write_fmt(args) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            volmap::io::atomic::remove_live_temporaries_and_exit(141)
+        }
+    }
+}
+
+/// Ends the command on a failed write to standard output (see [`print_out`]).
+pub fn stdout_failed(error: &std::io::Error) -> ! {
+    if error.kind() != std::io::ErrorKind::BrokenPipe {
+        let _ = writeln!(
+            std::io::stderr(),
+            "error: writing to standard output: {error}"
+        );
+        volmap::io::atomic::remove_live_temporaries_and_exit(1)
+    }
+    volmap::io::atomic::remove_live_temporaries_and_exit(141)
+}
+
 /// The progress bar of long work, on standard error: `verb` (`mapping`) and what is counted
 /// (`points`). `len` may be set later, when the work knows it.
 pub fn progress(len: Option<u64>, verb: &str, unit: &str) -> ProgressBar {
@@ -70,7 +103,7 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), Fail
 /// Writes a plot (SVG or PNG by the extension) and says where.
 pub fn write_plot(drawing: &Drawing, path: &Path) -> Result<(), Failure> {
     drawing.write(path)?;
-    eprintln!("plot: {}", path.display());
+    errln!("plot: {}", path.display());
     Ok(())
 }
 
@@ -93,7 +126,7 @@ pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), 
     match Machine::from_toml(text, &name, Some(folder)) {
         Err(e) if e.is_outside_folder() => {
             Machine::from_toml_reaching(text, &name, Some(folder), Reach::Anywhere)?;
-            eprintln!(
+            errln!(
                 "note: {name} names CSV tables outside its folder: commands that read it need --allow-outside-paths"
             );
             Ok(())

@@ -184,7 +184,7 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
             for path in &images {
                 vtk::write_image(path, &slice.image, &slice.array_name, &slice.values)
                     .flag("--out")?;
-                eprintln!("VTK image: {}", path.display());
+                errln!("VTK image: {}", path.display());
             }
             if outputs.is_empty() {
                 return Ok(ExitCode::SUCCESS);

@@ -147,7 +147,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         (Some(loaded), _) => {
             let (sampler, note) = args.device.sampler()?;
             if let Some(note) = note {
-                eprintln!("note: {note}");
+                errln!("note: {note}");
             }
             gpu = sampler;
             let sampler = FieldSampler::new(loaded, gpu.as_ref(), &path, outside);
@@ -192,7 +192,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     };
     let write_error = |e: std::io::Error| match &args.out {
         Some(path) => Failure::from(FileError::write(path, e)).context("--out"),
-        None => Failure::work(e).context("writing to standard output"),
+        None => super::output::stdout_failed(&e),
     };
     let writer = SampleWriter::start(out, reader.columns(), precision).map_err(write_error)?;
     let (mut outside_count, mut first_outside, mut sampled) = (0usize, None, 0usize);
@@ -217,7 +217,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     if let Some(file) = file_out {
         file.commit().flag("--out")?;
         if let (Some(path), Some(record)) = (&args.out, &record) {
-            println!("{}: {sampled} position(s) sampled {record}", path.display());
+            outln!("{}: {sampled} position(s) sampled {record}", path.display());
         }
     }
     if let Some(line) = first_outside {
@@ -230,7 +230,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         } else {
             "the field's grid"
         };
-        eprintln!(
+        errln!(
             "note: {outside_count} position(s) outside {of} {done} (--outside), \
              the first at line {line} of {path}"
         );

@@ -49,7 +49,7 @@ pub fn print_sweep_summary(
         .collect();
     let worst_name = names.get(total.max_ve_pose).map_or("", String::as_str);
     let per_pose = stats.first().map_or(0, |s| s.points);
-    println!(
+    outln!(
         "volmap: {} ({}), grid {}x{}x{} = {} points at each of {} poses, {} points",
         worst.machine_name,
         worst.chain,
@@ -60,9 +60,9 @@ pub fn print_sweep_summary(
         names.len(),
         total.points
     );
-    println!("  device      {}", worst.device);
-    println!("  inputs      {}", worst.inputs.describe());
-    println!(
+    outln!("  device      {}", worst.device);
+    outln!("  inputs      {}", worst.inputs.describe());
+    outln!(
         "  max |VE|    {:.6} mm at pose {worst_name}, point ({}, {}, {}): {} mm",
         total.max_ve_mm,
         ijk[0],
@@ -70,16 +70,19 @@ pub fn print_sweep_summary(
         ijk[2],
         at.join(" ")
     );
-    println!("  worst pose  {worst_name}");
-    println!("  RMS |VE|    {:.6} mm over every pose", total.rms_ve_mm());
-    println!("  max |OE|    {:.3e} rad", total.max_oe_rad);
+    outln!("  worst pose  {worst_name}");
+    outln!("  RMS |VE|    {:.6} mm over every pose", total.rms_ve_mm());
+    outln!("  max |OE|    {:.3e} rad", total.max_oe_rad);
     let width = names.iter().map(|n| n.len()).max().unwrap_or(0).max(4);
-    println!(
+    outln!(
         "  {:<width$}  {:>12}  {:>12}  {:>12}",
-        "pose", "max |VE| mm", "RMS |VE| mm", "max |OE| rad"
+        "pose",
+        "max |VE| mm",
+        "RMS |VE| mm",
+        "max |OE| rad"
     );
     for (name, s) in names.iter().zip(stats) {
-        println!(
+        outln!(
             "  {name:<width$}  {:>12.6}  {:>12.6}  {:>12.3e}",
             s.max_ve_mm,
             s.rms_ve_mm(),

@@ -276,7 +276,7 @@ fn run_on_machine(
         let axis = named.split('=').next().unwrap_or("").trim();
         if let Some(letter) = axis.chars().next().filter(|_| axis.chars().count() == 1) {
             if result.moving_axes.contains(&letter) {
-                eprintln!(
+                errln!(
                     "note: --approach {axis}: the test moves {axis}, and its path decides the direction"
                 );
             }
@@ -291,8 +291,8 @@ fn print_result(result: &TestResult) {
     let (factor, unit) = result.unit.shown();
     let predicted_label = format!("predicted {unit}");
     let measured_label = format!("measured {unit}");
-    println!("{}", result.title);
-    println!("  inputs: {}", result.inputs);
+    outln!("{}", result.title);
+    outln!("  inputs: {}", result.inputs);
     let width = result.position_label.chars().count().max(10);
     let cell = 12;
     let mut header = format!("  {:>width$}", result.position_label);
@@ -305,7 +305,7 @@ fn print_result(result: &TestResult) {
             units += &format!(" {measured_label:>cell$} {:>cell$}", "difference");
         }
     }
-    println!("{header}\n{units}");
+    outln!("{header}\n{units}");
     for (n, position) in result.positions.iter().enumerate() {
         let mut row = format!("  {position:>width$.3}");
         for (c, curve) in result.predicted.iter().enumerate() {
@@ -316,9 +316,9 @@ fn print_result(result: &TestResult) {
                 row += &format!(" {v:>cell$.3} {:>cell$.3}", v - p);
             }
         }
-        println!("{row}");
+        outln!("{row}");
     }
-    println!();
+    outln!();
     let name_width = result
         .figures
         .iter()
@@ -330,7 +330,7 @@ fn print_result(result: &TestResult) {
     if result.measured.is_some() {
         header += &format!(" {measured_label:>cell$} {:>cell$}", "difference");
     }
-    println!("{header}  meaning");
+    outln!("{header}  meaning");
     for f in &result.figures {
         let p = f.predicted * factor;
         let mut row = format!("  {:<name_width$} {p:>cell$.3}", f.name);
@@ -338,13 +338,13 @@ fn print_result(result: &TestResult) {
             let m = m * factor;
             row += &format!(" {m:>cell$.3} {:>cell$.3}", m - p);
         }
-        println!("{row}  {}", f.meaning);
+        outln!("{row}  {}", f.meaning);
     }
     if let Some(report) = &result.ballbar {
         print_ballbar(report);
     }
     if let Some(d) = standards::largest_difference(result) {
-        println!(
+        outln!(
             "\n  largest |measured − predicted|: {:.3} {unit}",
             d * factor
         );
@@ -354,7 +354,7 @@ fn print_result(result: &TestResult) {
 /// A circle's ballbar diagnostics, predicted and measured side by side.
 fn print_ballbar(report: &standards::ballbar::BallbarReport) {
     let [u, v] = report.axes;
-    println!("\n  ballbar diagnostics (radius {} mm)", report.radius_mm);
+    outln!("\n  ballbar diagnostics (radius {} mm)", report.radius_mm);
     let rows = |d: &standards::ballbar::Diagnostics| -> Vec<(String, f64)> {
         let mut rows = vec![
             (
@@ -400,15 +400,15 @@ fn print_ballbar(report: &standards::ballbar::BallbarReport) {
     if measured.is_some() {
         header += &format!(" {:>12}", "measured");
     }
-    println!("{header}");
+    outln!("{header}");
     for (n, (name, value)) in predicted.iter().enumerate() {
         let mut row = format!("  {name:<width$} {value:>12.3}");
         if let Some(m) = measured.as_ref().and_then(|m| m.get(n)) {
             row += &format!(" {:>12.3}", m.1);
         }
-        println!("{row}");
+        outln!("{row}");
     }
     if report.pitch_mm.is_none() {
-        println!("  (cyclic error: give --pitch, the ballscrew's lead)");
+        outln!("  (cyclic error: give --pitch, the ballscrew's lead)");
     }
 }

@@ -110,9 +110,9 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
         traces.push(("compensated", after));
     }
     let summaries: Vec<Summary> = traces.iter().map(|(p, s)| summary(p, s)).collect();
-    println!("{name}: tool-tip deviation on {}", machine.name);
+    outln!("{name}: tool-tip deviation on {}", machine.name);
     for s in &summaries {
-        println!(
+        outln!(
             "  {:<14} largest {:.4} mm at line {} ({} blocks that move)",
             s.program,
             s.largest_mm,
@@ -120,7 +120,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
             s.per_block.len()
         );
     }
-    println!("  the blocks with the largest deviation (line: mm):");
+    outln!("  the blocks with the largest deviation (line: mm):");
     let mut worst = summaries[0].per_block.clone();
     worst.sort_by(|a, b| b.1.total_cmp(&a.1));
     for (line, mm) in worst.iter().take(10) {
@@ -128,7 +128,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
             .get(1)
             .and_then(|s| s.per_block.iter().find(|b| b.0 == *line))
             .map_or(String::new(), |b| format!(", {:.4} compensated", b.1));
-        println!("    {line:>6}: {mm:.4}{after}");
+        outln!("    {line:>6}: {mm:.4}{after}");
     }
     if let Some(path) = &args.out {
         write_file(path, |out| {

@@ -271,3 +271,72 @@ fn each_part_of_an_error_is_said_once() {
         );
     }
 }
+
+/// `volmap … | head`: a standard output closed under a command ends it quietly with 141 (128 +
+/// SIGPIPE), as Unix tools end, and a full one (`> /dev/full`) with an error and exit 1; never a
+/// panic.
+#[cfg(unix)]
+#[test]
+fn a_closed_or_full_standard_output_ends_the_command_without_a_panic() {
+    use std::io::Read;
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let points = dir.path().join("p.csv");
+    let mut text = String::from("X,Y,Z\n");
+    for n in 0..200_000 {
+        text += &format!("{},{},{}\n", n % 997, n % 593, n % 487);
+    }
+    std::fs::write(&points, text).unwrap();
+    let volmap = assert_cmd::cargo::cargo_bin("volmap");
+    // The values on standard output, the data pipe closed after its first bytes; the text
+    // report of `test`, closed before it is read.
+    let runs: [Vec<std::ffi::OsString>; 2] = [
+        ["sample", "--machine", "vmc-li2015", "--exact", "--points"]
+            .iter()
+            .map(Into::into)
+            .chain([points.clone().into_os_string()])
+            .collect(),
+        [
+            "test",
+            "positioning",
+            "--machine",
+            "gantry-2m",
+            "--axis",
+            "X",
+            "--targets",
+            "5000",
+        ]
+        .iter()
+        .map(Into::into)
+        .collect(),
+    ];
+    for args in &runs {
+        let mut child = Command::new(&volmap)
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut first = [0u8; 16];
+        child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+        let output = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(141), "{args:?}: {stderr}");
+        assert!(stderr.is_empty(), "{args:?}: {stderr}");
+    }
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let output = Command::new(&volmap)
+        .args(["machines", "--show", "gantry-2m"])
+        .stdout(full)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("error: writing to standard output") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+}
