@@ -207,10 +207,18 @@ fn replay(chosen: &[&'static targets::Target], path: &std::path::Path) -> ExitCo
             return ExitCode::from(2);
         }
     };
+    campaign::single_threaded(|| replay_in(chosen, &input, &mut cx))
+}
+
+fn replay_in(
+    chosen: &[&'static targets::Target],
+    input: &[u8],
+    cx: &mut targets::Context,
+) -> ExitCode {
     let clock = ThreadClock::current();
     let mut found = false;
     for target in chosen {
-        let executed = campaign::execute(target, &mut cx, &input, &clock);
+        let executed = campaign::execute(target, cx, input, &clock);
         let what = match &executed.result {
             Ok(Ok(Outcome::Accepted)) => "accepted".to_string(),
             Ok(Ok(Outcome::Refused(m))) => format!("refused: {m}"),

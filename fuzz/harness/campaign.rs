@@ -456,6 +456,37 @@ fn work(
 ) -> Result<(), String> {
     let clock = ThreadClock::current();
     *shared.clock.lock().unwrap_or_else(|p| p.into_inner()) = Some(clock);
+    let slot_name: &'static str = Box::leak(slot.path.display().to_string().into_boxed_str());
+    watch::describe_thread(target.name, slot_name);
+    single_threaded(|| campaign(target, prepared, plan, slot, shared, report, begun, clock))
+}
+
+/// Runs `f` with the library's thread pool made of this thread alone: what a target hands to
+/// the pool runs here, where its heap is counted and its panics are the target's, and no
+/// waiting on other threads adds to its time.
+pub fn single_threaded<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    match rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .use_current_thread()
+        .build()
+    {
+        Ok(pool) => pool.install(f),
+        Err(_) => f(),
+    }
+}
+
+/// The executions of [`work`].
+#[allow(clippy::too_many_arguments)]
+fn campaign(
+    target: &'static Target,
+    prepared: &Prepared,
+    plan: &Plan,
+    slot: &Slot,
+    shared: &Shared,
+    report: &Mutex<Report>,
+    begun: Instant,
+    clock: ThreadClock,
+) -> Result<(), String> {
     let mut cx = Context::new().map_err(|e| format!("cannot make a scratch folder: {e}"))?;
     let material = prepared.material(target);
     let mut seen: Vec<String> = Vec::new();

@@ -18,6 +18,14 @@ thread_local! {
     static LIVE: Cell<i64> = const { Cell::new(0) };
     static PEAK: Cell<i64> = const { Cell::new(0) };
     static LARGEST: Cell<u64> = const { Cell::new(0) };
+    /// What to say of the thread when a request is refused: its target and where its input is.
+    static CONTEXT: Cell<(&'static str, &'static str)> = const { Cell::new(("", "")) };
+}
+
+/// Names the target this thread runs and the file its input under way is kept in, for the
+/// message of a refused request.
+pub fn describe_thread(target: &'static str, slot: &'static str) {
+    CONTEXT.with(|c| c.set((target, slot)));
 }
 
 /// The global allocator of a campaign's binary: the system's, counting the heap of the thread
@@ -60,9 +68,14 @@ fn refused(size: u64) {
             break;
         }
     }
-    emergency(b"\nfuzz: FINDING (allocation): a request of ");
+    let (target, slot) = CONTEXT.with(Cell::get);
+    emergency(b"\nfuzz: FINDING (allocation) in ");
+    emergency(target.as_bytes());
+    emergency(b": a request of ");
     emergency(&digits[at..]);
-    emergency(b" bytes would take the execution past 4 GiB; it is refused and the process stops: the input is in the slot file named at the start\n");
+    emergency(b" bytes would take the execution past 4 GiB; it is refused and the process stops; the input is kept in ");
+    emergency(slot.as_bytes());
+    emergency(b"\n");
 }
 
 #[cfg(unix)]

@@ -15,7 +15,7 @@ use super::program::{
     end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
 };
 use super::rotation::apply_rotations;
-use super::subprograms::expand_subprograms;
+use super::subprograms::{expand_subprograms, MAX_EXPANDED_BLOCKS};
 use super::toolpath::{arc_path, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
@@ -27,22 +27,32 @@ use crate::model::{Command, Machine};
 pub(super) const MAX_PIECES: usize = 100_000;
 
 /// The program's lines, its state before the first, and the machine per tool.
+/// The program as the control runs it: its blocks read, subprogram calls and canned cycles
+/// expanded, coordinate rotations applied; and the number of cycle holes expanded.
+pub(super) fn as_run(
+    program: &[u8],
+    path: &str,
+    pass_unknown: bool,
+) -> Result<(Vec<Line>, usize), NcError> {
+    let read = parse_program(program, path, pass_unknown)?;
+    // Calls and cycles together add at most MAX_EXPANDED_BLOCKS to the blocks of the file.
+    let most = read.len() + MAX_EXPANDED_BLOCKS;
+    let (lines, holes) = expand_cycles(
+        expand_subprograms(read, path, pass_unknown)?,
+        path,
+        pass_unknown,
+        most,
+    )?;
+    Ok((apply_rotations(lines, path)?, holes))
+}
+
 pub(super) fn begin<'a>(
     machine: &'a Machine,
     program: &[u8],
     path: &'a str,
     options: &'a Options,
 ) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
-    let (lines, holes) = expand_cycles(
-        expand_subprograms(
-            parse_program(program, path, options.pass_unknown)?,
-            path,
-            options.pass_unknown,
-        )?,
-        path,
-        options.pass_unknown,
-    )?;
-    let lines = apply_rotations(lines, path)?;
+    let (lines, holes) = as_run(program, path, options.pass_unknown)?;
     let start = starting_position(&lines, machine, path, options)?;
     let state = State {
         motion: Motion::Rapid,

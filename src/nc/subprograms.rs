@@ -14,9 +14,11 @@ use super::NcError;
 /// The deepest nesting of calls followed (Fanuc allows four levels).
 const MAX_DEPTH: usize = 8;
 
-/// The most blocks a program may have once its calls are expanded: nested calls repeated up to
-/// 1000 times each would otherwise expand past any memory.
-pub const MAX_EXPANDED_BLOCKS: usize = 4_000_000;
+/// The most blocks subprogram calls and canned cycles together may add to a program: nested
+/// calls repeated up to 1000 times each, or pecks far smaller than their holes, would otherwise
+/// expand a few lines past any memory and any time. A million blocks are read in about 0.3 s
+/// and 300 MB; compensating them is the work of a program that long.
+pub const MAX_EXPANDED_BLOCKS: usize = 1_000_000;
 
 fn is_call(line: &Line) -> bool {
     line.words
@@ -65,6 +67,7 @@ pub(super) fn expand_subprograms(
         i += 1;
     }
     let mut out = Vec::with_capacity(lines.len());
+    let most = lines.len() + MAX_EXPANDED_BLOCKS;
     for (k, line) in lines.iter().enumerate() {
         if in_body[k] {
             // Reached through calls only: passes as written.
@@ -73,7 +76,7 @@ pub(super) fn expand_subprograms(
                 ..line.clone()
             });
         } else {
-            match expand_line(&lines, line, &bodies, path, 0, &mut out) {
+            match expand_line(&lines, line, &bodies, path, 0, most, &mut out) {
                 Err(NcError::Line { .. }) if pass_unknown => out.push(line.clone()),
                 result => result?,
             }
@@ -88,6 +91,7 @@ fn expand_line(
     bodies: &HashMap<u32, (usize, usize)>,
     path: &str,
     depth: usize,
+    most: usize,
     out: &mut Vec<Line>,
 ) -> Result<(), NcError> {
     if !is_call(line) {
@@ -142,11 +146,11 @@ fn expand_line(
     out.push(parse_line(&comment, ending, line.number, path)?);
     for _ in 0..repeats as usize {
         for body_line in &lines[start..end] {
-            expand_line(lines, body_line, bodies, path, depth + 1, out)?;
+            expand_line(lines, body_line, bodies, path, depth + 1, most, out)?;
         }
-        if out.len() > MAX_EXPANDED_BLOCKS {
+        if out.len() > most {
             return Err(error(format!(
-                "the calls expand to more than {MAX_EXPANDED_BLOCKS} blocks"
+                "the calls add more than {MAX_EXPANDED_BLOCKS} blocks to the program"
             )));
         }
     }

@@ -17,6 +17,7 @@ mod features;
 mod field;
 mod field_inputs;
 mod fuzz;
+mod fuzz_findings;
 mod golden;
 mod gpu;
 mod identifiability;

@@ -35,6 +35,9 @@ fn options(orientation: bool, pass_unknown: bool) -> Options {
     }
 }
 
+/// The most blocks (as the control runs them) of a program compensated: about 0.1 s of work.
+const COMPENSATED_BLOCKS: usize = 5_000;
+
 fn gcode(cx: &mut Context, input: &[u8]) -> Verdict {
     const FILE: &str = "program.nc";
     let machine = machine_of(cx, input, "vmc-li2015");
@@ -44,6 +47,15 @@ fn gcode(cx: &mut Context, input: &[u8]) -> Verdict {
         directive(input, "orientation") == Some("on") && machine.rotary_axes().len() == 2,
         directive(input, "pass-unknown") == Some("on"),
     );
+    let blocks = read!(
+        nc::blocks_as_run(input, FILE, options.pass_unknown),
+        &[FILE]
+    );
+    if blocks.len() > COMPENSATED_BLOCKS {
+        // Read as the control runs it, within the documented bound: compensating it is work
+        // that grows with its blocks (measured by the benchmarks), not the reading under test.
+        return Ok(Outcome::Accepted);
+    }
     let compensated = read!(nc::compensate(machine, input, FILE, &options), &[FILE]);
     // The compensated program is one volmap reads again.
     if let Err(e) = nc::trace(

@@ -1,0 +1,96 @@
+//! What the fuzzing campaigns found (README "Fuzzing"), each kept as the input that showed it
+//! (`tests/fuzz-regressions/`) or a hand-made one like it, with the error volmap now gives.
+
+use std::path::PathBuf;
+
+use volmap::model::Machine;
+use volmap::nc::{self, NcError, Options};
+
+fn regression(name: &str) -> Vec<u8> {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz-regressions")
+        .join(name);
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn machine() -> Machine {
+    volmap::io::embedded::embedded("vmc-li2015")
+        .unwrap()
+        .unwrap()
+}
+
+fn options() -> Options {
+    Options {
+        work_offsets: [(54, [200.0, 200.0, 300.0, 0.0, 0.0, 0.0])].into(),
+        ..Options::default()
+    }
+}
+
+fn line_error(result: Result<impl std::fmt::Debug, NcError>) -> (usize, String) {
+    match result {
+        Err(NcError::Line { line, message, .. }) => (line, message),
+        other => panic!("expected an error naming a line, got {other:?}"),
+    }
+}
+
+/// A G83 hole 6 km deep in pecks of 2 mm made three million pecks (a 4 GB allocation, then an
+/// abort): a hole takes at most 10,000 pecks.
+#[test]
+fn pecks_past_the_limit_are_refused_naming_the_block() {
+    let program = regression("gcode-pecks.nc");
+    let (line, message) = line_error(nc::compensate(&machine(), &program, "p.nc", &options()));
+    assert_eq!(line, 24);
+    assert_eq!(
+        message,
+        "G83: a peck depth Q2 from R3 to Z-6000000 makes 3000002 pecks, more than the 10000 a hole may take"
+    );
+    // A peck depth of a ten-thousandth of a micrometre in a 7 mm hole.
+    let tiny = b"G0 X10 Y10 Z10\nG83 X10 Y10 Z-5 R2 Q0.0000001\nG80\nM30\n";
+    let (line, message) = line_error(nc::blocks_as_run(tiny, "q.nc", false));
+    assert_eq!(line, 2);
+    assert!(
+        message.contains("makes 70000000 pecks, more than the 10000"),
+        "{message}"
+    );
+}
+
+/// A peck smaller than the last digit of the levels it pecks between went on for ever: each
+/// peck left the level where it was. Such a peck now goes to the depth.
+#[test]
+fn pecks_below_the_resolution_of_their_levels_end() {
+    let program = b"G0 X10 Y10 Z1e17\nG83 X10 Y10 Z99999999999999990 R1e17 Q2\nG80\nM30\n";
+    let blocks = nc::blocks_as_run(program, "deep.nc", false).unwrap();
+    let feeds: Vec<&str> = blocks
+        .iter()
+        .map(|b| b.text.trim())
+        .filter(|t| t.starts_with("G1 Z"))
+        .collect();
+    // The depth as an f64 holds it (its last digit is 16).
+    assert_eq!(feeds, ["G1 Z99999999999999984"], "{blocks:#?}");
+}
+
+/// Subprograms calling subprograms a thousand times each expanded three million blocks from
+/// 30 lines (1.25 GB and 7 s to compensate); calls and cycles add at most a million blocks.
+#[test]
+fn calls_and_cycles_add_at_most_a_million_blocks() {
+    let program = regression("gcode-calls.nc");
+    let (line, message) = line_error(nc::blocks_as_run(&program, "c.nc", false));
+    assert_eq!(line, 15);
+    assert_eq!(
+        message,
+        "M98: the calls add more than 1000000 blocks to the program"
+    );
+    // Canned cycles count against the same bound: 1000 repeats of 1000 pecks.
+    let cycles = b"G0 X10 Y10 Z10\nG83 X10 Y10 Z-999 R1 Q1 L1000\nG80\nM30\n";
+    let (line, message) = line_error(nc::blocks_as_run(cycles, "h.nc", false));
+    assert_eq!(line, 2);
+    assert_eq!(
+        message,
+        "the subprogram calls and canned cycles add more than 1000000 blocks to the program"
+    );
+    // A program's own blocks do not count: a million and more of them are read as they are.
+    let mut long = String::from("G0 X10 Y10 Z10\nM98 P1\nM30\nO1\nG1 X11 F100\nM99\n");
+    long.push_str(&"G1 X12\n".repeat(1_100_000));
+    let blocks = nc::blocks_as_run(long.as_bytes(), "long.nc", false).unwrap();
+    assert!(blocks.len() > 1_100_000);
+}
