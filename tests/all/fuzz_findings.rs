@@ -94,3 +94,59 @@ fn calls_and_cycles_add_at_most_a_million_blocks() {
     let blocks = nc::blocks_as_run(long.as_bytes(), "long.nc", false).unwrap();
     assert!(blocks.len() > 1_100_000);
 }
+
+/// Writes an input of several files (`harness::corpus::split`) into `dir`; the main file's path.
+fn write_files(dir: &std::path::Path, main: &str, input: &[u8]) -> PathBuf {
+    let (first, others) = crate::fuzz::harness::corpus::split(input);
+    std::fs::write(dir.join(main), first).unwrap();
+    for (name, bytes) in others {
+        std::fs::write(dir.join(name), bytes).unwrap();
+    }
+    dir.join(main)
+}
+
+/// A circle with one deviation of 387 mm (micrometres written as mm) fitted a squareness of
+/// 0.29 rad, reported as an estimate and written by `fit --out` into a file no reader takes:
+/// such an estimate is refused, naming the fit file.
+#[test]
+fn estimates_no_machine_can_have_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_files(dir.path(), "fit.toml", &regression("fit-implausible.toml"));
+    let file = volmap::calibrate::fit::FitFile::read(&path).unwrap();
+    let error = volmap::calibrate::fit::fit(&machine(), &file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "{}: estimate: the estimate of EC0Y is -0.29",
+            path.display()
+        )) && error.contains("more than any machine tool has (at most 1e-2 rad)"),
+        "{error}"
+    );
+}
+
+/// What the tests cannot tell apart was said without the file it is about.
+#[test]
+fn errors_of_the_estimation_name_the_fit_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let seed = std::fs::read(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fuzz-corpus/fit/diagonal-positioning.toml"),
+    )
+    .unwrap();
+    let two = String::from_utf8(seed)
+        .unwrap()
+        .replace("estimate = [\"EC0Y\"]", "estimate = [\"EC0Y\", \"EB0Z\"]");
+    let path = write_files(dir.path(), "fit.toml", two.as_bytes());
+    let file = volmap::calibrate::fit::FitFile::read(&path).unwrap();
+    let error = volmap::calibrate::fit::fit(&machine(), &file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "{}: estimate: EC0Y and EB0Z cannot be told apart",
+            path.display()
+        )),
+        "{error}"
+    );
+}
