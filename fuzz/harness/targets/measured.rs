@@ -122,12 +122,13 @@ fn measured(cx: &mut Context, input: &[u8]) -> Verdict {
         judge(standards::circular(&setup, &spec))?;
     }
     if all || test == "rtest" {
+        // Within the travels: the C table turns about the corner of X and Y.
         let spec = RTestSpec {
             axis: "C".into(),
-            sphere_mm: None,
-            from_deg: None,
-            to_deg: None,
-            step_deg: 30.0,
+            sphere_mm: Some([300.0, 200.0, 250.0]),
+            from_deg: Some(0.0),
+            to_deg: Some(30.0),
+            step_deg: 10.0,
             pose: String::new(),
             csv,
         };
