@@ -150,3 +150,24 @@ fn errors_of_the_estimation_name_the_fit_file() {
         "{error}"
     );
 }
+
+/// 2³² µrad of pitch at one position (a count where the angle belonged) was built into a
+/// machine file that no command then read: `build` refuses it, naming the measurements and
+/// the component.
+#[test]
+fn measured_tables_no_machine_can_have_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.csv");
+    std::fs::write(&path, regression("interferometer-implausible.csv")).unwrap();
+    let axes = [(volmap::model::AxisLetter::X, path.as_path())];
+    let error = volmap::calibrate::build::build(&machine(), &axes, &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "{}: axes.X.EBX: an angular error of 4294.9673 rad at X=200.000 mm is more than any machine tool has",
+            path.display()
+        )),
+        "{error}"
+    );
+}
