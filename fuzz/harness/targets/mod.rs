@@ -114,6 +114,13 @@ pub fn refused<E: Classify>(error: E, files: &[&str]) -> Verdict {
             volmap::error::excerpt(&message)
         ));
     }
+    let digits = longest_digit_run(&message);
+    if digits > MAX_NUMBER_DIGITS {
+        return Err(format!(
+            "a message with a number of {digits} digits outside a quote (numbers with many digits are shown in exponent form): {}",
+            volmap::error::excerpt(&message)
+        ));
+    }
     if !files.is_empty() && !files.iter().any(|f| message.contains(f)) {
         return Err(format!(
             "a message that names none of the files {files:?}: {}",
@@ -121,6 +128,21 @@ pub fn refused<E: Classify>(error: E, files: &[&str]) -> Verdict {
         ));
     }
     Ok(Outcome::Refused(message))
+}
+
+/// The most digits in a row a message may have outside its quotes (between backticks, which
+/// [`volmap::error::excerpt`] cuts): a number volmap writes with more is one it should have
+/// shown in exponent form (`volmap::error::shown` writes at most 24 characters).
+const MAX_NUMBER_DIGITS: usize = 30;
+
+/// The most digits in a row in `text` outside its quotes.
+fn longest_digit_run(text: &str) -> usize {
+    text.split('`')
+        .step_by(2)
+        .flat_map(|part| part.split(|c: char| !c.is_ascii_digit()))
+        .map(str::len)
+        .max()
+        .unwrap_or(0)
 }
 
 /// The value of a `Result` of the library, or the verdict on its error (see [`refused`]).
