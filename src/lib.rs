@@ -6,7 +6,8 @@
 //! volumetric error.
 //!
 //! The crate is laid out in layers, each using only those below it:
-//! - [`error`]: what kind of failure an error is (bad input, or the work failed);
+//! - [`error`]: what kind of failure an error is (bad input, or the work failed); [`limits`]: the
+//!   documented limits on the counts an input implies;
 //! - [`model`]: what a machine is (chain, axes, error functions), the grid of commanded positions,
 //!   the channels of a field; no files, no devices;
 //! - [`reference`](mod@reference): the f64 truth (nalgebra), and a machine with its ideal twin;
@@ -32,6 +33,7 @@ pub mod engine;
 pub mod error;
 pub mod gpu;
 pub mod io;
+pub mod limits;
 pub mod model;
 pub mod nc;
 pub mod part;

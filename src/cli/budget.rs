@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use serde_json::{json, Value};
 use volmap::design::allocate::{allocate, Allocation, Target};
 use volmap::design::budget::{budget, Budget};
-use volmap::design::monte_carlo::{check_confidence, check_spec, MonteCarlo, Study};
+use volmap::design::monte_carlo::{check_confidence, check_samples, check_spec, MonteCarlo, Study};
 use volmap::io::tolerance_file::ToleranceFile;
 use volmap::model::grid::Grid;
 use volmap::model::perturbation::{Distribution, Tolerance};
@@ -83,6 +83,11 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
     let grids = sweep_grids(&machine, &args.grid, &args.pose, &args.poses)?;
     let spec = args.spec.map(check_spec).transpose().flag("--spec")?;
     let confidence = check_confidence(args.confidence).flag("--confidence")?;
+    let samples = args
+        .samples
+        .map(check_samples)
+        .transpose()
+        .flag("--samples")?;
     let chosen = chosen_terms(&file.tolerances, &args.allocate_terms)?;
     if let Some(plot) = &args.plot {
         check_plot_paths(&[plot], "--plot")?;
@@ -120,8 +125,7 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         seed: args.seed,
     };
     let mut histogram = None;
-    if let Some(samples) = args.samples {
-        let samples = samples as usize;
+    if let Some(samples) = samples {
         let bar = progress(Some(samples as u64), "sampling", "machines");
         let ones = vec![1.0; tolerances.len()];
         let stats = study.sample_stats(&engine, samples, &ones, |n| bar.set_position(n as u64));

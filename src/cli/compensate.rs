@@ -24,7 +24,7 @@ pub struct CompensateArgs {
     /// Largest distance of the real tool tip from the intended path, mm.
     #[arg(long, default_value_t = 0.001)]
     chord_tolerance: f64,
-    /// Decimals of the coordinates written (default 4 in mm, 5 in inch).
+    /// Decimals of the coordinates written (default 4 in mm, 5 in inch; at most 15).
     #[arg(long)]
     decimals: Option<usize>,
     /// Pass blocks volmap does not understand through unchanged instead of stopping.
@@ -187,6 +187,8 @@ fn flag_of(option: NcOption) -> &'static str {
         NcOption::ChordTolerance => "--chord-tolerance",
         NcOption::Orientation => "--orientation",
         NcOption::AngularTolerance => "--angular-tolerance",
+        NcOption::Decimals => "--decimals",
+        NcOption::TraceStep => "--step",
     }
 }
 
@@ -205,6 +207,8 @@ pub(super) fn option_failure(error: NcError) -> Failure {
                 NcOption::ChordTolerance => "0.001",
                 NcOption::Orientation => "",
                 NcOption::AngularTolerance => "1e-5",
+                NcOption::Decimals => "4",
+                NcOption::TraceStep => "0.5",
             };
             let hint = format!(
                 "{} gives it, e.g. {} {example}",

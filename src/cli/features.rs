@@ -9,7 +9,7 @@ use volmap::model::{poses, AxisLetter};
 use volmap::part::{self, ErrorSource, Evaluation, PartFile, Verdict};
 
 use volmap::design::conformance::conformance;
-use volmap::design::monte_carlo::{check_confidence, Study};
+use volmap::design::monte_carlo::{check_confidence, check_samples, Study};
 use volmap::io::tolerance_file::ToleranceFile;
 
 use super::args::{load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg};
@@ -189,7 +189,7 @@ fn run_conformance(
     // The machines are drawn around the machine at the evaluation inputs.
     let (machine, _) = args.inputs.machine_at(&loaded)?;
     let confidence = check_confidence(args.confidence).flag("--confidence")?;
-    let samples = args.samples.unwrap_or(1) as usize;
+    let samples = check_samples(args.samples.unwrap_or(1)).flag("--samples")?;
     let (engine, note) = args.device.engine()?;
     if let Some(note) = note {
         eprintln!("volmap: {note}");

@@ -42,7 +42,8 @@ pub struct MapArgs {
     /// OE (rad) on the grid, written chunk by chunk as the field is.
     #[arg(long)]
     vti: Option<PathBuf>,
-    /// At most this many points per chunk (the device's limits apply anyway).
+    /// At most this many points per chunk, and at least one grid line along X (the device's
+    /// limits apply anyway).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     chunk_points: Option<u64>,
 }

@@ -208,7 +208,14 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
         } => {
             let machine = machine.load()?;
             let grid = full_travel(&machine, &grid, &pose)?;
-            let deformed = query::deformed_grid(&machine, &grid, scale);
+            let deformed = query::deformed_grid(&machine, &grid, scale).map_err(|e| {
+                let flag = match &e {
+                    QueryError::DrawnPoints { .. } => "--grid",
+                    QueryError::Scale(_) => "--scale",
+                    _ => "--machine",
+                };
+                Failure::from(e).context(flag)
+            })?;
             // A machine with rotary axes is drawn at one pose: the title says which.
             let pose = poses::pose_name(&grid.pose, &machine);
             let at = if pose.is_empty() {

@@ -99,9 +99,7 @@ impl Source<'_> {
                         p
                     })
                     .collect();
-                Ok(query::sample_exact_within(
-                    machine, &points, path, *outside,
-                )?)
+                query::sample_exact_within(machine, &points, path, *outside).flag("--points")
             }
         }
     }

@@ -259,7 +259,18 @@ fn run_on_machine(
     let machine = common.machine.load()?;
     let inputs = common.inputs.on(&machine)?;
     let setup = Setup::with_inputs(&machine, &common.pose.pose, &inputs).flag("--pose")?;
-    let result = test(&setup)?;
+    let result = test(&setup).map_err(|e| match &e {
+        // A count beyond its limit comes from the flags of the spec's keys.
+        standards::StandardsError::Limit { key, message } => {
+            let flags: Vec<String> = key
+                .split(" and ")
+                .flat_map(|k| k.split(", "))
+                .map(|k| format!("--{}", k.trim_end_matches("_deg")))
+                .collect();
+            Failure::input(format!("{}: {message}", flags.join(", ")))
+        }
+        _ => Failure::from(e),
+    })?;
     // An approach given for an axis the test moves is the path's to decide.
     for named in common.inputs.approach.split(',') {
         let axis = named.split('=').next().unwrap_or("").trim();

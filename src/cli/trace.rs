@@ -29,7 +29,8 @@ pub struct TraceArgs {
     /// With --compensate: largest distance of the real tool tip from the intended path, mm.
     #[arg(long, default_value_t = 0.001)]
     chord_tolerance: f64,
-    /// With --compensate: decimals of the coordinates written (default 4 in mm, 5 in inch).
+    /// With --compensate: decimals of the coordinates written (default 4 in mm, 5 in inch; at
+    /// most 15).
     #[arg(long)]
     decimals: Option<usize>,
     /// Largest distance between samples along a move, mm (every move gets at least 4).

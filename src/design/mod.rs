@@ -32,6 +32,8 @@ pub enum DesignError {
     Confidence(f64),
     #[error("no samples: Monte Carlo needs at least one")]
     NoSamples,
+    #[error("{0} machines are more than the limit of {max} drawn", max = crate::limits::MAX_SAMPLES)]
+    TooManySamples(u64),
     #[error(
         "no factor reaches the confidence {confidence}: with the allocated tolerances at zero, \
          {fraction} of the machines hold {spec_mm} mm; the other tolerances or the machine's own \

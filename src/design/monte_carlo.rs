@@ -6,6 +6,7 @@
 
 use crate::engine::variants::Variants;
 use crate::engine::Engine;
+use crate::limits::MAX_SAMPLES;
 use crate::model::grid::Grid;
 use crate::model::perturbation::{Perturbation, Tolerance};
 use crate::model::statistics::FieldStats;
@@ -120,6 +121,15 @@ pub fn check_spec(spec_mm: f64) -> Result<f64, DesignError> {
         Ok(spec_mm)
     } else {
         Err(DesignError::Spec(spec_mm))
+    }
+}
+
+/// Checks a number of machines to draw: at least one, at most [`MAX_SAMPLES`].
+pub fn check_samples(samples: u64) -> Result<usize, DesignError> {
+    match samples {
+        0 => Err(DesignError::NoSamples),
+        n if n > MAX_SAMPLES => Err(DesignError::TooManySamples(n)),
+        n => Ok(n as usize),
     }
 }
 

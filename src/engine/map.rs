@@ -122,6 +122,7 @@ pub fn map_to_file(
         grid,
         options.chunk_points,
         |first_line, lines, data| -> Result<(), EngineError> {
+            check_finite(machine, grid, first_line, lines, data)?;
             writer.write_lines(first_line, lines, data)?;
             if let Some(image) = &mut image {
                 image
@@ -146,6 +147,37 @@ pub fn map_to_file(
         seconds,
         device,
         check,
+    })
+}
+
+/// Every value of a chunk of `lines` lines from `first_line` a finite number: a field holding
+/// others is refused, naming the first point where a value is not and the inputs.
+pub(super) fn check_finite(
+    machine: &Machine,
+    grid: &Grid,
+    first_line: u64,
+    lines: u64,
+    data: &[f32],
+) -> Result<(), EngineError> {
+    let nx = grid.dims[0];
+    let values = &data[..lines as usize * CHANNELS.len() * nx];
+    let Some(n) = values.iter().position(|v| !v.is_finite()) else {
+        return Ok(());
+    };
+    let (line, within) = (n / (CHANNELS.len() * nx), n % (CHANNELS.len() * nx));
+    let (channel, i) = (within / nx, within % nx);
+    let point = (first_line + line as u64) * nx as u64 + i as u64;
+    let [x, y, z] = grid.indices(point).map(|v| v as f64);
+    let at = |d: usize, v: f64| grid.origin_mm[d] + v * grid.spacing_mm[d];
+    Err(EngineError::NotFinite {
+        what: format!(
+            "{} at X={:.3} Y={:.3} Z={:.3} mm",
+            CHANNELS[channel],
+            at(0, x),
+            at(1, y),
+            at(2, z)
+        ),
+        inputs: machine.inputs.describe(machine),
     })
 }
 

@@ -27,6 +27,10 @@ pub enum EngineError {
     Field(#[from] FieldError),
     #[error("no GPU adapter found")]
     NoAdapter,
+    /// A value computed is not a finite number: the machine's errors at its inputs are beyond
+    /// any number there (bad input; a machine file's values are bounded as it is read).
+    #[error("{what} is not a finite number: the machine's errors are beyond any number there ({inputs})")]
+    NotFinite { what: String, inputs: String },
 }
 
 impl Classify for EngineError {
@@ -35,6 +39,7 @@ impl Classify for EngineError {
             EngineError::Gpu(e) => e.kind(),
             EngineError::Field(e) => e.kind(),
             EngineError::NoAdapter => ErrorKind::Work,
+            EngineError::NotFinite { .. } => ErrorKind::Input,
         }
     }
 }
@@ -85,7 +90,8 @@ impl Engine {
     }
 
     /// Computes the map, handing chunks of whole lines to `on_chunk(first_line, lines, data)` in
-    /// line order. `chunk_points` caps the points per chunk below the engine's own limit.
+    /// line order. `chunk_points` caps the points per chunk below the engine's own limit; a chunk
+    /// holds at least one line, whatever the cap.
     pub fn run<E: From<GpuError>>(
         &self,
         machine: &Machine,

@@ -9,7 +9,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use super::map::{capture, check_against_reference, field_info, sample_points};
+use super::map::{capture, check_against_reference, check_finite, field_info, sample_points};
 use super::map::{CheckResult, MapOptions};
 use super::{Engine, EngineError};
 use crate::io::field::PartsWriter;
@@ -73,6 +73,7 @@ pub fn map_sweep_to_file(
             grid,
             options.chunk_points,
             |first_line, lines, data| -> Result<(), EngineError> {
+                check_finite(machine, grid, first_line, lines, data)?;
                 writer.write_lines(p, first_line, lines, data)?;
                 stats.add_chunk(first_line, lines, nx, data);
                 let end_point = capture(&checked, &mut captured, first_line, lines, nx, data);

@@ -76,6 +76,16 @@ impl Engine {
                     .collect();
             }
         }
+        for (n, stats) in total.iter().enumerate() {
+            let values = [stats.sum_sq_ve, stats.max_ve_mm, stats.max_oe_rad];
+            if values
+                .iter()
+                .chain(&stats.max_axis_mm)
+                .any(|v| !v.is_finite())
+            {
+                return Err(not_finite(variants, n, "the statistics"));
+            }
+        }
         Ok(total)
     }
 
@@ -120,6 +130,24 @@ impl Engine {
         commands: &[Command],
         on_progress: impl Fn(usize) + Sync,
     ) -> Result<Vec<Vec<Sample>>, EngineError> {
+        let values = self.values_of(variants, rows, commands, on_progress)?;
+        for (n, sample) in values.iter().enumerate() {
+            if let Some(p) = sample.iter().position(|v| v.iter().any(|x| !x.is_finite())) {
+                let [x, y, z] = [0, 1, 2].map(|d| commands[p][d]);
+                let at = format!("the error at X={x:.3} Y={y:.3} Z={z:.3} mm");
+                return Err(not_finite(variants, n, &at));
+            }
+        }
+        Ok(values)
+    }
+
+    fn values_of(
+        &self,
+        variants: &Variants,
+        rows: &[Vec<f64>],
+        commands: &[Command],
+        on_progress: impl Fn(usize) + Sync,
+    ) -> Result<Vec<Vec<Sample>>, EngineError> {
         if let Engine::Gpu(gpu) = self {
             return Ok(gpu.variant_values(
                 variants.base,
@@ -149,5 +177,17 @@ impl Engine {
                 values
             })
             .collect())
+    }
+}
+
+/// `what` of sampled machine `n` is not a finite number.
+fn not_finite(variants: &Variants, n: usize, what: &str) -> EngineError {
+    EngineError::NotFinite {
+        what: format!("{what} of sampled machine {}", n + 1),
+        inputs: format!(
+            "drawn around {} at {}",
+            variants.base.name,
+            variants.base.inputs.describe(variants.base)
+        ),
     }
 }

@@ -17,8 +17,10 @@ use std::path::{Path, PathBuf};
 
 use toml_edit::{DocumentMut, Item, TableLike};
 
+use super::machine_file::{MAX_PLAUSIBLE_ANGLE_RAD, MAX_PLAUSIBLE_LENGTH_MM};
 use super::{read_text, FileError};
 use crate::error::{Classify, ErrorKind};
+use crate::limits::number_words;
 use crate::model::perturbation::{
     Distribution, ErrorTarget, Perturbation, Shape, Tolerance, SPINDLE_NAMES,
 };
@@ -276,6 +278,20 @@ impl Reader<'_> {
                         ));
                     }
                     let width = self.width(&at, value)?;
+                    let (most, unit) = if target.is_angular() {
+                        (MAX_PLAUSIBLE_ANGLE_RAD, "rad")
+                    } else {
+                        (MAX_PLAUSIBLE_LENGTH_MM, "mm")
+                    };
+                    if width > most {
+                        return Err(self.key_error(
+                            &at,
+                            format!(
+                                "{} {unit} is wider than any machine tool's error (at most {most:e} {unit}): check the unit",
+                                number_words(width)
+                            ),
+                        ));
+                    }
                     distribution = Some(if name == "uniform" {
                         Distribution::Uniform { half_width: width }
                     } else {

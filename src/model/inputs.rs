@@ -64,7 +64,7 @@ pub enum InputsError {
     Syntax(String),
     #[error("`{name}` is not a thermal input of this machine ({known})")]
     UnknownInput { name: String, known: String },
-    #[error("`{name}={value}`: the temperature is not a finite number of °C")]
+    #[error("`{name}={value}`: the temperature is not a finite number of °C at or above absolute zero (-273.15 °C)")]
     Temperature { name: String, value: String },
     #[error("`{axis}` is not an axis of this machine (chain {chain})")]
     UnknownAxis { axis: String, chain: String },
@@ -208,12 +208,15 @@ impl Inputs {
     }
 }
 
-/// A temperature of input `name` in °C: a finite number.
+/// The lowest temperature there is, °C.
+pub const ABSOLUTE_ZERO_C: f64 = -273.15;
+
+/// A temperature of input `name` in °C: a finite number, not below absolute zero.
 fn temperature(name: &str, value: &str) -> Result<f64, InputsError> {
     value
         .parse::<f64>()
         .ok()
-        .filter(|t| t.is_finite())
+        .filter(|t| t.is_finite() && *t >= ABSOLUTE_ZERO_C)
         .ok_or_else(|| InputsError::Temperature {
             name: name.to_string(),
             value: value.to_string(),
@@ -354,7 +357,7 @@ impl InputsRecord {
             let temperatures: Vec<String> = self
                 .temperatures_c
                 .iter()
-                .map(|(n, t)| format!("{n}={t} °C"))
+                .map(|(n, t)| format!("{n}={} °C", crate::limits::number_words(*t)))
                 .collect();
             text += &format!(
                 "; temperatures {} (reference {reference} °C)",

@@ -20,6 +20,7 @@ use super::toolpath::{arc_path, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
 use super::{NcError, NcOption, Options, PassedBlock, Report, ReportInputs};
+use crate::limits::MAX_DECIMALS;
 use crate::model::inputs::Approach;
 use crate::model::{Command, Machine};
 
@@ -111,6 +112,13 @@ pub fn compensate_with_progress(
             option: NcOption::ChordTolerance,
             value: options.chord_tolerance_mm.to_string(),
             message: "it must be positive".into(),
+        });
+    }
+    if let Some(decimals) = options.decimals.filter(|&d| d > MAX_DECIMALS) {
+        return Err(NcError::Option {
+            option: NcOption::Decimals,
+            value: decimals.to_string(),
+            message: format!("at most {MAX_DECIMALS} decimals are written"),
         });
     }
     super::orientation::check_options(machine, options)?;

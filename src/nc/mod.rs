@@ -80,6 +80,9 @@ pub enum NcOption {
     ChordTolerance,
     Orientation,
     AngularTolerance,
+    Decimals,
+    /// The distance between the samples of a trace.
+    TraceStep,
 }
 
 impl std::fmt::Display for NcOption {
@@ -90,6 +93,8 @@ impl std::fmt::Display for NcOption {
             NcOption::ChordTolerance => "chord tolerance",
             NcOption::Orientation => "orientation compensation",
             NcOption::AngularTolerance => "angular tolerance",
+            NcOption::Decimals => "decimals",
+            NcOption::TraceStep => "sampling step",
         })
     }
 }

@@ -11,7 +11,8 @@ use super::approach::{line_directions, segment_at, segments};
 use super::compensate::{begin, Compensated};
 use super::program::{end_position, take_line, Motion, Step};
 use super::toolpath::{arc_path, Toolpath};
-use super::{NcError, Options};
+use super::{NcError, NcOption, Options};
+use crate::limits::{self, number_words, MAX_TRACE_SAMPLES};
 use crate::model::{Command, Machine};
 
 /// One point of a move, sampled.
@@ -59,6 +60,13 @@ pub fn trace_path(
     options: &Options,
     step_mm: f64,
 ) -> Result<Vec<TraceSample>, NcError> {
+    if !(step_mm > 0.0 && step_mm.is_finite()) {
+        return Err(NcError::Option {
+            option: NcOption::TraceStep,
+            value: number_words(step_mm),
+            message: "it must be a positive number of mm".into(),
+        });
+    }
     let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
     let mut samples = Vec::new();
     let mut travelled = 0.0;
@@ -81,10 +89,22 @@ pub fn trace_path(
         let length = intended.length();
         // A move that goes nowhere (a block of modes, a repeated point) is one sample.
         let n = if length > 0.0 {
-            ((length / step_mm).ceil() as usize).clamp(4, 100_000)
+            (length / step_mm).ceil().max(4.0)
         } else {
-            1
+            1.0
         };
+        let n = limits::within(samples.len() as f64 + n, MAX_TRACE_SAMPLES)
+            .map(|total| total as usize - samples.len())
+            .map_err(|e| NcError::Option {
+                option: NcOption::TraceStep,
+                value: number_words(step_mm),
+                message: format!(
+                    "the moves up to line {} sampled at this step give {} samples, more than the limit of {}: take a longer step",
+                    line.number,
+                    limits::count_words(e.count),
+                    e.limit
+                ),
+            })?;
         for k in 1..=n {
             let t = k as f64 / n as f64;
             let p = intended.at(t);
@@ -94,6 +114,18 @@ pub fn trace_path(
                 kin.ideal_tip(&command),
                 kin.twin(&directions).real_tip(&command),
             );
+            if !(real - ideal).norm().is_finite() {
+                return Err(NcError::Line {
+                    path: path.to_string(),
+                    line: line.number,
+                    message: format!(
+                        "the tool tip's deviation at X={} Y={} Z={} mm (machine) is not a finite number: the point lies far beyond the machine's travel (check the work offsets and tool lengths)",
+                        number_words(command[0]),
+                        number_words(command[1]),
+                        number_words(command[2])
+                    ),
+                });
+            }
             samples.push(TraceSample {
                 line: line.number,
                 motion: state.motion.code(),
@@ -144,7 +176,20 @@ pub fn trace_compensated(
     options: &Options,
     step_mm: f64,
 ) -> Result<Vec<TraceSample>, NcError> {
-    let intended = trace_path(machine, original, path, options, step_mm / 8.0)?;
+    let intended =
+        trace_path(machine, original, path, options, step_mm / 8.0).map_err(|e| match e {
+            // The step as given: the intended path is sampled eight times as densely.
+            NcError::Option {
+                option: NcOption::TraceStep,
+                message,
+                ..
+            } => NcError::Option {
+                option: NcOption::TraceStep,
+                value: number_words(step_mm),
+                message: format!("{message} (the intended path is sampled at an eighth of it)"),
+            },
+            other => other,
+        })?;
     let mut samples = trace_path(machine, compensated.text.as_bytes(), path, options, step_mm)?;
     // A take-up (the command crossing a reversal while the tip stands) is left out: the model's
     // step in the reversal error would put the tip off along it, where the real axis takes up

@@ -118,9 +118,11 @@ impl Evaluator<'_> {
                         file: self.file.to_string(),
                         feature: feature.to_string(),
                         message: format!(
-                            "the cutter position {}={:.3} mm lies outside the travel of {} ({} to {})",
+                            "the cutter position {}={} mm lies outside the travel of {} ({} to {}); check [placement] zero_mm and rotation_deg and the feature's position",
                             axis.letter,
-                            command[axis.letter.index()],
+                            crate::limits::number_words(
+                                (command[axis.letter.index()] * 1e3).round() / 1e3
+                            ),
                             axis.letter,
                             axis.range[0],
                             axis.range[1]
@@ -245,7 +247,7 @@ impl Evaluator<'_> {
         self.check_reach(name, depth)?;
         let bottom = self.part.commanded(centre) - a * depth;
         let path_radius = (diameter / 2.0 - radius).max(0.0);
-        let angles = ((std::f64::consts::PI * diameter / spacing).ceil() as usize).max(24);
+        let angles = super::counts::hole_angles(diameter, spacing) as usize;
         let heights = steps(0.0, depth, spacing);
         let mut levels: Vec<Vec<Cut>> =
             heights.iter().map(|_| Vec::with_capacity(angles)).collect();

@@ -16,6 +16,7 @@ use super::geometry::{datum_shift, enclosing_diameter, median_line, worst};
 use super::profile::DatumSurfaces;
 use super::{tolerance, ErrorSource, Evaluation, FeatureError, FeatureResult, Verdict};
 use crate::io::mesh::Mesh;
+use crate::limits::number_words;
 use crate::model::channels::Sample;
 use crate::model::{AxisLetter, Command, Machine};
 use crate::reference::Twin;
@@ -165,6 +166,17 @@ fn evaluate_with(
     let mut results = Vec::new();
     for feature in order {
         let (error_mm, worst_point, area_outside) = evaluator.feature(feature, &mut datums)?;
+        if !error_mm.is_finite() || !area_outside.unwrap_or(0.0).is_finite() {
+            return Err(evaluator.feature_error(
+                feature.name(),
+                format!(
+                    "its error is not a finite number: the machine's error at its cutter positions (the worst at X={} Y={} Z={} mm) is beyond any number; check [placement] zero_mm and the feature's position against the machine's travel",
+                    number_words(worst_point[0]),
+                    number_words(worst_point[1]),
+                    number_words(worst_point[2])
+                ),
+            ));
+        }
         let tolerance_mm = feature.tolerance();
         let safety = (error_mm > 0.0).then(|| tolerance_mm / error_mm);
         let (evaluation, datum_names) = judged_against(feature);

@@ -317,6 +317,7 @@ impl PartFile {
                 ));
             }
         }
+        part.check_counts(file)?;
         Ok(part)
     }
 

@@ -40,6 +40,7 @@
 //! [`tolerance`] (minimum zones) turn cuts into tolerances, and
 //! [`evaluate`] rates every feature.
 
+mod counts;
 mod cuts;
 mod datum_frame;
 mod evaluate;

@@ -72,6 +72,8 @@ impl Evaluator<'_> {
         evaluation: ProfileEvaluation,
         datums: &DatumSurfaces,
     ) -> Result<ProfileDeviation, FeatureError> {
+        super::counts::mesh_points(mesh, self.part.sampling.spacing_mm)
+            .map_err(|message| self.feature_error(name, message))?;
         let vertices: Vec<Vector3<f64>> = mesh
             .vertices
             .iter()
@@ -176,7 +178,7 @@ impl Evaluator<'_> {
         let twice_area = (b - a).cross(&(c - a));
         let n = twice_area.normalize();
         let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
-        let m = ((longest / self.part.sampling.spacing_mm).ceil() as usize).max(1);
+        let m = super::counts::triangle_cuts(longest, self.part.sampling.spacing_mm) as usize;
         let piece = twice_area.norm() / 2.0 / (m * m) as f64;
         let mut samples = Vec::with_capacity(m * m);
         let at = |i: f64, j: f64| a + (b - a) * (i / m as f64) + (c - a) * (j / m as f64);

@@ -1,7 +1,7 @@
 //! Bar charts: an error budget as horizontal bars, one per term, and the histogram of a statistic
 //! over sampled machines with a specification marked; drawings stacked one above the other.
 
-use super::charts::{tick_label, ticks};
+use super::axis::{fraction, is_wide, tick_label, ticks};
 use super::{Anchor, Color, Drawing, PlotError, Shape};
 
 /// One bar: its label on the left, its length, and a note written after it.
@@ -23,15 +23,17 @@ pub fn bar_chart(
     bars: &[Bar],
     marker: Option<(f64, &str)>,
 ) -> Result<Drawing, PlotError> {
-    let longest = bars
-        .iter()
-        .map(|b| b.value)
-        .chain(marker.map(|m| m.0))
-        .filter(|v| v.is_finite())
-        .fold(0.0f64, f64::max);
     if bars.is_empty() {
         return Err(PlotError::Empty(title.into()));
     }
+    let values = bars.iter().map(|b| b.value).chain(marker.map(|m| m.0));
+    if let Some(bar) = bars.iter().find(|b| !b.value.is_finite()) {
+        return Err(PlotError::NotFinite(format!("{title}: `{}`", bar.label)));
+    }
+    if marker.is_some_and(|m| !m.0.is_finite()) {
+        return Err(PlotError::NotFinite(title.into()));
+    }
+    let longest = values.fold(0.0f64, f64::max);
     let label_width = bars
         .iter()
         .map(|b| super::text_width(&b.label, 12.0))
@@ -96,7 +98,14 @@ pub fn histogram(
     bins: usize,
     marker: Option<(f64, &str)>,
 ) -> Result<Drawing, PlotError> {
-    let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if values
+        .iter()
+        .chain(marker.as_ref().map(|m| &m.0))
+        .any(|v| !v.is_finite())
+    {
+        return Err(PlotError::NotFinite(title.into()));
+    }
+    let finite = values.to_vec();
     let (lo, hi) = finite
         .iter()
         .chain(marker.as_ref().map(|m| &m.0))
@@ -105,14 +114,37 @@ pub fn histogram(
             Some((a, b)) => Some((a.min(v), b.max(v))),
         })
         .ok_or_else(|| PlotError::Empty(title.into()))?;
-    let span = if hi > lo { hi - lo } else { lo.abs().max(1e-6) };
-    // Bins of a round width, starting at a multiple of it.
-    let width = ticks(0.0, span, bins.max(1))
+    let bins = bins.max(1);
+    let span = if is_wide((lo, hi)) {
+        hi - lo
+    } else {
+        lo.abs().max(1e-6)
+    };
+    // Bins of a round width, starting at a multiple of it (a span beyond f64: in halves).
+    let width = ticks(0.0, span, bins)
         .get(1)
         .copied()
-        .unwrap_or(span / bins.max(1) as f64);
+        .unwrap_or(span / bins as f64);
+    let width = if width.is_normal() {
+        width
+    } else {
+        hi / bins as f64 - lo / bins as f64
+    };
     let start = (lo / width).floor() * width;
-    let count = (((hi - start) / width).floor() as usize + 1).max(1);
+    let count = ((hi / 2.0 - start / 2.0) / width * 2.0)
+        .floor()
+        .clamp(0.0, 4.0 * bins as f64 + 4.0) as usize
+        + 1;
+    // Bin edges in halves, so that none overflows; round bins that would end beyond f64 give
+    // way to `bins` bins from the smallest value to the largest.
+    let half_end = |start: f64, width: f64, count: usize| start / 2.0 + width / 2.0 * count as f64;
+    let (start, width, count) =
+        if start.is_finite() && half_end(start, width, count).abs() <= f64::MAX / 2.0 {
+            (start, width, count)
+        } else {
+            (lo, hi / bins as f64 - lo / bins as f64, bins)
+        };
+    let edge = |b: usize| (half_end(start, width, b) * 2.0).clamp(-f64::MAX, f64::MAX);
     let mut counts = vec![0usize; count];
     for v in &finite {
         let b = (((v - start) / width).floor() as usize).min(count - 1);
@@ -122,8 +154,8 @@ pub fn histogram(
     let (height, left, right, top, bottom) = (480.0, 80.0, 30.0, 50.0, 60.0);
     let (x0, x1) = (left, WIDTH - right);
     let (y0, y1) = (height - bottom, top);
-    let end = start + width * count as f64;
-    let sx = |v: f64| x0 + (v - start) / (end - start) * (x1 - x0);
+    let end = edge(count);
+    let sx = |v: f64| x0 + fraction(v, (start, end)) * (x1 - x0);
     // Headroom above the tallest bin, for the marker's label.
     let y_top = most * 1.1;
     let yt = ticks(0.0, y_top, 5);
@@ -135,11 +167,11 @@ pub fn histogram(
         d.text(x0 - 6.0, sy(t) + 4.0, tick_label(t, 1.0), 11.0, Anchor::End);
     }
     for (b, &c) in counts.iter().enumerate() {
-        let left_edge = start + width * b as f64;
+        let (left_edge, right_edge) = (edge(b), edge(b + 1));
         d.shapes.push(Shape::Rect {
             x: sx(left_edge),
             y: sy(c as f64),
-            w: sx(left_edge + width) - sx(left_edge),
+            w: sx(right_edge) - sx(left_edge),
             h: y0 - sy(c as f64),
             fill: Some(Color::BLUE),
             stroke: Some(Color(255, 255, 255)),

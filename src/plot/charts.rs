@@ -1,44 +1,7 @@
 //! Charts built from shapes: curves over an axis with round ticks, ballbar polar plots.
 
+use super::axis::{drawable, finite_range, fraction, padded, round_step, tick_label, ticks};
 use super::{Anchor, Color, Drawing, PlotError, Shape};
-
-/// Round steps of 1, 2 or 5 × 10ⁿ covering `[lo, hi]` with about `count` ticks.
-pub fn ticks(lo: f64, hi: f64, count: usize) -> Vec<f64> {
-    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater)
-        || !lo.is_finite()
-        || !hi.is_finite()
-    {
-        return vec![lo];
-    }
-    let raw = (hi - lo) / count.max(1) as f64;
-    let power = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * power)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * power);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
-    (first..=last).map(|k| k as f64 * step).collect()
-}
-
-pub(super) fn tick_label(value: f64, step: f64) -> String {
-    let decimals = if step >= 1.0 {
-        0
-    } else {
-        (-step.log10().floor()) as usize
-    };
-    let text = format!("{value:.decimals$}");
-    if text
-        .trim_start_matches('-')
-        .chars()
-        .all(|c| c == '0' || c == '.')
-    {
-        "0".into()
-    } else {
-        text
-    }
-}
 
 /// One curve of a chart.
 #[derive(Debug, Clone, PartialEq)]
@@ -84,38 +47,31 @@ fn marker_shape(marker: Marker, [x, y]: [f64; 2], size: f64, color: Color) -> Op
 }
 
 /// Whether `b` is drawn on top of `a`: the same positions and values within a hair of the scale.
-fn coincide(a: &Series, b: &Series, scale: f64) -> bool {
+fn coincide(a: &Series, b: &Series, (lo, hi): (f64, f64)) -> bool {
     a.x == b.x
         && a.y.len() == b.y.len()
         && a.y
             .iter()
             .zip(&b.y)
-            .all(|(p, q)| (p - q).abs() <= 2e-3 * scale)
+            .all(|(&p, &q)| (fraction(p, (lo, hi)) - fraction(q, (lo, hi))).abs() <= 2e-3)
+}
+
+/// Every value of every series (positions, values, bands) a finite number; a chart of others is
+/// refused.
+fn check_finite(title: &str, series: &[Series]) -> Result<(), PlotError> {
+    for s in series {
+        let band = s.band.iter().flatten();
+        if s.x.iter().chain(&s.y).chain(band).any(|v| !v.is_finite()) {
+            return Err(PlotError::NotFinite(format!("{title}: `{}`", s.name)));
+        }
+    }
+    Ok(())
 }
 
 pub(super) const MARGIN_LEFT: f64 = 80.0;
 pub(super) const MARGIN_RIGHT: f64 = 30.0;
 pub(super) const MARGIN_TOP: f64 = 50.0;
 pub(super) const MARGIN_BOTTOM: f64 = 60.0;
-
-pub(super) fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values
-        .filter(|v| v.is_finite())
-        .fold(None, |acc, v| match acc {
-            None => Some((v, v)),
-            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
-        })
-}
-
-fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
-    if hi - lo > 1e-300 {
-        let pad = 0.05 * (hi - lo);
-        (lo - pad, hi + pad)
-    } else {
-        let pad = lo.abs().max(1e-6) * 0.5;
-        (lo - pad, hi + pad)
-    }
-}
 
 /// The legend's rows from `(x, y)` down, framed; the frame, `[x, y, w, h]`.
 fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64; 4] {
@@ -160,6 +116,7 @@ pub fn line_chart(
     y_label: &str,
     series: &[Series],
 ) -> Result<Drawing, PlotError> {
+    check_finite(title, series)?;
     let (width, height) = (900.0, 540.0);
     let xr = finite_range(series.iter().flat_map(|s| s.x.iter().copied()))
         .ok_or_else(|| PlotError::Empty(title.into()))?;
@@ -171,11 +128,11 @@ pub fn line_chart(
             .collect::<Vec<_>>()
     });
     let yr = padded(finite_range(banded).ok_or_else(|| PlotError::Empty(title.into()))?);
-    let xr = if xr.1 > xr.0 { xr } else { padded(xr) };
+    let xr = drawable(xr);
     let (x0, x1) = (MARGIN_LEFT, width - MARGIN_RIGHT);
     let (y0, y1) = (height - MARGIN_BOTTOM, MARGIN_TOP);
-    let sx = |x: f64| x0 + (x - xr.0) / (xr.1 - xr.0) * (x1 - x0);
-    let sy = |y: f64| y0 + (y - yr.0) / (yr.1 - yr.0) * (y1 - y0);
+    let sx = |x: f64| x0 + fraction(x, xr) * (x1 - x0);
+    let sy = |y: f64| y0 + fraction(y, yr) * (y1 - y0);
     let mut d = Drawing::new(width, height);
     d.title(title);
     let xt = ticks(xr.0, xr.1, 8);
@@ -230,7 +187,7 @@ pub fn line_chart(
     for n in 1..shown.len() {
         if series[..n]
             .iter()
-            .any(|earlier| coincide(earlier, &series[n], yr.1 - yr.0))
+            .any(|earlier| coincide(earlier, &series[n], yr))
         {
             shown[n].dashed = true;
         }
@@ -267,26 +224,42 @@ pub fn polar_chart(
     plane: (&str, &str),
     series: &[Series],
 ) -> Result<Drawing, PlotError> {
+    check_finite(title, series)?;
     let (width, height) = (720.0, 760.0);
     let (lo, hi) = finite_range(series.iter().flat_map(|s| s.y.iter().copied()))
         .ok_or_else(|| PlotError::Empty(title.into()))?;
-    // Rings every `step` mm from below the smallest deviation to above the largest.
-    let span = (hi - lo).max(hi.abs().max(lo.abs()) * 0.2).max(1e-6);
-    let step = ticks(0.0, span, 4).get(1).copied().unwrap_or(span / 4.0);
+    // Rings every `step` mm from below the smallest deviation to above the largest (spans in
+    // halves, so that none overflows; at most 64 rings).
+    let half_span = (hi / 2.0 - lo / 2.0)
+        .max(hi.abs().max(lo.abs()) * 0.1)
+        .max(5e-7);
+    let step = Some(round_step(half_span / 2.0))
+        .filter(|s| s.is_normal())
+        .unwrap_or(half_span);
     let inner = (lo / step).floor() * step - step;
     let outer = (hi / step).ceil() * step + step;
+    let (inner, outer) = if inner.is_finite() && outer.is_finite() {
+        (inner, outer)
+    } else {
+        (lo, hi)
+    };
     let (cx, cy) = (width / 2.0, 60.0 + (height - 100.0) / 2.0);
     let (r_in, r_out) = (120.0, (height - 160.0) / 2.0);
-    let radius = |dev: f64| r_in + (dev - inner) / (outer - inner) * (r_out - r_in);
+    let radius = |dev: f64| r_in + fraction(dev, drawable((inner, outer))) * (r_out - r_in);
     let at = |angle: f64, dev: f64| {
         let (s, c) = angle.to_radians().sin_cos();
         [cx + radius(dev) * c, cy - radius(dev) * s]
     };
     let mut d = Drawing::new(width, height);
     d.title(title);
-    let rings = ((outer - inner) / step).round() as i64;
+    let rings = ((outer / 2.0 - inner / 2.0) / step * 2.0)
+        .round()
+        .clamp(0.0, 64.0) as i64;
     for k in 0..=rings {
         let dev = inner + k as f64 * step;
+        if dev.is_nan() || dev > outer {
+            break;
+        }
         let ring: Vec<[f64; 2]> = (0..=180).map(|a| at(2.0 * a as f64, dev)).collect();
         let nominal = dev.abs() < 1e-9 * step;
         d.line(

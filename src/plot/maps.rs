@@ -1,6 +1,7 @@
 //! Pictures of a field: colour maps of a slice with a scale bar, the isometric deformed grid.
 
-use super::charts::{finite_range, tick_label, ticks, MARGIN_BOTTOM, MARGIN_LEFT, MARGIN_TOP};
+use super::axis::{drawable, finite_range, fraction, is_wide, tick_label, ticks};
+use super::charts::{MARGIN_BOTTOM, MARGIN_LEFT, MARGIN_TOP};
 use super::{Anchor, Color, Drawing, PlotError, Shape};
 
 /// A perceptually ordered colour scale (viridis, sampled), `t` in [0, 1].
@@ -39,23 +40,39 @@ pub fn colour_map(
     values: &[f64],
     unit: &str,
 ) -> Result<Drawing, PlotError> {
+    let [e0, e1, e2, e3] = [extent.0, extent.1, extent.2, extent.3];
+    if values
+        .iter()
+        .chain(&[e0, e1, e2, e3])
+        .any(|v| !v.is_finite())
+    {
+        return Err(PlotError::NotFinite(title.into()));
+    }
     let (lo, hi) =
         finite_range(values.iter().copied()).ok_or_else(|| PlotError::Empty(title.into()))?;
     let width = 900.0;
     let (x0, y1) = (MARGIN_LEFT, MARGIN_TOP);
     let available = (width - MARGIN_LEFT - 160.0, 540.0);
-    let aspect = (extent.1 - extent.0).abs().max(1e-9) / (extent.3 - extent.2).abs().max(1e-9);
+    // Spans in halves; a picture longer than 1000:1 is drawn at 1000:1, and one with an axis of
+    // one point (or of a span f64 does not resolve) square, so that its values show.
+    let half = |a: f64, b: f64| (b / 2.0 - a / 2.0).abs();
+    let aspect = if is_wide((e0.min(e1), e0.max(e1))) && is_wide((e2.min(e3), e2.max(e3))) {
+        (half(e0, e1) / half(e2, e3)).clamp(1e-3, 1e3)
+    } else {
+        1.0
+    };
     let (w, h) = if available.0 / available.1 > aspect {
         (available.1 * aspect, available.1)
     } else {
         (available.0, available.0 / aspect)
     };
     let y0 = y1 + h;
-    let span = if hi > lo { hi - lo } else { 1.0 };
+    // The colours run over the values' range; all values alike take the lowest colour.
+    let range = value_range(lo, hi);
     let rgb: Vec<[u8; 3]> = (0..rows)
         .rev()
         .flat_map(|r| (0..cols).map(move |c| (r, c)))
-        .map(|(r, c)| colour((values[r * cols + c] - lo) / span))
+        .map(|(r, c)| colour(fraction(values[r * cols + c], range)))
         .collect();
     let mut d = Drawing::new(width, y0 + MARGIN_BOTTOM);
     d.title(title);
@@ -76,16 +93,24 @@ pub fn colour_map(
         fill: None,
         stroke: Some(Color::BLACK),
     });
-    let xt = ticks(extent.0, extent.1, 6);
-    let yt = ticks(extent.2, extent.3, 6);
+    // An axis of one grid point: one tick, in the middle of the picture.
+    let axis_ticks = |a: f64, b: f64| {
+        if is_wide((a, b)) {
+            (ticks(a, b, 6), (a, b))
+        } else {
+            (vec![a], drawable((a, a)))
+        }
+    };
+    let (xt, x_range) = axis_ticks(e0, e1);
+    let (yt, y_range) = axis_ticks(e2, e3);
     let step = |t: &[f64]| if t.len() > 1 { t[1] - t[0] } else { 1.0 };
     for &t in &xt {
-        let x = x0 + (t - extent.0) / (extent.1 - extent.0) * w;
+        let x = x0 + fraction(t, x_range) * w;
         d.line(vec![[x, y0], [x, y0 + 5.0]], Color::BLACK, 1.0, false);
         d.text(x, y0 + 18.0, tick_label(t, step(&xt)), 11.0, Anchor::Middle);
     }
     for &t in &yt {
-        let y = y0 - (t - extent.2) / (extent.3 - extent.2) * h;
+        let y = y0 - fraction(t, y_range) * h;
         d.line(vec![[x0 - 5.0, y], [x0, y]], Color::BLACK, 1.0, false);
         d.text(
             x0 - 8.0,
@@ -109,11 +134,24 @@ pub fn colour_map(
     Ok(d)
 }
 
+/// The range a colour map's colours run over: its values' range, or where that is too narrow to
+/// tell apart, one from the lowest value up (every value the lowest colour).
+fn value_range(lo: f64, hi: f64) -> (f64, f64) {
+    let top = lo + lo.abs().max(1.0);
+    if is_wide((lo, hi)) {
+        (lo, hi)
+    } else if top.is_finite() {
+        (lo, top)
+    } else {
+        (lo / 2.0, lo)
+    }
+}
+
 /// The scale bar of a colour map: the colour ramp from `lo` to `hi` at `[x, top, height]`, with
 /// round values marked and the unit above.
 fn scale_bar(d: &mut Drawing, [bx, top, h]: [f64; 3], (lo, hi): (f64, f64), unit: &str) {
     let bw = 22.0;
-    let span = if hi > lo { hi - lo } else { 1.0 };
+    let range = value_range(lo, hi);
     let ramp: Vec<[u8; 3]> = (0..256).rev().map(|k| colour(k as f64 / 255.0)).collect();
     d.shapes.push(Shape::Image {
         x: bx,
@@ -132,10 +170,14 @@ fn scale_bar(d: &mut Drawing, [bx, top, h]: [f64; 3], (lo, hi): (f64, f64), unit
         fill: None,
         stroke: Some(Color::BLACK),
     });
-    let bt = ticks(lo, hi, 6);
+    let bt = if is_wide((lo, hi)) {
+        ticks(lo, hi, 6)
+    } else {
+        vec![lo]
+    };
     let step = if bt.len() > 1 { bt[1] - bt[0] } else { 1.0 };
     for &t in &bt {
-        let y = top + h - (t - lo) / span * h;
+        let y = top + h - fraction(t, range) * h;
         d.line(
             vec![[bx + bw, y], [bx + bw + 5.0, y]],
             Color::BLACK,
@@ -164,7 +206,22 @@ pub fn deformed_grid(
     let (width, height) = (900.0, 760.0);
     // Isometric projection: x to the right and down, y to the left and down, z up.
     let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
-    let project = |p: &[f64; 3]| [(p[0] - p[1]) * c, -(p[0] + p[1]) * s - p[2]];
+    // In halves: no sum of two finite coordinates overflows.
+    let project = |p: &[f64; 3]| {
+        [
+            (p[0] / 2.0 - p[1] / 2.0) * c,
+            -(p[0] / 2.0 + p[1] / 2.0) * s - p[2] / 2.0,
+        ]
+    };
+    if nominal
+        .iter()
+        .chain(deformed)
+        .flatten()
+        .flatten()
+        .any(|v| !v.is_finite())
+    {
+        return Err(PlotError::NotFinite(title.into()));
+    }
     let all = nominal.iter().chain(deformed).flatten().map(project);
     let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) = (
         f64::INFINITY,
@@ -181,10 +238,12 @@ pub fn deformed_grid(
     if !x_lo.is_finite() {
         return Err(PlotError::Empty(title.into()));
     }
+    // Pixels per projected half-mm, the picture centred: spans and middles in halves again.
+    let (x_half, y_half) = (x_hi / 2.0 - x_lo / 2.0, y_hi / 2.0 - y_lo / 2.0);
     let scale =
-        ((width - 80.0) / (x_hi - x_lo).max(1e-9)).min((height - 140.0) / (y_hi - y_lo).max(1e-9));
-    let ox = (width - scale * (x_hi - x_lo)) / 2.0 - scale * x_lo;
-    let oy = 60.0 + (height - 140.0 - scale * (y_hi - y_lo)) / 2.0 - scale * y_lo;
+        ((width - 80.0) / 2.0 / x_half.max(5e-10)).min((height - 140.0) / 2.0 / y_half.max(5e-10));
+    let ox = width / 2.0 - scale * (x_lo / 2.0 + x_hi / 2.0);
+    let oy = 60.0 + (height - 140.0) / 2.0 - scale * (y_lo / 2.0 + y_hi / 2.0);
     let to_canvas = |p: &[f64; 3]| {
         let [x, y] = project(p);
         [ox + scale * x, oy + scale * y]
@@ -226,7 +285,7 @@ fn axis_labels(
     if !lo[0].is_finite() {
         return;
     }
-    let mid = |k: usize| 0.5 * (lo[k] + hi[k]);
+    let mid = |k: usize| lo[k] / 2.0 + hi[k] / 2.0;
     let range = |k: usize| {
         format!(
             "{} to {} mm",

@@ -13,14 +13,16 @@ use crate::error::{Classify, ErrorKind};
 use crate::io::atomic::write_atomically;
 use crate::io::FileError;
 
+mod axis;
 mod bars;
 mod charts;
 mod maps;
 mod png;
 mod svg;
 
+pub use axis::ticks;
 pub use bars::{bar_chart, histogram, stacked, Bar};
-pub use charts::{line_chart, polar_chart, ticks, Marker, Series};
+pub use charts::{line_chart, polar_chart, Marker, Series};
 pub use maps::{colour, colour_map, deformed_grid};
 
 #[derive(Debug, thiserror::Error)]
@@ -33,13 +35,18 @@ pub enum PlotError {
     Raster(String),
     #[error("nothing to plot: {0}")]
     Empty(String),
+    /// A value to draw is not a finite number (NaN or infinite).
+    #[error("{0}: a value to draw is not a finite number")]
+    NotFinite(String),
 }
 
 impl Classify for PlotError {
     fn kind(&self) -> ErrorKind {
         match self {
             PlotError::File(e) => e.kind(),
-            PlotError::Format { .. } | PlotError::Empty(_) => ErrorKind::Input,
+            PlotError::Format { .. } | PlotError::Empty(_) | PlotError::NotFinite(_) => {
+                ErrorKind::Input
+            }
             PlotError::Raster(_) => ErrorKind::Work,
         }
     }
@@ -178,8 +185,30 @@ impl Drawing {
         self.text(self.width / 2.0, 28.0, text, size, Anchor::Middle);
     }
 
+    /// Every coordinate and size of every shape a finite number: what the charts draw from
+    /// finite values always is; a drawing of others is refused rather than written with NaN.
+    pub fn check_finite(&self) -> Result<(), PlotError> {
+        let finite = |values: &[f64]| values.iter().all(|v| v.is_finite());
+        let ok = finite(&[self.width, self.height])
+            && self.shapes.iter().all(|shape| match shape {
+                Shape::Polyline { points, width, .. } => {
+                    width.is_finite() && points.iter().all(|p| finite(p))
+                }
+                Shape::Rect { x, y, w, h, .. } | Shape::Image { x, y, w, h, .. } => {
+                    finite(&[*x, *y, *w, *h])
+                }
+                Shape::Text { x, y, size, .. } => finite(&[*x, *y, *size]),
+            });
+        if ok {
+            Ok(())
+        } else {
+            Err(PlotError::NotFinite("the drawing".into()))
+        }
+    }
+
     /// Writes SVG or PNG by the file's extension, whole or not at all.
     pub fn write(&self, path: &Path) -> Result<(), PlotError> {
+        self.check_finite()?;
         let bytes = match format_of(path)? {
             Format::Svg => self.svg()?.into_bytes(),
             Format::Png => self.png()?,

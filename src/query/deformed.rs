@@ -1,8 +1,24 @@
 //! The workspace grid displaced by its magnified volumetric error (Hwang et al., Fig. 9).
 
+use super::QueryError;
+use crate::limits::{self, MAX_DRAWN_POINTS};
 use crate::model::grid::Grid;
 use crate::model::Machine;
 use crate::reference::Twin;
+
+/// Each grid cell's lines are cut into this many pieces, so the lines show their bends.
+const CUTS: usize = 8;
+
+/// The points drawn along the lines of `grid` (in f64: a count of any grid).
+pub fn drawn_points(grid: &Grid) -> f64 {
+    (0..3)
+        .filter(|&along| grid.dims[along] >= 2)
+        .map(|along| {
+            let [a, b] = [(along + 1) % 3, (along + 2) % 3].map(|d| grid.dims[d] as f64);
+            a * b * ((grid.dims[along] - 1) as f64 * CUTS as f64 + 1.0)
+        })
+        .sum()
+}
 
 /// The grid lines of a workspace, nominal and with the magnified error added.
 #[derive(Debug, Clone, PartialEq)]
@@ -17,9 +33,23 @@ pub struct DeformedGrid {
 
 /// The lines of `grid` along X, Y and Z (each cell cut into 8 so the lines show their bends),
 /// and the tool tip's actual positions `p + scale·VE(p)`. `scale` defaults to drawing the
-/// largest error as 8% of the workspace's diagonal.
-pub fn deformed_grid(machine: &Machine, grid: &Grid, scale: Option<f64>) -> DeformedGrid {
-    const CUTS: usize = 8;
+/// largest error as 8% of the workspace's diagonal. The points drawn are within
+/// [`MAX_DRAWN_POINTS`]; a scale must be a finite number above zero, and every point drawn a
+/// finite number.
+pub fn deformed_grid(
+    machine: &Machine,
+    grid: &Grid,
+    scale: Option<f64>,
+) -> Result<DeformedGrid, QueryError> {
+    limits::within(drawn_points(grid), MAX_DRAWN_POINTS).map_err(|points| {
+        QueryError::DrawnPoints {
+            grid: format!("{}x{}x{}", grid.dims[0], grid.dims[1], grid.dims[2]),
+            points,
+        }
+    })?;
+    if let Some(s) = scale.filter(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err(QueryError::Scale(s));
+    }
     let twin = Twin::of(machine);
     let position = |d: usize, t: f64| grid.origin_mm[d] + t * grid.spacing_mm[d];
     let mut nominal = Vec::new();
@@ -52,11 +82,18 @@ pub fn deformed_grid(machine: &Machine, grid: &Grid, scale: Option<f64>) -> Defo
                     let mut command = grid.pose;
                     command[..3].copy_from_slice(p);
                     let ve = twin.deviation(&command).volumetric_mm;
-                    [ve.x, ve.y, ve.z]
+                    if ve.iter().all(|v| v.is_finite()) {
+                        Ok([ve.x, ve.y, ve.z])
+                    } else {
+                        Err(QueryError::NotFinite(format!(
+                            "the volumetric error at X={} Y={} Z={} mm",
+                            p[0], p[1], p[2]
+                        )))
+                    }
                 })
                 .collect()
         })
-        .collect();
+        .collect::<Result<_, _>>()?;
     let largest = errors
         .iter()
         .flatten()
@@ -71,7 +108,7 @@ pub fn deformed_grid(machine: &Machine, grid: &Grid, scale: Option<f64>) -> Defo
     } else {
         1.0
     });
-    let deformed = nominal
+    let deformed: Vec<Vec<[f64; 3]>> = nominal
         .iter()
         .zip(&errors)
         .map(|(line, e)| {
@@ -81,10 +118,13 @@ pub fn deformed_grid(machine: &Machine, grid: &Grid, scale: Option<f64>) -> Defo
                 .collect()
         })
         .collect();
-    DeformedGrid {
+    if deformed.iter().flatten().flatten().any(|v| !v.is_finite()) || !largest.is_finite() {
+        return Err(QueryError::Scale(scale));
+    }
+    Ok(DeformedGrid {
         nominal,
         deformed,
         scale,
         largest_mm: largest,
-    }
+    })
 }

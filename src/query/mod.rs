@@ -96,6 +96,16 @@ pub enum QueryError {
         lo: f64,
         hi: f64,
     },
+    #[error("a deformed grid of {grid} lines draws {} points, more than the limit of {}", crate::limits::count_words(.points.count), .points.limit)]
+    DrawnPoints {
+        grid: String,
+        points: crate::limits::TooMany,
+    },
+    #[error("a magnification of {0}: it must be a finite number above zero, and the error it magnifies must stay a finite number")]
+    Scale(f64),
+    /// The machine's error at a position is not a finite number.
+    #[error("{0} is not a finite number: check the machine's error values")]
+    NotFinite(String),
 }
 
 impl Classify for QueryError {

@@ -178,7 +178,8 @@ fn plane_index(info: &FieldInfo, d: usize, at: Option<f64>) -> Result<usize, Que
     };
     let (origin, step) = (info.origin_mm[d], info.spacing_mm[d]);
     let end = origin + (n - 1) as f64 * step;
-    if q < origin.min(end) - 1e-9 || q > origin.max(end) + 1e-9 {
+    // A position that is not a number lies on no grid.
+    if !(q >= origin.min(end) - 1e-9 && q <= origin.max(end) + 1e-9) {
         return Err(QueryError::SliceOutside {
             axis: ['X', 'Y', 'Z'][d],
             at: q,

@@ -23,7 +23,8 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
-use super::{default_pose, figure, parameter, Setup, StandardsError, TestResult};
+use super::{check_count, default_pose, figure, parameter, Setup, StandardsError, TestResult};
+use crate::limits::{MAX_RUNS, MAX_TEST_POINTS};
 use crate::model::inputs::Approach;
 use crate::model::AxisLetter;
 
@@ -304,7 +305,7 @@ pub(super) fn positioning_from(m: &Measured) -> Result<PositioningData, Standard
 
 pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, StandardsError> {
     let measured = read_positioning_of(spec)?;
-    positioning_with(setup, spec, measured.as_ref())
+    positioning_with(setup, spec, measured.as_ref())?.finite()
 }
 
 /// [`positioning`] with the measured runs already read (a fit runs the test many times).
@@ -330,12 +331,14 @@ pub(crate) fn positioning_with(
             .collect(),
         None => {
             let [a, b] = axis.range;
-            let count = spec
-                .targets
-                .unwrap_or_else(|| ((b - a) / 1000.0 * 5.0).ceil().max(5.0) as usize);
-            if count < 2 {
+            let count = match spec.targets {
+                Some(n) => n as f64,
+                None => ((b - a) / 1000.0 * 5.0).ceil().max(5.0),
+            };
+            if count < 2.0 {
                 return Err(parameter("a positioning test needs at least 2 targets"));
             }
+            let count = check_count("targets", "targets", count, MAX_TEST_POINTS)?;
             (0..count)
                 .map(|i| a + (b - a) * i as f64 / (count - 1) as f64)
                 .collect()
@@ -344,6 +347,7 @@ pub(crate) fn positioning_with(
     if spec.runs == 0 {
         return Err(parameter("a positioning test needs at least one run"));
     }
+    check_count("runs", "runs", spec.runs as f64, MAX_RUNS)?;
     // The ↑ runs approach every target with the axis moving `+`, the ↓ runs with it moving `−`;
     // the other axes stand still and approach as the inputs say.
     let mut up_directions = [None; 6];

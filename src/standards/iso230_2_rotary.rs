@@ -20,7 +20,8 @@ use nalgebra::Vector3;
 
 use super::iso230_2::{positioning_from, positioning_result, PositioningData, PositioningSpec};
 use super::measured::{Measured, Unit};
-use super::{parameter, ErrorUnit, Setup, StandardsError, TestResult, ARCSEC_PER_RAD};
+use super::{check_count, parameter, ErrorUnit, Setup, StandardsError, TestResult, ARCSEC_PER_RAD};
+use crate::limits::{MAX_RUNS, MAX_TEST_POINTS};
 use crate::model::inputs::Approach;
 use crate::model::AxisLetter;
 use crate::reference::rotation_vector;
@@ -42,8 +43,8 @@ pub fn read_rotary_positioning(path: &Path) -> Result<PositioningData, Standards
 
 /// The default targets over a rotary axis's range `[a, b]` (degrees): every 30° at most, at
 /// least 5, ends included (a full turn: 0°, 30°, …, 360°).
-fn default_targets(a: f64, b: f64) -> usize {
-    (((b - a) / 30.0).ceil() as usize + 1).max(5)
+fn default_targets(a: f64, b: f64) -> f64 {
+    (((b - a) / 30.0).ceil() + 1.0).max(5.0)
 }
 
 pub(super) fn rotary_positioning_with(
@@ -66,10 +67,13 @@ pub(super) fn rotary_positioning_with(
             .map(|&t| super::clamp_to_ends(t, a, b).unwrap_or(t))
             .collect(),
         None => {
-            let count = spec.targets.unwrap_or_else(|| default_targets(a, b));
-            if count < 2 {
+            let count = spec
+                .targets
+                .map_or_else(|| default_targets(a, b), |n| n as f64);
+            if count < 2.0 {
                 return Err(parameter("a positioning test needs at least 2 targets"));
             }
+            let count = check_count("targets", "targets", count, MAX_TEST_POINTS)?;
             (0..count)
                 .map(|i| a + (b - a) * i as f64 / (count - 1) as f64)
                 .collect()
@@ -78,6 +82,7 @@ pub(super) fn rotary_positioning_with(
     if spec.runs == 0 {
         return Err(parameter("a positioning test needs at least one run"));
     }
+    check_count("runs", "runs", spec.runs as f64, MAX_RUNS)?;
     let (lo, hi) = setup.travel_box()?;
     let at = spec.at_mm.map_or((lo + hi) / 2.0, Vector3::from);
     let mut up_directions = [None; 6];

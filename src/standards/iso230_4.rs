@@ -12,8 +12,10 @@ use serde::Deserialize;
 use super::ballbar::{diagnose, BallbarReport, Circle};
 use super::measured::{Measured, Unit};
 use super::{
-    default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError, TestResult,
+    check_count, default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError,
+    TestResult,
 };
+use crate::limits::MAX_TEST_POINTS;
 use crate::model::inputs::Approach;
 use crate::model::AxisLetter;
 
@@ -147,7 +149,7 @@ pub fn geometric_circle(
 }
 
 pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, StandardsError> {
-    circular_with(setup, spec, read_circular(spec)?.as_ref())
+    circular_with(setup, spec, read_circular(spec)?.as_ref())?.finite()
 }
 
 /// +1 counter-clockwise, −1 clockwise.
@@ -202,9 +204,15 @@ pub(crate) fn circular_with(
     let radius = spec
         .radius_mm
         .unwrap_or_else(|| 100f64.min(0.4 * (hi[u] - lo[u]).min(hi[v] - lo[v])));
-    if radius.is_nan() || radius <= 0.0 {
+    if !(radius > 0.0 && radius.is_finite()) {
         return Err(parameter(format!(
-            "radius {radius} mm: it must be positive"
+            "radius {radius} mm: it must be a positive number"
+        )));
+    }
+    if !spec.start_deg.is_finite() {
+        return Err(parameter(format!(
+            "start {}°: it must be a finite angle",
+            spec.start_deg
         )));
     }
     let sense = sense_of(spec)?;
@@ -214,8 +222,9 @@ pub(crate) fn circular_with(
             if spec.points < 3 {
                 return Err(parameter("a circle needs at least 3 points"));
             }
-            (0..spec.points)
-                .map(|i| spec.start_deg + sense * 360.0 * i as f64 / spec.points as f64)
+            let points = check_count("points", "points", spec.points as f64, MAX_TEST_POINTS)?;
+            (0..points)
+                .map(|i| spec.start_deg + sense * 360.0 * i as f64 / points as f64)
                 .collect()
         }
     };

@@ -8,9 +8,10 @@ use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
 use super::{
-    clamp_to_ends, default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError,
-    TestResult, END_TOLERANCE_MM,
+    check_count, clamp_to_ends, default_pose, direction_of, figure, parameter, range_of, Setup,
+    StandardsError, TestResult, END_TOLERANCE_MM,
 };
+use crate::limits::MAX_TEST_POINTS;
 use crate::model::AxisLetter;
 
 /// ISO 230-6 displacement along a body or face diagonal.
@@ -115,7 +116,7 @@ pub fn read_profile(
 }
 
 pub fn diagonal(setup: &Setup, spec: &DiagonalSpec) -> Result<TestResult, StandardsError> {
-    diagonal_with(setup, spec, read_diagonal(spec)?.as_ref())
+    diagonal_with(setup, spec, read_diagonal(spec)?.as_ref())?.finite()
 }
 
 /// A diagonal's measured results, where the spec names a file.
@@ -181,8 +182,9 @@ pub(crate) fn diagonal_with(
             if spec.points < 2 {
                 return Err(parameter("a diagonal needs at least 2 points"));
             }
-            (0..spec.points)
-                .map(|i| length * i as f64 / (spec.points - 1) as f64)
+            let points = check_count("points", "points", spec.points as f64, MAX_TEST_POINTS)?;
+            (0..points)
+                .map(|i| length * i as f64 / (points - 1) as f64)
                 .collect()
         }
     };

@@ -8,6 +8,7 @@ use std::path::Path;
 use super::StandardsError;
 use crate::io::csv::{Csv, CsvError};
 use crate::io::read_text;
+use crate::limits::{number_words, MAX_MEASURED_MAGNITUDE};
 
 /// The unit a column is read in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -124,6 +125,17 @@ impl Measured {
                     continue;
                 }
                 let value = row.number(field, &format!("`{}`", wanted[n].0))?;
+                if value.abs() * factor > MAX_MEASURED_MAGNITUDE {
+                    return Err(row
+                        .error(
+                            format!(
+                                "`{}` in column `{}` is beyond any measurement of a machine tool (at most {MAX_MEASURED_MAGNITUDE:e} mm, degrees or arc-seconds in magnitude): check the unit",
+                                number_words(value),
+                                header.names[field]
+                            ),
+                        )
+                        .into());
+                }
                 measured.columns[n].push(value * factor);
             }
             measured.lines.push(row.line);

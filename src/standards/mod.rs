@@ -58,6 +58,7 @@ use nalgebra::Vector3;
 use crate::error::input_errors;
 use crate::io::csv::CsvError;
 use crate::io::FileError;
+use crate::limits;
 use crate::model::grid::{self, GridError};
 use crate::model::inputs::{Approach, Inputs};
 use crate::model::perturbation::ErrorTarget;
@@ -82,12 +83,39 @@ pub enum StandardsError {
     },
     #[error(transparent)]
     Pose(#[from] GridError),
+    /// A count the spec implies beyond its limit (see [`crate::limits`]); `key` names the
+    /// spec's keys it comes from.
+    #[error("{key}: {message}")]
+    Limit { key: &'static str, message: String },
+    /// A result that is not a number (a backstop: machine files and measurements are bounded
+    /// as they are read).
+    #[error("{title}: {what} is not a finite number")]
+    NotFinite { title: String, what: String },
 }
 
 input_errors!(StandardsError);
 
 fn parameter(message: impl Into<String>) -> StandardsError {
     StandardsError::Parameter(message.into())
+}
+
+/// `count` (in f64, from the spec's `key`) of `what` within `limit`.
+fn check_count(
+    key: &'static str,
+    what: &str,
+    count: f64,
+    limit: u64,
+) -> Result<usize, StandardsError> {
+    limits::within(count, limit)
+        .map(|c| c as usize)
+        .map_err(|e| StandardsError::Limit {
+            key,
+            message: format!(
+                "{} {what} are more than the limit of {}",
+                limits::count_words(e.count),
+                e.limit
+            ),
+        })
 }
 
 /// The direction each axis moves in at a point of a test's path, indexed by
@@ -280,7 +308,8 @@ impl Setup {
             let value = command[axis.letter.index()];
             let [lo, hi] = axis.range;
             let slack = 1e-9 * (1.0 + lo.abs().max(hi.abs()));
-            if value < lo - slack || value > hi + slack {
+            // A position that is not a number lies on no travel.
+            if !(value >= lo - slack && value <= hi + slack) {
                 return Err(StandardsError::OutsideTravel {
                     what: what.to_string(),
                     axis: axis.letter,
@@ -406,6 +435,36 @@ pub struct TestResult {
     /// A circular test's ballbar diagnostics.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ballbar: Option<ballbar::BallbarReport>,
+}
+
+impl TestResult {
+    /// The result, where every position, curve and figure is a finite number.
+    pub(crate) fn finite(self) -> Result<TestResult, StandardsError> {
+        let error = |what: String| StandardsError::NotFinite {
+            title: self.title.clone(),
+            what,
+        };
+        if self.positions.iter().any(|v| !v.is_finite()) {
+            return Err(error("a position".into()));
+        }
+        let curves = [
+            ("predicted", Some(&self.predicted)),
+            ("measured", self.measured.as_ref()),
+        ];
+        for (kind, curves) in curves {
+            for (name, curve) in self.curve_names.iter().zip(curves.into_iter().flatten()) {
+                if curve.iter().any(|v| !v.is_finite()) {
+                    return Err(error(format!("the {kind} `{name}`")));
+                }
+            }
+        }
+        for f in &self.figures {
+            if !f.predicted.is_finite() || f.measured.is_some_and(|m| !m.is_finite()) {
+                return Err(error(format!("the figure {}", f.name)));
+            }
+        }
+        Ok(self)
+    }
 }
 
 fn figure(name: &str, meaning: &str, predicted: f64, measured: Option<f64>) -> Figure {

@@ -9,9 +9,10 @@ use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
 use super::{
-    default_pose, direction_of, figure, parameter, range_of, read_profile, Setup, StandardsError,
-    TestResult,
+    check_count, default_pose, direction_of, figure, parameter, range_of, read_profile, Setup,
+    StandardsError, TestResult,
 };
+use crate::limits::MAX_TEST_POINTS;
 use crate::model::inputs::Approach;
 use crate::model::AxisLetter;
 
@@ -44,7 +45,7 @@ fn default_step() -> f64 {
 }
 
 pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsError> {
-    rtest_with(setup, spec, read_rtest(spec)?.as_ref())
+    rtest_with(setup, spec, read_rtest(spec)?.as_ref())?.finite()
 }
 
 /// An R-test's measured results, where the spec names a file.
@@ -90,14 +91,21 @@ pub(crate) fn rtest_with(
         None => {
             let from = spec.from_deg.unwrap_or(axis.range[0]);
             let to = spec.to_deg.unwrap_or(axis.range[1]);
-            if spec.step_deg.is_nan() || spec.step_deg <= 0.0 || to < from {
+            if !(spec.step_deg > 0.0 && from.is_finite() && to.is_finite() && to >= from) {
                 return Err(parameter(format!(
-                    "angles from {from}° to {to}° in steps of {}°: the step must be positive and the end not below the start",
+                    "angles from {from}° to {to}° in steps of {}°: the step must be positive, the ends finite and the end not below the start",
                     spec.step_deg
                 )));
             }
-            let steps = ((to - from) / spec.step_deg + 1e-9).floor() as usize;
-            (0..=steps)
+            // Halves: the span of two finite ends may overflow, its half does not.
+            let steps = ((to / 2.0 - from / 2.0) / spec.step_deg * 2.0 + 1e-9).floor();
+            let angles = check_count(
+                "from_deg, to_deg and step_deg",
+                "angles",
+                steps + 1.0,
+                MAX_TEST_POINTS,
+            )?;
+            (0..angles)
                 .map(|i| from + i as f64 * spec.step_deg)
                 .collect()
         }

@@ -182,18 +182,20 @@ fn a_grid_in_many_chunks_equals_one_chunk() {
 }
 
 #[test]
-fn lines_longer_than_a_chunk_are_an_error_not_a_wrong_map() {
-    let Some(gpu) = gpu() else { return };
+fn a_chunk_cap_below_a_line_takes_one_whole_line_per_chunk() {
+    // Asked for chunks of 50 points on lines of 100 (or of 1 point), the GPU maps one whole line
+    // per chunk, as the CPU does: never a partial line, never a wrong map.
     let machine = embedded::embedded("vmc-li2015").unwrap().unwrap();
     let grid = Grid::full_travel(&machine, [100, 2, 2], [0.0; 6]).unwrap();
-    let result = gpu.run(
-        &machine,
-        &grid,
-        Some(50),
-        |_, _, _| -> Result<(), volmap::gpu::GpuError> { Ok(()) },
-    );
-    let message = result.unwrap_err().to_string();
-    assert!(message.contains("does not fit in one chunk"), "{message}");
+    let Some((whole, _)) = gpu_field(&machine, &grid, None) else {
+        return;
+    };
+    for cap in [50, 1] {
+        let (field, chunks) = gpu_field(&machine, &grid, Some(cap)).unwrap();
+        assert_eq!(chunks, 4, "cap {cap}");
+        assert_eq!(field, whole, "cap {cap}");
+    }
+    assert_field_matches_reference(&machine, &grid, &whole);
 }
 
 #[test]

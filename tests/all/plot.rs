@@ -189,7 +189,7 @@ fn the_deformed_grid_is_the_nominal_grid_plus_the_magnified_error() {
     let mut pose = [0.0; 6];
     pose[4] = 30.0;
     let grid = Grid::full_travel(&machine, [3, 3, 2], pose).unwrap();
-    let deformed = volmap::query::deformed_grid(&machine, &grid, None);
+    let deformed = volmap::query::deformed_grid(&machine, &grid, None).unwrap();
     // Lines along X: 3·2, along Y: 2·3, along Z: 3·3.
     assert_eq!(deformed.nominal.len(), 6 + 6 + 9);
     let twin = volmap::reference::Twin::of(&machine);

@@ -30,8 +30,9 @@ impl GpuMapper {
         check_error_angles(machine, grid)?;
         let packed = pack(machine, grid);
         let nx = grid.dims[0] as u64;
-        let limit =
-            chunk_points.map_or(self.max_chunk_points(), |c| c.min(self.max_chunk_points()));
+        // A chunk holds whole lines: at least one, whatever is asked, as on the CPU.
+        let device_limit = self.max_chunk_points();
+        let limit = chunk_points.map_or(device_limit, |c| c.max(nx).min(device_limit));
         if nx > limit {
             return Err(self
                 .error(format!(

@@ -23,9 +23,11 @@ use crate::model::{Axis, Machine, MachineSource, COMPONENT_NAMES};
 mod plausible;
 mod values;
 
-pub use plausible::{MAX_PLAUSIBLE_ANGLE_RAD, PLAUSIBLE_TEMPERATURE_CHANGE_K};
+pub use plausible::{
+    MAX_PLAUSIBLE_ANGLE_RAD, MAX_PLAUSIBLE_LENGTH_MM, PLAUSIBLE_TEMPERATURE_CHANGE_K,
+};
 
-use plausible::AngularValue;
+use plausible::ErrorValue;
 use values::{ValueKind, ValueSpec};
 
 /// What is wrong with a machine file. Each message names the file and the key.
@@ -186,7 +188,7 @@ impl Machine {
                 .as_ref()
                 .map_or(Vec::new(), |t: &Thermal| t.inputs.clone()),
             dependent: Vec::new(),
-            angular: Vec::new(),
+            values: Vec::new(),
         };
 
         for section in raw.axes.keys() {
@@ -232,17 +234,17 @@ impl Machine {
             })?;
             let spec = reader.error_value(None, key, &path, value, ValueKind::Constant)?;
             spindle[index] = spec.value.eval(0.0);
-            if index >= 3 {
-                reader.angular.push(AngularValue {
-                    key: path.clone(),
-                    axis: None,
-                    spec: spec.clone(),
-                });
-            }
+            reader.values.push(ErrorValue {
+                key: path.clone(),
+                axis: None,
+                angular: index >= 3,
+                spec: spec.clone(),
+            });
             reader.keep(ErrorTarget::Spindle { index }, spec);
         }
 
-        plausible::check_angles(file, &reader.angular, &axes)?;
+        plausible::check_lengths(file, &axes, &tool_offset_mm)?;
+        plausible::check_values(file, &reader.values, &axes)?;
 
         Ok(Machine {
             name: raw.name,
@@ -274,8 +276,8 @@ struct Reader {
     thermal_inputs: Vec<String>,
     /// The error values read so far that depend on the evaluation inputs.
     dependent: Vec<Dependent>,
-    /// The angular error values read so far, checked once every travel is known.
-    angular: Vec<AngularValue>,
+    /// The error values read so far, checked once every travel is known.
+    values: Vec<ErrorValue>,
 }
 
 /// `[thermal]` checked: inputs named once each.
@@ -458,13 +460,12 @@ impl Reader {
                 ValueKind::Component
             },
         )?;
-        if n >= 3 {
-            self.angular.push(AngularValue {
-                key: path.to_string(),
-                axis: Some(letter),
-                spec: spec.clone(),
-            });
-        }
+        self.values.push(ErrorValue {
+            key: path.to_string(),
+            axis: Some(letter),
+            angular: n >= 3,
+            spec: spec.clone(),
+        });
         if chars.len() == 4 {
             axis.location[n] = spec.value.eval(0.0);
             self.keep(

@@ -3,11 +3,13 @@
 mod compensate;
 mod compensate_orientation;
 mod design;
+mod finite;
 mod hardening_inputs;
 mod hardening_messages;
 mod hardening_outputs;
 mod inputs;
 mod interrupt;
+mod limits;
 mod machine_files;
 mod machine_files_tables;
 mod machines;

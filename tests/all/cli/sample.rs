@@ -164,8 +164,12 @@ fn values_are_the_shortest_decimals_that_read_back_to_the_same_value() {
 }
 
 /// The peak resident memory of `volmap sample` on `count` generated points, in bytes.
+///
+/// Read from the child's own `VmHWM` while it runs: the `ru_maxrss` of `wait4` carries over
+/// the peak of the process it was forked from (Linux keeps it across `execve`), which is this
+/// test binary with every test running beside it. The high-water mark only grows, so the last
+/// reading before the child exits is its peak to within one polling interval.
 #[cfg(target_os = "linux")]
-#[allow(clippy::zombie_processes)] // reaped by `wait4`, which std's `wait` does not expose
 fn peak_memory_of_sample(dir: &Path, field: &Path, count: usize) -> u64 {
     let points = dir.join(format!("p{count}.csv"));
     let mut file = std::io::BufWriter::new(std::fs::File::create(&points).unwrap());
@@ -177,7 +181,7 @@ fn peak_memory_of_sample(dir: &Path, field: &Path, count: usize) -> u64 {
     file.flush().unwrap();
     drop(file);
     let out = dir.join("s.csv");
-    let child = std::process::Command::new(assert_cmd::cargo::cargo_bin("volmap"))
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("volmap"))
         .args(["sample", "--device", "cpu", "--field"])
         .arg(field)
         .arg("--points")
@@ -188,18 +192,31 @@ fn peak_memory_of_sample(dir: &Path, field: &Path, count: usize) -> u64 {
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    // wait4 gives this child's own peak, whatever other tests run beside it.
-    let mut status = 0;
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    let pid = unsafe { libc::wait4(child.id() as libc::pid_t, &mut status, 0, &mut usage) };
-    assert_eq!(pid, child.id() as libc::pid_t);
-    assert!(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0);
+    let status_file = format!("/proc/{}/status", child.id());
+    let mut peak_kib = 0u64;
+    let status = loop {
+        if let Ok(text) = std::fs::read_to_string(&status_file) {
+            if let Some(kib) = text
+                .lines()
+                .find_map(|l| l.strip_prefix("VmHWM:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+            {
+                peak_kib = peak_kib.max(kib);
+            }
+        }
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    };
+    assert!(status.success());
+    assert!(peak_kib > 0, "no reading of the child's memory");
     let written =
         std::io::BufRead::lines(std::io::BufReader::new(std::fs::File::open(&out).unwrap()))
             .count();
     assert_eq!(written, count + 1);
     std::fs::remove_file(&points).unwrap();
-    usage.ru_maxrss as u64 * 1024
+    peak_kib * 1024
 }
 
 /// Not timed: the same bound holds for 200,000 and 2,000,000 points. Holding every point, its
