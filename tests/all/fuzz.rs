@@ -135,6 +135,10 @@ fn field() {
 /// test only their first error.
 #[test]
 fn every_seed_is_accepted() {
+    campaign::single_threaded(every_seed_is_accepted_here);
+}
+
+fn every_seed_is_accepted_here() {
     let mut cx = Context::new().unwrap();
     let clock = ThreadClock::current();
     for target in TARGETS {
