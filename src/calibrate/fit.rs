@@ -22,7 +22,9 @@ use super::identifiability::identifiability;
 pub use super::identifiability::Identifiability;
 pub use super::unknowns::Unknown;
 use super::CalibrateError;
-use crate::io::machine_file::{MAX_PLAUSIBLE_ANGLE_RAD, PLAUSIBLE_TEMPERATURE_CHANGE_K};
+use crate::io::machine_file::{
+    MAX_PLAUSIBLE_ANGLE_RAD, MAX_PLAUSIBLE_LENGTH_MM, PLAUSIBLE_TEMPERATURE_CHANGE_K,
+};
 use crate::model::inputs::Inputs;
 use crate::model::Machine;
 use crate::standards::iso230_2::{positioning_with, PositioningData};
@@ -223,10 +225,14 @@ fn estimate(
 /// Refuses an estimate no machine file may hold: the measurements do not fit the machine (a unit
 /// mistake, a test of another machine, a file of another test).
 fn check_plausible(unknown: &Unknown, value: f64) -> Result<(), CalibrateError> {
-    let largest = match (unknown.target.is_angular(), unknown.per_kelvin.is_some()) {
-        (true, false) => MAX_PLAUSIBLE_ANGLE_RAD,
-        (true, true) => MAX_PLAUSIBLE_ANGLE_RAD / PLAUSIBLE_TEMPERATURE_CHANGE_K,
-        (false, _) => f64::INFINITY,
+    let largest = if unknown.target.is_angular() {
+        MAX_PLAUSIBLE_ANGLE_RAD
+    } else {
+        MAX_PLAUSIBLE_LENGTH_MM
+    };
+    let largest = match unknown.per_kelvin {
+        None => largest,
+        Some(_) => largest / PLAUSIBLE_TEMPERATURE_CHANGE_K,
     };
     if value.is_finite() && value.abs() <= largest {
         return Ok(());

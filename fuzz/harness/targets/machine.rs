@@ -182,10 +182,12 @@ pub const TOLERANCE: Target = Target {
 fn tolerance(cx: &mut Context, input: &[u8]) -> Verdict {
     let paths = cx.write("tolerances.toml", input)?;
     let text = read!(volmap::io::read_text(&paths[0]), &["tolerances.toml"]);
-    let mut outcome = Outcome::Accepted;
+    // Accepted where one of the machines takes it (a file is written for one machine).
+    let mut outcome = None;
     for (_, machine) in cx.machines() {
         match ToleranceFile::parse(&text, Path::new(&paths[0]), machine) {
             Ok(file) => {
+                outcome = Some(Outcome::Accepted);
                 let perturbations: Vec<_> =
                     file.tolerances.iter().map(|t| t.perturbation).collect();
                 let limits: Vec<f64> = file
@@ -195,8 +197,11 @@ fn tolerance(cx: &mut Context, input: &[u8]) -> Verdict {
                     .collect();
                 evaluate(&machine.perturbed(&perturbations, &limits));
             }
-            Err(error) => outcome = super::refused(error, &["tolerances.toml"])?,
+            Err(error) => {
+                let refused = super::refused(error, &["tolerances.toml"])?;
+                outcome.get_or_insert(refused);
+            }
         }
     }
-    Ok(outcome)
+    Ok(outcome.unwrap_or(Outcome::Accepted))
 }
