@@ -179,7 +179,12 @@ pub(super) fn write_block(
         text.replace_range(range.clone(), replacement);
     }
     out.push_str(&text);
-    out.push_str(&line.ending);
+    // Added pieces start on lines of their own, after a last line without a line end too.
+    out.push_str(if line.ending.is_empty() && pieces.len() > 1 {
+        "\n"
+    } else {
+        &line.ending
+    });
     // An axis sent to its reference point stays unwritten until a block names it.
     let unwritten: [bool; 6] =
         std::array::from_fn(|d| state.written[d].is_nan() && !line.has(AXIS_LETTERS[d]));

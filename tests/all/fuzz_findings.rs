@@ -171,3 +171,106 @@ fn measured_tables_no_machine_can_have_are_refused() {
         "{error}"
     );
 }
+
+fn five_axis_setup() -> volmap::standards::Setup {
+    let machine = volmap::io::embedded::embedded("5axis-hwang2014")
+        .unwrap()
+        .unwrap();
+    volmap::standards::Setup::new(&machine, "").unwrap()
+}
+
+/// Measured results of a circle at one angle: the error said the angles do not determine a
+/// circle without saying whose angles; it names the file now.
+#[test]
+fn a_circle_of_measured_angles_that_determine_none_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.csv");
+    std::fs::write(&path, regression("measured-one-angle.csv")).unwrap();
+    let spec = volmap::standards::CircularSpec {
+        plane: "XY".into(),
+        centre_mm: None,
+        radius_mm: None,
+        points: 36,
+        direction: "ccw".into(),
+        start_deg: 0.0,
+        pose: String::new(),
+        csv: Some(path.clone()),
+        pitch_mm: None,
+    };
+    let error = volmap::standards::circular(&five_axis_setup(), &spec)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        error,
+        format!(
+            "{}: the angles do not determine a circle (at least 3 distinct angles spread around it)",
+            path.display()
+        )
+    );
+}
+
+/// An R-test measured at C = 30,000,000°: the sphere there lies outside the travel, said
+/// without the file or line that asked for it; both are named now.
+#[test]
+fn an_r_test_angle_beyond_the_travel_names_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("r.csv");
+    std::fs::write(&path, regression("measured-rtest-angle.csv")).unwrap();
+    let spec = volmap::standards::RTestSpec {
+        axis: "C".into(),
+        sphere_mm: Some([300.0, 200.0, 250.0]),
+        from_deg: Some(0.0),
+        to_deg: Some(30.0),
+        step_deg: 10.0,
+        pose: String::new(),
+        csv: Some(path.clone()),
+    };
+    let error = volmap::standards::rtest(&five_axis_setup(), &spec)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "{}: line 5: R-test of C at C=30000000°: Y=",
+            path.display()
+        )) && error.contains("lies outside the travel of Y (0 to 600)"),
+        "{error}"
+    );
+}
+
+fn compensated_reads_back(machine: &Machine, program: &[u8]) -> String {
+    let options = Options {
+        tool_lengths: nc::ToolLengths::parse("T1=80").unwrap(),
+        ..options()
+    };
+    let out = nc::compensate(machine, program, "in.nc", &options).unwrap();
+    if let Err(e) = nc::trace(machine, out.text.as_bytes(), "out.nc", &options) {
+        panic!(
+            "the compensated program does not read back: {e}\n{}",
+            out.text
+        );
+    }
+    out.text
+}
+
+/// A last line without a line end whose arc was split: the added pieces were written onto it,
+/// one block of two arcs (`X59.9299 Y19.7988 I-9.8263 X49.9317 …`) that no reader takes.
+#[test]
+fn pieces_after_a_last_line_without_a_line_end_start_lines_of_their_own() {
+    let program = regression("gcode-last-line.nc");
+    assert!(!program.ends_with(b"\n"));
+    let text = compensated_reads_back(&machine(), &program);
+    for line in text.lines() {
+        assert!(line.matches('X').count() <= 1, "{line}\n{text}");
+    }
+}
+
+/// A half circle by R (`G3 X40 Y0 R10` from X20): compensated, its written R (9.9999) fell
+/// short of half its written chord (10.0000), which the reader refuses; the planner now holds
+/// a written R to the reader's rule and splits such an arc.
+#[test]
+fn compensated_half_circles_by_radius_read_back() {
+    let five = volmap::io::embedded::embedded("5axis-hwang2014")
+        .unwrap()
+        .unwrap();
+    compensated_reads_back(&five, &regression("gcode-half-circle-r.nc"));
+}
