@@ -325,7 +325,7 @@ fn text_mutation(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
             let spans = lines(data);
             if !spans.is_empty() {
                 let (start, end) = *rng.pick(&spans);
-                let times = *rng.pick(&[1usize, 1, 2, 10, 100, 1000, 10000]);
+                let times = rng.size(&[1, 1, 2, 3, 10, 100], &[1000, 10000]);
                 let line = with_line_end(&data[start..end]);
                 let most = (MAX_INPUT_BYTES / line.len().max(1)).max(1);
                 let copies = line.repeat(times.min(most));
@@ -365,8 +365,8 @@ fn text_mutation(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
             }
         }
         8 => {
-            // A very long line: past the 64 KiB a streamed line may hold, or just short of it.
-            let len = *rng.pick(&[1000usize, 65535, 65536, 65537, 70000]);
+            // A long line: now and then past the 64 KiB a streamed line may hold, or just short of it.
+            let len = rng.size(&[100, 1000, 4096], &[65535, 65536, 65537, 70000]);
             let unit: &[u8] = match rng.below(4) {
                 0 => b"9",
                 1 => b"a",

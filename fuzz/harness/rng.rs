@@ -73,6 +73,17 @@ impl Rng {
         n
     }
 
+    /// A size: one of `small` most of the time, one of `large` once in 32 (inputs that large are
+    /// slow to read, and their point, that a reader's time and memory stay in proportion, is
+    /// made in a few thousand executions).
+    pub fn size(&mut self, small: &[usize], large: &[usize]) -> usize {
+        if self.one_in(32) {
+            *self.pick(large)
+        } else {
+            *self.pick(small)
+        }
+    }
+
     /// Index into `weights` chosen with probability proportional to each weight.
     pub fn weighted(&mut self, weights: &[u32]) -> usize {
         let total: u64 = weights.iter().map(|&w| w as u64).sum();

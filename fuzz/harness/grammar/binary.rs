@@ -118,7 +118,7 @@ pub(super) fn binary_stl(data: &mut Vec<u8>, rng: &mut Rng) {
             let start = 84 + 50 * t;
             let triangle = data[start..start + 50].to_vec();
             if rng.one_in(2) {
-                let times = *rng.pick(&[1usize, 100, 5000]);
+                let times = rng.size(&[1, 2, 10], &[100, 5000]);
                 data.splice(start..start, triangle.repeat(times));
             } else {
                 let vertex = triangle[12..24].to_vec();
@@ -149,7 +149,7 @@ pub(super) fn ascii_stl(data: &mut Vec<u8>, rng: &mut Rng) {
             if let Some(start) = find(data, b"facet") {
                 if let Some(end) = find(&data[start..], b"endfacet") {
                     let facet = data[start..start + end + 8].to_vec();
-                    let times = *rng.pick(&[1usize, 10, 1000]);
+                    let times = rng.size(&[1, 2, 10], &[1000]);
                     let mut copies = Vec::new();
                     for _ in 0..times {
                         copies.extend_from_slice(&facet);

@@ -21,7 +21,8 @@ fn value_span(data: &[u8], rng: &mut Rng) -> Option<(usize, usize)> {
 }
 
 /// Depths of nesting: shallow, past what a reader's recursion limit allows, far past it.
-const DEPTHS: &[usize] = &[2, 3, 10, 100, 127, 128, 129, 1000, 10000];
+const DEPTHS: &[usize] = &[2, 3, 10, 100, 127, 128, 129];
+const DEEP: &[usize] = &[1000, 10000];
 
 /// Values of other types than the key expects, and sizes no file has.
 const TOML_VALUES: &[&str] = &[
@@ -65,7 +66,7 @@ pub(super) fn toml(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
     match rng.below(7) {
         0 => {
             // A value nested deep in arrays or inline tables.
-            let depth = *rng.pick(DEPTHS);
+            let depth = rng.size(DEPTHS, DEEP);
             let (open, close): (&[u8], &[u8]) = if rng.one_in(2) {
                 (b"[", b"]")
             } else {
@@ -82,7 +83,7 @@ pub(super) fn toml(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
                 let new: Vec<u8> = match rng.below(4) {
                     0 => {
                         // A long array of numbers, or of pairs (a table of many nodes).
-                        let n = *rng.pick(&[10usize, 1000, 20000]);
+                        let n = rng.size(&[2, 10, 100], &[1000, 20000]);
                         let item: &[u8] = if rng.one_in(2) { b"0.0, " } else { b"[0, 0], " };
                         let mut v = b"[".to_vec();
                         v.extend(item.repeat(n));
@@ -140,7 +141,7 @@ pub(super) fn toml(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
         }
         4 => {
             // A dotted key as deep as the nesting above.
-            let depth = *rng.pick(DEPTHS);
+            let depth = rng.size(DEPTHS, DEEP);
             let mut line = b"a".to_vec();
             line.extend(b".a".repeat(depth));
             line.extend_from_slice(b" = 1\n");
@@ -253,7 +254,7 @@ pub(super) fn csv(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
         }
         4 => {
             // Many rows.
-            let times = *rng.pick(&[10usize, 1000, 20000]);
+            let times = rng.size(&[2, 10, 100], &[1000, 20000]);
             if let Some(row) = rows.last().cloned() {
                 for _ in 0..times {
                     rows.push(row.clone());
@@ -401,7 +402,7 @@ pub(super) fn gcode(data: &mut Vec<u8>, rng: &mut Rng) {
             if !spans.is_empty() {
                 let (s, e) = *rng.pick(&spans);
                 let line = with_line_end(&data[s..e]);
-                let times = *rng.pick(&[100usize, 5000]);
+                let times = rng.size(&[2, 10, 100], &[5000]);
                 data.splice(e..e, line.repeat(times));
             }
         }

@@ -173,7 +173,7 @@ const TOLERANCE_WORDS: &[&str] = &[
 
 pub const TOLERANCE: Target = Target {
     name: "tolerance",
-    about: "tolerance files (TOML): `ToleranceFile::parse` against every embedded machine, then each machine sampled with every term at its limit and the reference evaluated on it",
+    about: "tolerance files (TOML): `ToleranceFile::parse` against the embedded machine a seed names (`# machine:`, else every one), then the machine sampled with every term at its limit and the reference evaluated on it",
     grammar: Grammar::Toml,
     words: TOLERANCE_WORDS,
     run: tolerance,
@@ -182,9 +182,15 @@ pub const TOLERANCE: Target = Target {
 fn tolerance(cx: &mut Context, input: &[u8]) -> Verdict {
     let paths = cx.write("tolerances.toml", input)?;
     let text = read!(volmap::io::read_text(&paths[0]), &["tolerances.toml"]);
-    // Accepted where one of the machines takes it (a file is written for one machine).
+    // Against the machine the seed names (`# machine:`), else every machine; accepted where one
+    // of them takes it (a file is written for one machine).
+    let named = super::measured::directive(input, "machine");
     let mut outcome = None;
-    for (_, machine) in cx.machines() {
+    for (_, machine) in cx
+        .machines()
+        .iter()
+        .filter(|(n, _)| named.is_none_or(|m| m == *n))
+    {
         match ToleranceFile::parse(&text, Path::new(&paths[0]), machine) {
             Ok(file) => {
                 outcome = Some(Outcome::Accepted);

@@ -94,14 +94,15 @@ impl Context {
 /// a longer one echoes input (or a list no reader needs).
 pub const MAX_MESSAGE_BYTES: usize = 1200;
 
-/// Judges an error of the library: bad input is [`ErrorKind::Input`], and its message names one
-/// of `files` (the file at fault, or the one naming it) and stays short.
+/// Judges an error of the library: bad input is [`ErrorKind::Input`], and its message as the
+/// command line shows it (through [`volmap::error::capped`], which cuts what it quotes) names
+/// one of `files` (the file at fault, or the one naming it) and stays short.
 pub fn refused<E: Classify>(error: E, files: &[&str]) -> Verdict {
-    let message = error.to_string();
+    let message = volmap::error::capped(&error.to_string());
     if error.kind() != ErrorKind::Input {
         return Err(format!(
             "bad input reported as a failure of the work (exit code 1, not 2): {}",
-            volmap::error::excerpt(&message)
+            quoted(&message)
         ));
     }
     if message.trim().is_empty() {
@@ -111,23 +112,31 @@ pub fn refused<E: Classify>(error: E, files: &[&str]) -> Verdict {
         return Err(format!(
             "a message of {} bytes (at most {MAX_MESSAGE_BYTES}): {}",
             message.len(),
-            volmap::error::excerpt(&message)
+            quoted(&message)
         ));
     }
     let digits = longest_digit_run(&message);
     if digits > MAX_NUMBER_DIGITS {
         return Err(format!(
             "a message with a number of {digits} digits outside a quote (numbers with many digits are shown in exponent form): {}",
-            volmap::error::excerpt(&message)
+            quoted(&message)
         ));
     }
     if !files.is_empty() && !files.iter().any(|f| message.contains(f)) {
         return Err(format!(
             "a message that names none of the files {files:?}: {}",
-            volmap::error::excerpt(&message)
+            quoted(&message)
         ));
     }
     Ok(Outcome::Refused(message))
+}
+
+/// The start of a message in a finding.
+fn quoted(message: &str) -> String {
+    match message.char_indices().nth(400) {
+        None => message.to_string(),
+        Some((end, _)) => format!("{}…", &message[..end]),
+    }
 }
 
 /// The most digits in a row a message may have outside its quotes (between backticks, which
@@ -135,12 +144,19 @@ pub fn refused<E: Classify>(error: E, files: &[&str]) -> Verdict {
 /// shown in exponent form (`volmap::error::shown` writes at most 24 characters).
 const MAX_NUMBER_DIGITS: usize = 30;
 
-/// The most digits in a row in `text` outside its quotes.
+/// The most digits in a row in `text` outside its quotes (between backticks, or a line of input
+/// quoted after `  | `).
 fn longest_digit_run(text: &str) -> usize {
-    text.split('`')
+    let unquoted: Vec<&str> = text.lines().filter(|l| !l.starts_with("  | ")).collect();
+    unquoted
+        .join("\n")
+        .split('`')
         .step_by(2)
-        .flat_map(|part| part.split(|c: char| !c.is_ascii_digit()))
-        .map(str::len)
+        .flat_map(|part| {
+            part.split(|c: char| !c.is_ascii_digit())
+                .map(str::len)
+                .collect::<Vec<_>>()
+        })
         .max()
         .unwrap_or(0)
 }

@@ -35,8 +35,9 @@ fn options(orientation: bool, pass_unknown: bool) -> Options {
     }
 }
 
-/// The most blocks (as the control runs them) of a program compensated: about 0.1 s of work.
-const COMPENSATED_BLOCKS: usize = 5_000;
+/// The most blocks (as the control runs them) of a program compensated: five-axis moves with the
+/// orientation compensated take up to a millisecond each.
+const COMPENSATED_BLOCKS: usize = 500;
 
 fn gcode(cx: &mut Context, input: &[u8]) -> Verdict {
     const FILE: &str = "program.nc";
