@@ -15,7 +15,7 @@ use super::program::{
     end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
 };
 use super::rotation::apply_rotations;
-use super::subprograms::{expand_subprograms, MAX_EXPANDED_BLOCKS};
+use super::subprograms::{expand_subprograms, Room};
 use super::toolpath::{arc_path, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
@@ -36,13 +36,13 @@ pub(super) fn as_run(
     pass_unknown: bool,
 ) -> Result<(Vec<Line>, usize), NcError> {
     let read = parse_program(program, path, pass_unknown)?;
-    // Calls and cycles together add at most MAX_EXPANDED_BLOCKS to the blocks of the file.
-    let most = read.len() + MAX_EXPANDED_BLOCKS;
+    // What calls and cycles together may add.
+    let mut room = Room::new();
     let (lines, holes) = expand_cycles(
-        expand_subprograms(read, path, pass_unknown)?,
+        expand_subprograms(read, path, pass_unknown, &mut room)?,
         path,
         pass_unknown,
-        most,
+        &mut room,
     )?;
     Ok((apply_rotations(lines, path)?, holes))
 }

@@ -16,7 +16,7 @@
 //! cycles in another plane are refused.
 
 use super::parse::{parse_line, Line};
-use super::subprograms::MAX_EXPANDED_BLOCKS;
+use super::subprograms::{Room, MAX_EXPANDED_WORDS};
 use super::NcError;
 use crate::error::shown;
 
@@ -91,7 +91,7 @@ pub(super) fn expand_cycles(
     lines: Vec<Line>,
     path: &str,
     pass_unknown: bool,
-    most: usize,
+    room: &mut Room,
 ) -> Result<(Vec<Line>, usize), NcError> {
     let mut holes = 0;
     let mut scan = Scan {
@@ -184,7 +184,7 @@ pub(super) fn expand_cycles(
                 return Err(missing("a positive peck depth Q"));
             }
             scan.cycle = Some(cycle);
-            expand_hole(&line, &mut scan, path, most, &mut out)?;
+            expand_hole(&line, &mut scan, path, room, &mut out)?;
             holes += 1;
         } else if scan.cycle.is_some() && axis_words {
             let cycle = scan.cycle.as_mut().expect("a cycle is in force");
@@ -199,7 +199,7 @@ pub(super) fn expand_cycles(
             if let Some(w) = line.word('P') {
                 cycle.dwell = Some(w.text.clone());
             }
-            expand_hole(&line, &mut scan, path, most, &mut out)?;
+            expand_hole(&line, &mut scan, path, room, &mut out)?;
             holes += 1;
         } else {
             if scan.passed_cycle.is_some() && axis_words {
@@ -228,7 +228,7 @@ fn expand_hole(
     line: &Line,
     scan: &mut Scan,
     path: &str,
-    most: usize,
+    room: &mut Room,
     out: &mut Vec<Line>,
 ) -> Result<(), NcError> {
     let cycle = scan.cycle.clone().expect("a cycle is in force");
@@ -302,17 +302,18 @@ fn expand_hole(
             ));
         }
     }
-    // The program's blocks so far and this hole's may not pass the expansion's bound.
-    let room = most.saturating_sub(out.len());
+    // The hole's blocks may not pass what calls and cycles may add (each block counts one, and
+    // one more for each of its words once read).
     let too_many = || {
         NcError::line(
             path,
             line.number,
             format!(
-                "the subprogram calls and canned cycles add more than {MAX_EXPANDED_BLOCKS} blocks to the program"
+                "the subprogram calls and canned cycles add more than {MAX_EXPANDED_WORDS} words and blocks to the program"
             ),
         )
     };
+    let room_for_blocks = room.left();
     let mut z = scan.z.unwrap_or(cycle.initial);
     for _ in 0..repeats as usize {
         if z < cycle.r {
@@ -331,7 +332,7 @@ fn expand_hole(
                     // A peck too small to change a number this large goes to the depth.
                     let next = if next < reached { next } else { cycle.depth };
                     feed_to(&mut texts, next);
-                    if texts.len() > room {
+                    if texts.len() > room_for_blocks {
                         return Err(too_many());
                     }
                     reached = next;
@@ -360,7 +361,7 @@ fn expand_hole(
             texts.push(format!("G0 Z{}", number(clear)));
         }
         z = clear;
-        if texts.len() > room {
+        if texts.len() > room_for_blocks {
             return Err(too_many());
         }
     }
@@ -377,7 +378,11 @@ fn expand_hole(
         } else {
             between
         };
-        out.push(parse_line(&text, ending, line.number, path)?);
+        let block = parse_line(&text, ending, line.number, path)?;
+        if !room.take(&block) {
+            return Err(too_many());
+        }
+        out.push(block);
     }
     Ok(())
 }

@@ -52,7 +52,7 @@ mod write;
 
 pub use compensate::{compensate, compensate_with_progress, trace, Compensated, TracePoint};
 pub use cycles::MAX_PECKS;
-pub use subprograms::MAX_EXPANDED_BLOCKS;
+pub use subprograms::MAX_EXPANDED_WORDS;
 
 /// The blocks of `program` (its bytes; `path` names it in errors) as the control runs them:
 /// subprogram calls and canned cycles expanded, coordinate rotations (G68) applied. With

@@ -70,15 +70,23 @@ fn pecks_below_the_resolution_of_their_levels_end() {
 }
 
 /// Subprograms calling subprograms a thousand times each expanded three million blocks from
-/// 30 lines (1.25 GB and 7 s to compensate); calls and cycles add at most a million blocks.
+/// 30 lines (1.25 GB and 7 s to compensate); calls and cycles add at most two million words and
+/// blocks, which a million blocks of eight words (700 MB, 1 s to read) also passed.
 #[test]
-fn calls_and_cycles_add_at_most_a_million_blocks() {
+fn calls_and_cycles_add_at_most_two_million_words_and_blocks() {
     let program = regression("gcode-calls.nc");
     let (line, message) = line_error(nc::blocks_as_run(&program, "c.nc", false));
-    assert_eq!(line, 15);
+    assert_eq!(line, 8, "the outermost call");
     assert_eq!(
         message,
-        "M98: the calls add more than 1000000 blocks to the program"
+        "M98: the calls add more than 2000000 words and blocks to the program"
+    );
+    let words = regression("gcode-words.nc");
+    let (line, message) = line_error(nc::blocks_as_run(&words, "w.nc", false));
+    assert_eq!(line, 18);
+    assert_eq!(
+        message,
+        "M98: the calls add more than 2000000 words and blocks to the program"
     );
     // Canned cycles count against the same bound: 1000 repeats of 1000 pecks.
     let cycles = b"G0 X10 Y10 Z10\nG83 X10 Y10 Z-999 R1 Q1 L1000\nG80\nM30\n";
@@ -86,12 +94,19 @@ fn calls_and_cycles_add_at_most_a_million_blocks() {
     assert_eq!(line, 2);
     assert_eq!(
         message,
-        "the subprogram calls and canned cycles add more than 1000000 blocks to the program"
+        "the subprogram calls and canned cycles add more than 2000000 words and blocks to the program"
     );
-    // A program's own blocks do not count: a million and more of them are read as they are.
-    let mut long = String::from("G0 X10 Y10 Z10\nM98 P1\nM30\nO1\nG1 X11 F100\nM99\n");
-    long.push_str(&"G1 X12\n".repeat(1_100_000));
-    let blocks = nc::blocks_as_run(long.as_bytes(), "long.nc", false).unwrap();
+    // Long blocks count for their length: a 6 kB block repeated a million times.
+    let long = format!(
+        "G0 X10 Y10 Z10\nM98 P1 L1000\nM30\nO1\nM98 P2 L1000\nM99\nO2\nG1 X11 ({})\nM99\n",
+        "x".repeat(6000)
+    );
+    let (line, _) = line_error(nc::blocks_as_run(long.as_bytes(), "l.nc", false));
+    assert_eq!(line, 2);
+    // A program's own blocks do not count: two million and more of them are read as they are.
+    let mut own = String::from("G0 X10 Y10 Z10\nM98 P1\nM30\nO1\nG1 X11 F100\nM99\n");
+    own.push_str(&"G1 X12\n".repeat(1_100_000));
+    let blocks = nc::blocks_as_run(own.as_bytes(), "own.nc", false).unwrap();
     assert!(blocks.len() > 1_100_000);
 }
 
