@@ -142,7 +142,7 @@ fn quoted(message: &str) -> String {
 /// The most digits in a row a message may have outside its quotes (between backticks, which
 /// [`volmap::error::excerpt`] cuts): a number volmap writes with more is one it should have
 /// shown in exponent form (`volmap::error::shown` writes at most 24 characters).
-const MAX_NUMBER_DIGITS: usize = 30;
+const MAX_NUMBER_DIGITS: usize = volmap::error::EXCERPT_CHARS;
 
 /// The most digits in a row in `text` outside its quotes (between backticks, or a line of input
 /// quoted after `  | `).
