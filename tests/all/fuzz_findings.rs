@@ -289,3 +289,31 @@ fn compensated_half_circles_by_radius_read_back() {
         .unwrap();
     compensated_reads_back(&five, &regression("gcode-half-circle-r.nc"));
 }
+
+/// A misspelt key of 3,000 characters was quoted whole in the message, as the command line
+/// shows it (`capped` cuts what is quoted between backticks, not the key's path).
+#[test]
+fn long_keys_are_quoted_within_80_characters() {
+    use volmap::error::capped;
+    let key = "k".repeat(3000);
+    let text = format!("name = \"m\"\nchain = \"FYXFZ\"\n[axes.X]\nrange = [0.0, 100.0]\n\"{key}\" = 1\n[axes.Y]\nrange = [0.0, 100.0]\n[axes.Z]\nrange = [0.0, 100.0]\n");
+    let message = capped(
+        &Machine::from_toml(&text, "m.toml", None)
+            .unwrap_err()
+            .to_string(),
+    );
+    assert!(message.len() < 400, "{message}");
+    assert!(message.starts_with("m.toml: axes.X.kkk"), "{message}");
+    let tolerances = format!("[\"{key}\"]\nx = 1\n");
+    let message = capped(
+        &volmap::io::tolerance_file::ToleranceFile::parse(
+            &tolerances,
+            std::path::Path::new("t.toml"),
+            &machine(),
+        )
+        .unwrap_err()
+        .to_string(),
+    );
+    assert!(message.len() < 400, "{message}");
+    assert!(message.starts_with("t.toml: kkk"), "{message}");
+}
