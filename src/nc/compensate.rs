@@ -275,10 +275,13 @@ fn process_line(
     let (start, end, motion) = (state.position, end_position(line, state), state.motion);
     let mut pieces: Vec<[f64; 6]> = Vec::new();
     let mut arcs = ArcPieces::new();
+    // Where the output has the tool at the start (see `written_start`).
+    let from: [f64; 6];
     if motion == Motion::Rapid {
         let programmed = line_directions(&start, &end, &state.programmed);
+        from = block.written_start(state.written, &start, &state.approach)?;
         let mut walk = Walk {
-            at: block.written_start(state.written, &start, &state.approach)?,
+            at: from,
             directions: state.approach,
         };
         let line = Toolpath::Line {
@@ -308,8 +311,9 @@ fn process_line(
             .max(block.angle_before(&|t| intended.at(t), &|t| {
                 segment_at(&segments, t).directions
             }));
+        from = block.written_start(state.written, &start, &state.approach)?;
         let mut walk = Walk {
-            at: block.written_start(state.written, &start, &state.approach)?,
+            at: from,
             directions: state.approach,
         };
         block.feed_move(
@@ -330,7 +334,7 @@ fn process_line(
         .largest_correction_mm
         .max(block.largest_correction.get());
     state.position = end;
-    write_block(line, state, &pieces, &arcs, out, options)
+    write_block(line, state, &from, &pieces, &arcs, out, options)
 }
 
 /// Points sampled along an intended move of `length` mm: every 0.5 mm, from 8 to 256.

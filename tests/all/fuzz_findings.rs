@@ -317,3 +317,11 @@ fn long_keys_are_quoted_within_80_characters() {
     assert!(message.len() < 400, "{message}");
     assert!(message.starts_with("t.toml: kkk"), "{message}");
 }
+
+/// An arc in the XZ plane after `G53 G0 Z0` and no Z word since: its K was written relative to
+/// a Z the output had not written, as `KNaN`.
+#[test]
+fn centre_words_after_a_reference_return_are_numbers() {
+    let text = compensated_reads_back(&machine(), &regression("gcode-arc-after-home.nc"));
+    assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
+}
