@@ -72,7 +72,9 @@ fn bench_maps(c: &mut Criterion) {
                         (0..iterations)
                             .map(|_| {
                                 Duration::from_secs_f64(
-                                    gpu.time_kernels(machine, grid, &[kernel], 1).unwrap().0[0],
+                                    gpu.time_kernels(machine, grid, &[kernel], 1, 0.0)
+                                        .unwrap()
+                                        .0[0][0],
                                 )
                             })
                             .sum()

@@ -23,6 +23,8 @@
 //!   data;
 //! - [`calibrate`]: location errors fitted to tests, machine files built from measurements;
 //! - [`nc`]: offline NC program compensation;
+//! - [`export`](mod@export): the correction as controllers' compensation tables, with the residual
+//!   each control leaves;
 //! - [`plot`]: one drawing written as SVG or PNG, and the charts built from it;
 //! - [`bench`](mod@bench): `volmap bench`.
 
@@ -31,6 +33,7 @@ pub mod calibrate;
 pub mod design;
 pub mod engine;
 pub mod error;
+pub mod export;
 pub mod gpu;
 pub mod io;
 pub mod limits;

@@ -59,6 +59,9 @@ enum Command {
     /// The real tool-tip deviation along an NC program, sampled along every move, without
     /// rewriting it (and, with --compensate, along its compensated program).
     Trace(cli::trace::TraceArgs),
+    /// Write the machine's correction as a controller's compensation table (LinuxCNC, Klipper,
+    /// Marlin, a generic 3-D grid), with the residual the control leaves applying it.
+    Export(cli::export::ExportArgs),
 }
 
 fn main() -> ExitCode {
@@ -78,6 +81,7 @@ fn main() -> ExitCode {
         Command::Plot(args) => cli::plot::run(args),
         Command::Compensate(args) => cli::compensate::run(args),
         Command::Trace(args) => cli::trace::run(args),
+        Command::Export(args) => cli::export::run(args),
     };
     result.unwrap_or_else(|failure| {
         failure.report();

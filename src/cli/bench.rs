@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use volmap::bench::{self, BenchReport};
 use volmap::engine::Engine;
+use volmap::io::atomic::ScratchDir;
 use volmap::model::grid::{self, Grid};
 use volmap::model::AxisLetter;
 
@@ -27,6 +28,9 @@ pub struct BenchArgs {
     /// Points the single-thread f64 reference computes (its rate does not depend on how many).
     #[arg(long, default_value_t = 100_000)]
     reference_points: u64,
+    /// Runs of every path: each figure is their median, printed with the slowest and fastest.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    runs: u64,
     #[command(flatten)]
     device: DeviceArg,
     #[command(flatten)]
@@ -59,35 +63,42 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
         let grid = Grid::full_travel(&machine, args.grid.grid, pose).flag("--grid")?;
         machines.push((machine, grid));
     }
-    let (engine, note) = args.device.engine()?;
-    if note.is_some() {
-        eprintln!("volmap: no GPU adapter found: GPU paths left out");
-    }
-    let scratch = tempfile_dir()?;
+    let scratch = scratch_dir()?;
     let mut results = Vec::new();
-    for (machine, grid) in &machines {
+    let mut adapter = None;
+    for (n, (machine, grid)) in machines.iter().enumerate() {
+        // A fresh engine per machine: on a GPU a new device, so nothing the machine before
+        // allocated or compiled is held or reused, whatever the order of the machines.
+        let (engine, note) = args.device.engine()?;
+        if note.is_some() && n == 0 {
+            eprintln!("volmap: no GPU adapter found: GPU paths left out");
+        }
+        if let Engine::Gpu(g) = &engine {
+            adapter = Some(g.adapter_name().to_string());
+        }
         let result = bench::bench_machine(
             machine,
             grid,
             &engine,
-            &scratch,
+            scratch.path(),
             args.reference_points,
+            args.runs as usize,
             |step| eprintln!("bench: {}: {step}", machine.name),
         );
+        drop(engine);
         results.push(
             result
                 .map_err(|e| Failure::from(e).context(format!("benchmarking {}", machine.name)))?,
         );
     }
-    let _ = std::fs::remove_dir_all(&scratch);
+    drop(scratch);
     let report = BenchReport {
         date: today(),
-        adapter: match &engine {
-            Engine::Gpu(g) => Some(g.adapter_name().to_string()),
-            _ => None,
-        },
+        adapter,
         cpu: cpu_name(),
         threads: rayon::current_num_threads(),
+        runs: args.runs as usize,
+        warm_up_s: bench::WARM_UP_SECONDS,
         machines: results,
     };
     print!("{}", bench::table(&report));
@@ -97,12 +108,12 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// A scratch folder for the fields the benchmarks write.
-fn tempfile_dir() -> Result<std::path::PathBuf, Failure> {
+/// A scratch folder for the fields the benchmarks write, removed when the run ends, however it
+/// ends (Ctrl-C and `kill` included).
+fn scratch_dir() -> Result<ScratchDir, Failure> {
     let scratch = std::env::temp_dir().join(format!("volmap-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&scratch)
-        .map_err(|e| Failure::work(e).context(format!("creating {}", scratch.display())))?;
-    Ok(scratch)
+    ScratchDir::create(&scratch)
+        .map_err(|e| Failure::from(e).context(format!("creating {}", scratch.display())))
 }
 
 /// The CPU's model name (Linux), or the architecture.

@@ -23,6 +23,7 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         let mut reader = file.reader(0)?;
         let stats = field_stats(&mut reader)?;
         print_summary(reader.info(), &stats);
+        println!("  stored      {}", file.storage(0));
         println!("  field       {}", args.file.display());
         return Ok(ExitCode::SUCCESS);
     }
@@ -36,6 +37,7 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         names.push(file.name(part));
     }
     print_sweep_summary(&file.info(total.max_ve_pose), &names, &stats, &total);
+    println!("  stored      {}", file.storage(0));
     println!(
         "  field       {} ({} parts, one per pose)",
         args.file.display(),

@@ -7,6 +7,7 @@ pub mod budget;
 pub mod budget_report;
 pub mod build;
 pub mod compensate;
+pub mod export;
 pub mod failure;
 pub mod features;
 pub mod fit;

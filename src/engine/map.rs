@@ -4,9 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use serde::Serialize;
+
 use super::reference;
 use super::{Engine, EngineError};
-use crate::io::field::{FieldError, FieldInfo, FieldWriter};
+use crate::io::field::{FieldError, FieldInfo, FieldWriter, Storage, WriteTimes};
 use crate::io::vtk::FieldImage;
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
@@ -39,6 +41,34 @@ pub struct MapSummary {
     pub seconds: f64,
     pub device: String,
     pub check: Option<CheckResult>,
+    /// Where the time went.
+    pub times: MapTimes,
+}
+
+/// Where a map's time went: seconds each stage was busy, the stages overlapping (the engine
+/// computes the next chunk while the field writer compresses and writes the last ones).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct MapTimes {
+    /// The map's thread in the engine: computing and, on a GPU, reading chunks back.
+    pub engine_s: f64,
+    /// The map's thread handing chunks over: statistics, the spot check's values, the VTK
+    /// image, the copy into the writer and any wait for room in it (`write.waiting_s`).
+    pub handoff_s: f64,
+    /// The field writer's stages, and the file's size.
+    pub write: WriteTimes,
+}
+
+impl MapTimes {
+    /// Adds the times of another map (a later pose of a sweep).
+    pub fn add(&mut self, other: &MapTimes) {
+        self.engine_s += other.engine_s;
+        self.handoff_s += other.handoff_s;
+        self.write.waiting_s += other.write.waiting_s;
+        self.write.compress_s += other.write.compress_s;
+        self.write.write_s += other.write.write_s;
+        self.write.sync_s += other.write.sync_s;
+        self.write.bytes = self.write.bytes.max(other.write.bytes);
+    }
 }
 
 /// Options of one map run.
@@ -51,6 +81,8 @@ pub struct MapOptions {
     /// A VTK ImageData file (`.vti`) to write the field into as well, for ParaView (a map of
     /// one pose; a sweep writes none).
     pub vtk_image: Option<PathBuf>,
+    /// How the field file stores its values (compression, HALF channels).
+    pub storage: Storage,
 }
 
 /// `n` distinct pseudo-random point numbers below `total`, sorted (splitmix64, fixed seed).
@@ -107,7 +139,7 @@ pub fn map_to_file(
 ) -> Result<MapSummary, EngineError> {
     let device = engine.name();
     let info = field_info(machine, grid, &device);
-    let mut writer = FieldWriter::create(out, &info)?;
+    let mut writer = FieldWriter::create_stored(out, &info, options.storage)?;
     let mut image = match &options.vtk_image {
         Some(path) => Some(FieldImage::create(path, &info).map_err(FieldError::from)?),
         None => None,
@@ -117,11 +149,13 @@ pub fn map_to_file(
     let checked = sample_points(grid.points(), options.check_points);
     let mut captured: Vec<[f32; 6]> = Vec::with_capacity(checked.len());
     let start = Instant::now();
+    let mut handoff_s = 0.0;
     engine.run(
         machine,
         grid,
         options.chunk_points,
         |first_line, lines, data| -> Result<(), EngineError> {
+            let handing = Instant::now();
             check_finite(machine, grid, first_line, lines, data)?;
             writer.write_lines(first_line, lines, data)?;
             if let Some(image) = &mut image {
@@ -132,10 +166,12 @@ pub fn map_to_file(
             stats.add_chunk(first_line, lines, nx, data);
             let end_point = capture(&checked, &mut captured, first_line, lines, nx, data);
             on_progress(end_point);
+            handoff_s += handing.elapsed().as_secs_f64();
             Ok(())
         },
     )?;
-    writer.finish()?;
+    let engine_s = start.elapsed().as_secs_f64() - handoff_s;
+    let write = writer.finish()?;
     if let Some(image) = image {
         image.finish().map_err(FieldError::from)?;
     }
@@ -147,6 +183,11 @@ pub fn map_to_file(
         seconds,
         device,
         check,
+        times: MapTimes {
+            engine_s,
+            handoff_s,
+            write,
+        },
     })
 }
 

@@ -89,6 +89,14 @@ impl Engine {
         }
     }
 
+    /// The most points one chunk of a map holds on this engine.
+    pub fn chunk_points(&self) -> u64 {
+        match self {
+            Engine::Gpu(g) => g.max_chunk_points(),
+            Engine::Cpu | Engine::Reference => cpu::CPU_CHUNK_POINTS,
+        }
+    }
+
     /// Computes the map, handing chunks of whole lines to `on_chunk(first_line, lines, data)` in
     /// line order. `chunk_points` caps the points per chunk below the engine's own limit; a chunk
     /// holds at least one line, whatever the cap.

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::map::{capture, check_against_reference, check_finite, field_info, sample_points};
-use super::map::{CheckResult, MapOptions};
+use super::map::{CheckResult, MapOptions, MapTimes};
 use super::{Engine, EngineError};
 use crate::io::field::PartsWriter;
 use crate::model::grid::Grid;
@@ -37,6 +37,8 @@ pub struct SweepSummary {
     pub device: String,
     /// The spot check: `check_points` points of every pose, the largest differences over all.
     pub check: Option<CheckResult>,
+    /// Where the time went, over every pose.
+    pub times: MapTimes,
 }
 
 /// Maps `machine` over every grid of `grids` (one per pose, the same linear grid) into the
@@ -51,18 +53,24 @@ pub fn map_sweep_to_file(
     mut on_progress: impl FnMut(u64),
 ) -> Result<SweepSummary, EngineError> {
     let device = engine.name();
-    let mut writer = PartsWriter::create(out, grids.len(), |p| {
-        (
-            pose_name(&grids[p].pose, machine),
-            field_info(machine, &grids[p], &device),
-        )
-    })?;
+    let mut writer = PartsWriter::create_stored(
+        out,
+        grids.len(),
+        |p| {
+            (
+                pose_name(&grids[p].pose, machine),
+                field_info(machine, &grids[p], &device),
+            )
+        },
+        options.storage,
+    )?;
     let start = Instant::now();
     let mut poses = Vec::with_capacity(grids.len());
     let mut total = FieldStats::default();
     let mut check: Option<CheckResult> = None;
     let mut points_before = 0u64;
     let mut check_seconds = 0.0;
+    let mut handoff_s = 0.0;
     for (p, grid) in grids.iter().enumerate() {
         let nx = grid.dims[0];
         let mut stats = FieldStats::default();
@@ -73,11 +81,13 @@ pub fn map_sweep_to_file(
             grid,
             options.chunk_points,
             |first_line, lines, data| -> Result<(), EngineError> {
+                let handing = Instant::now();
                 check_finite(machine, grid, first_line, lines, data)?;
                 writer.write_lines(p, first_line, lines, data)?;
                 stats.add_chunk(first_line, lines, nx, data);
                 let end_point = capture(&checked, &mut captured, first_line, lines, nx, data);
                 on_progress(points_before + end_point);
+                handoff_s += handing.elapsed().as_secs_f64();
                 Ok(())
             },
         )?;
@@ -102,12 +112,18 @@ pub fn map_sweep_to_file(
             stats,
         });
     }
-    writer.finish()?;
+    let engine_s = start.elapsed().as_secs_f64() - check_seconds - handoff_s;
+    let write = writer.finish()?;
     Ok(SweepSummary {
         poses,
         stats: total,
         seconds: start.elapsed().as_secs_f64() - check_seconds,
         device,
         check,
+        times: MapTimes {
+            engine_s,
+            handoff_s,
+            write,
+        },
     })
 }

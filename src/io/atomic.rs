@@ -5,8 +5,9 @@
 //! before anything is written ([`super::input::check_not_input`]). Until then dropping it removes the temporary file, so a failed or
 //! interrupted run never leaves half a file under the name asked for.
 //!
-//! Every temporary file alive is registered here, so that a signal handler (which runs no
-//! destructors) can remove them all ([`remove_live_temporaries_and_exit`]); and a run that starts writing
+//! Every temporary file alive is registered here, and every scratch folder ([`ScratchDir`]: a
+//! benchmark's fields), so that a signal handler (which runs no destructors) can remove them all
+//! ([`remove_live_temporaries_and_exit`]); and a run that starts writing
 //! `NAME` first removes the temporary files of `NAME` left by runs whose process is gone (killed
 //! beyond any handler, or a power cut), keeping those of runs still alive.
 
@@ -70,6 +71,27 @@ impl AtomicFile {
     /// A write error on this file.
     pub fn error(&self, source: std::io::Error) -> FileError {
         FileError::write(&self.path, source)
+    }
+
+    /// Writes `bytes` at `offset` of the file, leaving the position that sequential writes
+    /// continue from where it is: a table written ahead (flushed) and filled in as the data it
+    /// points to is written.
+    pub fn write_at(&mut self, bytes: &[u8], offset: u64) -> std::io::Result<()> {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileExt;
+            self.out.get_ref().write_all_at(bytes, offset)
+        }
+        #[cfg(not(unix))]
+        {
+            self.out.flush()?;
+            let file = self.out.get_mut();
+            let here = file.stream_position()?;
+            file.seek(SeekFrom::Start(offset))?;
+            file.write_all(bytes)?;
+            file.seek(SeekFrom::Start(here))?;
+            Ok(())
+        }
     }
 
     /// Flushes, syncs and renames the file into place.
@@ -142,18 +164,56 @@ fn live() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     LIVE.lock().unwrap_or_else(|p| p.into_inner())
 }
 
+/// The scratch folders alive now.
+fn live_folders() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+    LIVE.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// A folder of scratch files (a benchmark's fields), removed with everything in it when
+/// dropped, and by [`remove_live_temporaries`] when a signal ends the process.
+pub struct ScratchDir {
+    path: PathBuf,
+}
+
+impl ScratchDir {
+    /// Creates `path` (and its parents).
+    pub fn create(path: &Path) -> Result<ScratchDir, FileError> {
+        std::fs::create_dir_all(path).map_err(|e| FileError::write(path, e))?;
+        live_folders().push(path.to_path_buf());
+        Ok(ScratchDir {
+            path: path.to_path_buf(),
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.path);
+        live_folders().retain(|p| p != &self.path);
+    }
+}
+
 /// Takes a temporary file off the list of live ones (committed or removed).
 fn forget(temp: &Path) {
     live().retain(|t| t != temp);
 }
 
-/// Removes every temporary file being written and exits with `code`: for a signal handler,
-/// which runs no destructors. The list stays locked until the process ends, so no writer
-/// starts another temporary file meanwhile.
+/// Removes every temporary file being written and every scratch folder, and exits with `code`:
+/// for a signal handler, which runs no destructors. The lists stay locked until the process
+/// ends, so no writer starts another temporary file or folder meanwhile.
 pub fn remove_live_temporaries_and_exit(code: i32) -> ! {
     let mut live = live();
     for temp in live.drain(..) {
         let _ = std::fs::remove_file(temp);
+    }
+    let mut folders = live_folders();
+    for folder in folders.drain(..) {
+        let _ = std::fs::remove_dir_all(folder);
     }
     std::process::exit(code)
 }

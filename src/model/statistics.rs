@@ -22,17 +22,30 @@ pub struct FieldStats {
 }
 
 impl FieldStats {
-    /// Adds a chunk in the field layout (per line, `nx` values of each channel in turn).
+    /// Adds a chunk in the field layout (per line, `nx` values of each channel in turn). The
+    /// lines are summed on every core, each line's statistics merged in order: the same figures
+    /// whatever the chunks, and off the thread that computes the next chunk for most of the time.
     pub fn add_chunk(&mut self, first_line: u64, lines: u64, nx: usize, data: &[f32]) {
+        use rayon::prelude::*;
         let per_line = CHANNELS.len() * nx;
-        for (n, line) in data.chunks_exact(per_line).take(lines as usize).enumerate() {
-            let (oe, ve) = line.split_at(3 * nx);
-            for i in 0..nx {
-                let ve: [f64; 3] = std::array::from_fn(|c| ve[c * nx + i] as f64);
-                let oe: [f64; 3] = std::array::from_fn(|c| oe[c * nx + i] as f64);
-                let point = (first_line + n as u64) * nx as u64 + i as u64;
-                self.add_point(point, oe, ve);
-            }
+        let data = &data[..(lines as usize * per_line).min(data.len())];
+        let per_line_stats: Vec<FieldStats> = data
+            .par_chunks_exact(per_line)
+            .enumerate()
+            .map(|(n, line)| {
+                let mut stats = FieldStats::default();
+                let (oe, ve) = line.split_at(3 * nx);
+                for i in 0..nx {
+                    let ve: [f64; 3] = std::array::from_fn(|c| ve[c * nx + i] as f64);
+                    let oe: [f64; 3] = std::array::from_fn(|c| oe[c * nx + i] as f64);
+                    let point = (first_line + n as u64) * nx as u64 + i as u64;
+                    stats.add_point(point, oe, ve);
+                }
+                stats
+            })
+            .collect();
+        for line in &per_line_stats {
+            self.merge(line, self.max_ve_pose);
         }
     }
 

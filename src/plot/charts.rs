@@ -27,7 +27,12 @@ pub enum Marker {
 }
 
 /// A triangle of `size` px about `[x, y]`, pointing up or down.
-fn marker_shape(marker: Marker, [x, y]: [f64; 2], size: f64, color: Color) -> Option<Shape> {
+pub(super) fn marker_shape(
+    marker: Marker,
+    [x, y]: [f64; 2],
+    size: f64,
+    color: Color,
+) -> Option<Shape> {
     let tip = match marker {
         Marker::None => return None,
         Marker::Up => -1.0,
@@ -74,7 +79,7 @@ pub(super) const MARGIN_TOP: f64 = 50.0;
 pub(super) const MARGIN_BOTTOM: f64 = 60.0;
 
 /// The legend's rows from `(x, y)` down, framed; the frame, `[x, y, w, h]`.
-fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64; 4] {
+pub(super) fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64; 4] {
     let wide = series
         .iter()
         .map(|s| 30.0 + super::text_width(&s.name, 12.0))

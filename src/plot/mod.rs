@@ -16,6 +16,7 @@ use crate::io::FileError;
 mod axis;
 mod bars;
 mod charts;
+mod log_charts;
 mod maps;
 mod png;
 mod svg;
@@ -23,6 +24,7 @@ mod svg;
 pub use axis::ticks;
 pub use bars::{bar_chart, histogram, stacked, Bar};
 pub use charts::{line_chart, polar_chart, Marker, Series};
+pub use log_charts::log_chart;
 pub use maps::{colour, colour_map, deformed_grid};
 
 #[derive(Debug, thiserror::Error)]

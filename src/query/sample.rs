@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::QueryError;
 use crate::engine::DeviceChoice;
 use crate::gpu::GpuSampler;
-use crate::io::field::{FieldError, FieldFile, GridCell, LoadedField};
+use crate::io::field::{FieldError, FieldFile, FieldInfo, GridCell, LoadedField};
 use crate::io::points::{PointColumns, QueryPoint};
 use crate::model::channels::Sample;
 use crate::model::Machine;
@@ -114,7 +114,17 @@ fn locate_within(
     path: &str,
     outside: Outside,
 ) -> Result<Option<GridCell>, QueryError> {
-    match locate(field, p, path) {
+    locate_in(&field.info, p, path, outside)
+}
+
+/// [`locate_within`] from a field's header alone.
+fn locate_in(
+    info: &FieldInfo,
+    p: &QueryPoint,
+    path: &str,
+    outside: Outside,
+) -> Result<Option<GridCell>, QueryError> {
+    match locate(info, p, path) {
         Ok(cell) => Ok(Some(cell)),
         Err(QueryError::Outside { .. }) if outside != Outside::Error => Ok(None),
         Err(e) => Err(e),
@@ -122,7 +132,7 @@ fn locate_within(
 }
 
 /// Checks a position against the field (its pose and its grid) and finds its cell.
-fn locate(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<GridCell, QueryError> {
+fn locate(field: &FieldInfo, p: &QueryPoint, path: &str) -> Result<GridCell, QueryError> {
     let given = [p.given[3], p.given[4], p.given[5]];
     if let Some((n, value, held)) = field.pose_mismatch(&p.command, given) {
         return Err(QueryError::Pose {
@@ -145,11 +155,13 @@ fn locate(field: &LoadedField, p: &QueryPoint, path: &str) -> Result<GridCell, Q
         })
 }
 
-/// A field file opened for sampling: a single-pose field read whole, or a five-axis map (one
-/// part per pose) whose parts are read one by one as the points ask for them.
-pub enum SampledField {
-    One(Box<LoadedField>),
-    Parts(FieldFile),
+/// A field file opened for sampling: a single-pose field that fits in memory is read whole;
+/// the parts of a five-axis map are read one by one as the points ask for them, and a field
+/// larger than [`field_memory_bytes`](crate::io::field::field_memory_bytes) in slabs of z
+/// planes.
+pub struct SampledField {
+    file: FieldFile,
+    whole: Option<Box<LoadedField>>,
 }
 
 impl SampledField {
@@ -158,14 +170,21 @@ impl SampledField {
         SampledField::of(FieldFile::open(path)?)
     }
 
-    /// A field file whose headers are read: a single-pose field is read whole now.
+    /// A field file whose headers are read: a single-pose field that fits in memory is read
+    /// whole now.
     pub fn of(file: FieldFile) -> Result<SampledField, FieldError> {
-        Ok(if file.is_multipart() {
-            SampledField::Parts(file)
+        let whole = if !file.is_multipart() && fits_whole(&file, 0)? {
+            Some(Box::new(LoadedField::open_part(&file, 0)?))
         } else {
-            SampledField::One(Box::new(LoadedField::open_part(&file, 0)?))
-        })
+            None
+        };
+        Ok(SampledField { file, whole })
     }
+}
+
+/// Whether part `part` is read whole (else in slabs of z planes).
+fn fits_whole(file: &FieldFile, part: usize) -> Result<bool, FieldError> {
+    Ok(LoadedField::slab_planes(file, part)? >= file.info(part).dims[2])
 }
 
 /// Samples a field file at every point, on the GPU where `sampler` is given: a single-pose
@@ -186,15 +205,15 @@ pub fn sample_fields(
         .collect())
 }
 
-/// Samples a field file batch after batch, as [`sample_fields`] does for one: the part of a
-/// five-axis map read last is kept for the next batch, so points in the order of their poses
-/// read each part once.
+/// Samples a field file batch after batch, as [`sample_fields`] does for one: the part (or the
+/// slab of a part) read last is kept for the next batch, so points in the order of their poses
+/// (and along Z in a field read in slabs) read each once.
 pub struct FieldSampler<'a> {
     field: &'a SampledField,
     gpu: Option<&'a GpuSampler>,
     path: String,
     outside: Outside,
-    part: Option<(usize, LoadedField)>,
+    kept: Option<(usize, LoadedField)>,
 }
 
 impl<'a> FieldSampler<'a> {
@@ -211,43 +230,134 @@ impl<'a> FieldSampler<'a> {
             gpu,
             path: path.to_string(),
             outside,
-            part: None,
+            kept: None,
         }
     }
 
     /// The samples of a batch, `None` where [`Outside::Skip`] leaves a position out.
     pub fn sample(&mut self, points: &[QueryPoint]) -> Result<Vec<Option<Sample>>, QueryError> {
-        let (gpu, path, outside) = (self.gpu, self.path.as_str(), self.outside);
-        let sample = |field: &LoadedField, points: &[QueryPoint]| match gpu {
-            Some(gpu) => sample_field_gpu_within(field, points, path, gpu, outside),
-            None => sample_field_within(field, points, path, outside),
+        if let Some(whole) = &self.field.whole {
+            return self.sample_loaded(whole, points);
+        }
+        let file = &self.field.file;
+        let parts = if file.is_multipart() {
+            part_of_each(file, points, &self.path)?
+        } else {
+            vec![0; points.len()]
         };
-        let file = match self.field {
-            SampledField::One(field) => return sample(field, points),
-            SampledField::Parts(file) => file,
-        };
-        let parts = part_of_each(file, points, path)?;
         let mut by_part: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
         for (n, &part) in parts.iter().enumerate() {
             by_part.entry(part).or_default().push(n);
         }
         // The part kept from the last batch goes first, so it is not read again.
-        let kept = self.part.as_ref().map(|(n, _)| *n);
+        let kept = self.kept.as_ref().map(|(n, _)| *n);
         let mut order: Vec<(usize, Vec<usize>)> = by_part.into_iter().collect();
         order.sort_by_key(|(part, _)| Some(*part) != kept);
         let mut samples = vec![None; points.len()];
         for (part, indices) in order {
-            if self.part.as_ref().is_none_or(|(n, _)| *n != part) {
-                self.part = None;
-                self.part = Some((part, LoadedField::open_part(file, part)?));
-            }
-            let field = &self.part.as_ref().expect("the part was just read").1;
             let subset: Vec<QueryPoint> = indices.iter().map(|&n| points[n].clone()).collect();
-            for (n, s) in indices.into_iter().zip(sample(field, &subset)?) {
+            let sampled = if fits_whole(file, part)? {
+                if self.kept.as_ref().is_none_or(|(n, _)| *n != part) {
+                    self.kept = None;
+                    self.kept = Some((part, LoadedField::open_part(file, part)?));
+                }
+                let field = &self.kept.as_ref().expect("the part was just read").1;
+                self.sample_loaded(field, &subset)?
+            } else {
+                self.sample_in_slabs(part, &subset)?
+            };
+            for (n, s) in indices.into_iter().zip(sampled) {
                 samples[n] = s;
             }
         }
         Ok(samples)
+    }
+
+    fn sample_loaded(
+        &self,
+        field: &LoadedField,
+        points: &[QueryPoint],
+    ) -> Result<Vec<Option<Sample>>, QueryError> {
+        match self.gpu {
+            Some(gpu) => sample_field_gpu_within(field, points, &self.path, gpu, self.outside),
+            None => sample_field_within(field, points, &self.path, self.outside),
+        }
+    }
+
+    /// Samples points in part `part`, too large to read whole: each point located from the
+    /// header, then the points of each slab of z planes (a slab holds `planes` planes and
+    /// overlaps the next by one, so it holds both planes of the cells whose lower corner is in
+    /// it) sampled in that slab.
+    fn sample_in_slabs(
+        &mut self,
+        part: usize,
+        points: &[QueryPoint],
+    ) -> Result<Vec<Option<Sample>>, QueryError> {
+        let file = &self.field.file;
+        let info = file.info(part);
+        let nz = info.dims[2];
+        let planes = LoadedField::slab_planes(file, part)?;
+        let step = planes - 1;
+        let located: Vec<Result<Option<GridCell>, QueryError>> = points
+            .par_iter()
+            .map(|p| locate_in(&info, p, &self.path, self.outside))
+            .collect();
+        let cells: Vec<Option<GridCell>> = located.into_iter().collect::<Result<_, _>>()?;
+        let slab_of = |cell: &GridCell| (cell.lower[2] / step).min((nz - 2) / step);
+        let mut by_slab: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+        for (n, cell) in cells.iter().enumerate() {
+            if let Some(cell) = cell {
+                by_slab.entry(slab_of(cell)).or_default().push(n);
+            }
+        }
+        let kept_slab = self
+            .kept
+            .as_ref()
+            .filter(|(p, _)| *p == part)
+            .map(|(_, f)| f.planes().start / step);
+        let mut order: Vec<(usize, Vec<usize>)> = by_slab.into_iter().collect();
+        order.sort_by_key(|(slab, _)| Some(*slab) != kept_slab);
+        let mut samples: Vec<Option<Sample>> = vec![None; points.len()];
+        for (slab, members) in order {
+            let first = slab * step;
+            let wanted = first..(first + planes).min(nz);
+            if self
+                .kept
+                .as_ref()
+                .is_none_or(|(p, f)| *p != part || f.planes() != wanted)
+            {
+                self.kept = None;
+                self.kept = Some((part, LoadedField::open_planes(file, part, wanted)?));
+            }
+            let field = &self.kept.as_ref().expect("the slab was just read").1;
+            let slab_cells: Vec<GridCell> = members
+                .iter()
+                .map(|&n| cells[n].expect("grouped cells are inside"))
+                .collect();
+            let values: Vec<Sample> = match self.gpu {
+                Some(gpu) => {
+                    let first_plane = field.planes().start;
+                    let shifted: Vec<GridCell> = slab_cells
+                        .iter()
+                        .map(|c| GridCell {
+                            lower: [c.lower[0], c.lower[1], c.lower[2] - first_plane],
+                            fraction: c.fraction,
+                        })
+                        .collect();
+                    let [nx, ny, _] = info.dims;
+                    let dims = [nx, ny, field.planes().len()];
+                    gpu.sample(dims, field.values(), &shifted, None)?
+                        .into_iter()
+                        .map(|v| v.map(|x| x as f64))
+                        .collect()
+                }
+                None => slab_cells.par_iter().map(|c| field.blend(c)).collect(),
+            };
+            for (n, v) in members.into_iter().zip(values) {
+                samples[n] = Some(v);
+            }
+        }
+        Ok(with_nan(samples, self.outside))
     }
 }
 

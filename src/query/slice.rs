@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use super::QueryError;
-use crate::io::field::{FieldFile, FieldInfo, FieldReader};
+use crate::io::field::{FieldError, FieldFile, FieldInfo, FieldReader};
 use crate::io::vtk::ImageGrid;
 use crate::model::channels::CHANNELS;
 
@@ -114,6 +114,18 @@ pub fn field_slice_at_pose(
         _ => (0, 1),
     };
     let (cols, rows) = (info.dims[h], info.dims[v]);
+    // The plane's values are held at once, 8 bytes each: bounded as a field read is.
+    let bytes = (cols as u64).saturating_mul(rows as u64).saturating_mul(8);
+    let limit = crate::io::field::field_memory_bytes();
+    if bytes > limit {
+        return Err(FieldError::TooLarge {
+            path: path.display().to_string(),
+            what: format!("a slice of {cols}x{rows} points"),
+            bytes,
+            limit,
+        }
+        .into());
+    }
     let values = read_plane(&mut reader, d, index, |line, i| {
         let nx = info.dims[0];
         let parts = channels.iter().map(|&c| line[c * nx + i] as f64);

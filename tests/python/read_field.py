@@ -29,5 +29,6 @@ with OpenEXR.File(path, separate_channels=True) as f:
         "chain": header["volmap.chain"],
         "channels": sorted(field),
         "dtype": str(np.asarray(field["VE.X"]).dtype),
+        "compression": str(header["compression"]).split(".")[-1],
         "values": values,
     }))

@@ -498,16 +498,20 @@ impl GpuMapper {
         })?
     }
 
-    /// The seconds one pass over the whole grid takes on the device (best of `runs`) for each of
-    /// `kernels`, and whether timestamp queries timed them. The kernels take turns, run after
-    /// run, so a ceiling and the kernel it bounds are measured under the same conditions.
+    /// The seconds one pass over the whole grid takes on the device, every run of `runs`, for
+    /// each of `kernels`, and whether timestamp queries timed them. The kernels take turns, run
+    /// after run, so a ceiling and the kernel it bounds are measured under the same conditions.
+    /// Before the clock starts every kernel passes over the grid for at least `warm_up_s`
+    /// seconds (once at least): the driver's lazy work done and the device's clocks up, whatever
+    /// ran before.
     pub fn time_kernels(
         &self,
         machine: &Machine,
         grid: &Grid,
         kernels: &[TimedKernel],
         runs: usize,
-    ) -> Result<(Vec<f64>, bool), GpuError> {
+        warm_up_s: f64,
+    ) -> Result<(Vec<Vec<f64>>, bool), GpuError> {
         let mut tilings: Vec<Tiling> = Vec::new();
         for kernel in kernels {
             if !tilings.contains(&kernel.tiling) {
@@ -522,37 +526,44 @@ impl GpuMapper {
                 .position(|p| p.tiling == kernel.tiling)
                 .expect("a plan per tiling")
         };
-        // Let the per-map passes and any lazy driver work finish before the clock starts.
-        for kernel in kernels {
-            let warm_up =
-                self.submit_chunk(&prepared, plan_of(kernel), 0, kernel.choice, false, None);
-            self.gpu.wait(warm_up)?;
-        }
-        let timer = self.gpu.timer(prepared.chunks.len());
-        let mut best = vec![f64::INFINITY; kernels.len()];
-        for _ in 0..runs.max(1) {
-            for (k, kernel) in kernels.iter().enumerate() {
-                let plan = plan_of(kernel);
-                let start = std::time::Instant::now();
-                let mut last = None;
-                for n in 0..prepared.chunks.len() {
-                    let timed = timer.as_ref().map(|t| (t, n as u32));
-                    last = Some(self.submit_chunk(&prepared, plan, n, kernel.choice, false, timed));
-                }
-                if let Some(last) = last {
-                    self.gpu.wait(last)?;
-                }
-                let seconds = match &timer {
-                    Some(t) => self.gpu.timed_seconds(t, prepared.chunks.len() as u32)?,
-                    None => start.elapsed().as_secs_f64(),
-                };
-                best[k] = best[k].min(seconds);
+        let pass = |kernel: &TimedKernel, timer: Option<&device::Timer>| {
+            let plan = plan_of(kernel);
+            let mut last = None;
+            for n in 0..prepared.chunks.len() {
+                let timed = timer.map(|t| (t, n as u32));
+                last = Some(self.submit_chunk(&prepared, plan, n, kernel.choice, false, timed));
+            }
+            match last {
+                Some(last) => self.gpu.wait(last),
+                None => Ok(()),
+            }
+        };
+        let warming = std::time::Instant::now();
+        loop {
+            for kernel in kernels {
+                pass(kernel, None)?;
+            }
+            if warming.elapsed().as_secs_f64() >= warm_up_s {
+                break;
             }
         }
-        Ok((best, timer.is_some()))
+        let timer = self.gpu.timer(prepared.chunks.len());
+        let mut seconds = vec![Vec::with_capacity(runs); kernels.len()];
+        for _ in 0..runs.max(1) {
+            for (k, kernel) in kernels.iter().enumerate() {
+                let start = std::time::Instant::now();
+                pass(kernel, timer.as_ref())?;
+                seconds[k].push(match &timer {
+                    Some(t) => self.gpu.timed_seconds(t, prepared.chunks.len() as u32)?,
+                    None => start.elapsed().as_secs_f64(),
+                });
+            }
+        }
+        Ok((seconds, timer.is_some()))
     }
 
-    /// [`GpuMapper::time_kernels`] for one kernel with this device's tiling.
+    /// [`GpuMapper::time_kernels`] for one kernel with this device's tiling: the fastest of
+    /// `runs`, after one pass.
     pub fn time_kernel(
         &self,
         machine: &Machine,
@@ -564,7 +575,10 @@ impl GpuMapper {
             choice,
             tiling: self.tiling,
         };
-        let (seconds, timestamps) = self.time_kernels(machine, grid, &[kernel], runs)?;
-        Ok((seconds[0], timestamps))
+        let (seconds, timestamps) = self.time_kernels(machine, grid, &[kernel], runs, 0.0)?;
+        Ok((
+            seconds[0].iter().copied().fold(f64::INFINITY, f64::min),
+            timestamps,
+        ))
     }
 }

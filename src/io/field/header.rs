@@ -1,13 +1,23 @@
-//! Reading a field's header: its attributes into a [`FieldInfo`], and the image attributes
-//! checked against what volmap writes (channels, compression, data window; in a multi-part file
-//! also each part's name, type and chunk count).
+//! Reading a field's header: its attributes into a [`FieldInfo`] (the grid's numbers checked),
+//! and the image attributes checked against what volmap writes (channels FLOAT or HALF, a
+//! compression the readers decode, the data window; in a multi-part file also each part's name,
+//! type and chunk count).
 
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufReader, Read};
 
+use super::blocks::{compression_name, BlockCodec};
 use super::inputs::{self, RawInputs};
-use super::{FieldError, FieldInfo, PIXEL_FLOAT};
+use super::{FieldError, FieldInfo, PIXEL_FLOAT, PIXEL_HALF, PIXEL_UINT};
 use crate::model::channels::CHANNELS;
+
+/// The CSV tables of a header as read: `volmap.csvPath.N` and `volmap.csvText.N` by `N`.
+#[derive(Default)]
+struct CsvAttributes {
+    paths: BTreeMap<u32, String>,
+    texts: BTreeMap<u32, String>,
+}
 
 pub(super) struct Cursor<'a> {
     pub path: &'a str,
@@ -73,6 +83,7 @@ impl Cursor<'_> {
         let mut info = FieldInfo::default();
         let mut image = ImageAttributes::default();
         let mut raw = RawInputs::default();
+        let mut csv = CsvAttributes::default();
         let mut empty = true;
         loop {
             let name = self.text()?;
@@ -80,6 +91,8 @@ impl Cursor<'_> {
                 if empty {
                     return Ok(None);
                 }
+                self.csv_tables(csv, &mut info)?;
+                self.check_numbers(&info)?;
                 info.inputs = raw.record(&info, self.path)?;
                 return Ok(Some((info, image)));
             }
@@ -90,8 +103,73 @@ impl Cursor<'_> {
                 return Err(self.format(format!("attribute {name} claims {size} bytes")));
             }
             let value = self.bytes(size)?;
-            self.attribute(&name, &kind, &value, &mut info, &mut image, &mut raw)?;
+            if let Some(n) = name.strip_prefix("volmap.csvPath.") {
+                csv.paths
+                    .insert(self.table_number(&name, n)?, string_of(&value));
+            } else if let Some(n) = name.strip_prefix("volmap.csvText.") {
+                csv.texts
+                    .insert(self.table_number(&name, n)?, string_of(&value));
+            } else {
+                self.attribute(&name, &kind, &value, &mut info, &mut image, &mut raw)?;
+            }
         }
+    }
+
+    fn table_number(&self, name: &str, n: &str) -> Result<u32, FieldError> {
+        n.parse()
+            .map_err(|_| self.format(format!("attribute {name}: `{n}` is not a table number")))
+    }
+
+    /// The CSV tables of the header (after those of fields written before the tables were
+    /// numbered), each path with its text.
+    fn csv_tables(&self, csv: CsvAttributes, info: &mut FieldInfo) -> Result<(), FieldError> {
+        let CsvAttributes { paths, mut texts } = csv;
+        for (n, path) in paths {
+            let text = texts.remove(&n).ok_or_else(|| {
+                self.format(format!(
+                    "attribute volmap.csvPath.{n} has no volmap.csvText.{n}"
+                ))
+            })?;
+            info.csv_files.push((path, text));
+        }
+        if let Some(n) = texts.keys().next() {
+            return Err(self.format(format!(
+                "attribute volmap.csvText.{n} has no volmap.csvPath.{n}"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The grid's numbers: every origin and pose finite, every step finite and positive (zero
+    /// only along a dimension one point deep), naming the attribute at fault.
+    fn check_numbers(&self, info: &FieldInfo) -> Result<(), FieldError> {
+        const AXES: [&str; 3] = ["X", "Y", "Z"];
+        for d in 0..3 {
+            let origin = info.origin_mm[d];
+            if !origin.is_finite() {
+                return Err(self.format(format!(
+                    "attribute volmap.origin: {} = {origin} mm is not a finite number",
+                    AXES[d]
+                )));
+            }
+            let step = info.spacing_mm[d];
+            let fine = step.is_finite() && (step > 0.0 || (step == 0.0 && info.dims[d] <= 1));
+            if !fine {
+                return Err(self.format(format!(
+                    "attribute volmap.spacing: the step along {} is {step} mm; it must be a positive number{}",
+                    AXES[d],
+                    if info.dims[d] <= 1 { " or 0 (one point)" } else { "" }
+                )));
+            }
+            let pose = info.pose_deg[d];
+            if !pose.is_finite() {
+                return Err(self.format(format!(
+                    "attribute volmap.pose: {} = {pose}° is not a finite number",
+                    ["A", "B", "C"][d]
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// One attribute into the field's info or the image attributes; others are skipped.
@@ -104,7 +182,7 @@ impl Cursor<'_> {
         image: &mut ImageAttributes,
         raw: &mut RawInputs,
     ) -> Result<(), FieldError> {
-        let string = || String::from_utf8_lossy(value).into_owned();
+        let string = || string_of(value);
         let need = |n: usize| {
             if value.len() == n {
                 Ok(())
@@ -178,28 +256,35 @@ impl Cursor<'_> {
         Ok(())
     }
 
-    /// Checks that the image is the field volmap writes for `info`: its channels, no
-    /// compression, a data window of the grid's size.
-    pub fn check_image(&self, info: &FieldInfo, image: &ImageAttributes) -> Result<(), FieldError> {
-        let expected: Vec<(String, Option<i32>)> = CHANNELS
+    /// Checks that the image is a field as volmap writes it for `info` (its channels all FLOAT
+    /// or all HALF, a compression the readers decode, a data window of the grid's size) and
+    /// returns the codec of its blocks.
+    pub fn check_image(
+        &self,
+        info: &FieldInfo,
+        image: &ImageAttributes,
+    ) -> Result<BlockCodec, FieldError> {
+        let names: Vec<&str> = image.channels.iter().map(|(n, _)| n.as_str()).collect();
+        let types: Vec<Option<i32>> = image.channels.iter().map(|&(_, t)| t).collect();
+        let half = types.first() == Some(&Some(PIXEL_HALF));
+        let uniform = types
             .iter()
-            .map(|n| (n.to_string(), Some(PIXEL_FLOAT)))
-            .collect();
-        if image.channels != expected {
+            .all(|&t| t == Some(PIXEL_FLOAT) || (half && t == Some(PIXEL_HALF)));
+        if names != CHANNELS || !uniform {
+            let found: Vec<String> = image
+                .channels
+                .iter()
+                .map(|(n, t)| format!("{n} {}", pixel_type_name(*t)))
+                .collect();
             return Err(self.format(format!(
-                "channels must be FLOAT {}, found {}",
+                "channels must be {} all FLOAT (or all HALF), found {}",
                 CHANNELS.join(" "),
-                image
-                    .channels
-                    .iter()
-                    .map(|(n, _)| n.as_str())
-                    .collect::<Vec<_>>()
-                    .join(" ")
+                if found.is_empty() {
+                    "none".to_string()
+                } else {
+                    found.join(", ")
+                }
             )));
-        }
-        if image.compression != Some(0) {
-            return Err(self
-                .format("the file is compressed; volmap reads the uncompressed fields it writes"));
         }
         let [nx, ny, nz] = info.dims;
         if info.dims.contains(&0) {
@@ -210,15 +295,23 @@ impl Cursor<'_> {
                 "the data window does not match volmap.dims {nx}x{ny}x{nz}"
             )));
         }
-        Ok(())
+        let code = image
+            .compression
+            .ok_or_else(|| self.format("the header has no compression attribute"))?;
+        BlockCodec::new(nx, (ny * nz) as u64, code, half).ok_or_else(|| {
+            self.format(format!(
+                "its compression ({}) is not one volmap reads (none, rle, zips, zip, piz, pxr24, b44, b44a, dwaa, dwab)",
+                compression_name(code)
+            ))
+        })
     }
 
     /// Checks the attributes every part of a multi-part file has (`name`, `type`
-    /// `scanlineimage`, `chunkCount` one per line), and returns the part's name.
+    /// `scanlineimage`, `chunkCount` its number of blocks), and returns the part's name.
     pub fn check_part(
         &self,
         part: usize,
-        info: &FieldInfo,
+        blocks: u64,
         image: &ImageAttributes,
     ) -> Result<String, FieldError> {
         let name = image
@@ -230,12 +323,26 @@ impl Cursor<'_> {
                 "part {part} ({name}) is not a scanline image; volmap reads the fields it writes"
             )));
         }
-        let lines = (info.dims[1] * info.dims[2]) as i64;
-        if image.chunk_count.map(i64::from) != Some(lines) {
+        if image.chunk_count.map(i64::from) != Some(blocks as i64) {
             return Err(self.format(format!(
-                "part {part} ({name}): chunkCount must be its {lines} lines"
+                "part {part} ({name}): chunkCount must be its {blocks} blocks of lines"
             )));
         }
         Ok(name)
+    }
+}
+
+fn string_of(value: &[u8]) -> String {
+    String::from_utf8_lossy(value).into_owned()
+}
+
+/// An OpenEXR pixel type in words.
+fn pixel_type_name(pixel: Option<i32>) -> String {
+    match pixel {
+        Some(PIXEL_UINT) => "UINT".into(),
+        Some(PIXEL_HALF) => "HALF".into(),
+        Some(PIXEL_FLOAT) => "FLOAT".into(),
+        Some(other) => format!("of pixel type {other}"),
+        None => "of no pixel type".into(),
     }
 }

@@ -1,21 +1,30 @@
-//! Field files: OpenEXR, one part, scanlines, no compression, FLOAT channels
-//! `OE.X OE.Y OE.Z VE.X VE.Y VE.Z`. The image is `nx` wide and `ny·nz` tall; pixel
-//! `(i, j + k·ny)` holds grid point `(i, j, k)`. A five-axis map over the rotary axes is one
-//! multi-part file: one such field per pose of the sweep, each part named by its pose
-//! (`B=-90,C=0`) and carrying every attribute a single-pose field has.
+//! Field files: OpenEXR, one part, scanlines, six channels `OE.X OE.Y OE.Z VE.X VE.Y VE.Z`,
+//! FLOAT (or HALF where a picture is wanted), uncompressed or compressed with OpenEXR's ZIP or
+//! PXR24. The image is `nx` wide and `ny·nz` tall; pixel `(i, j + k·ny)` holds grid point
+//! `(i, j, k)`. A five-axis map over the rotary axes is one multi-part file: one such field per
+//! pose of the sweep, each part named by its pose (`B=-90,C=0`) and carrying every attribute a
+//! single-pose field has.
 //!
-//! Uncompressed scanline chunks have a fixed size, so the offset tables are known before any
-//! pixel is computed: the writers stream lines as they arrive and memory does not grow with the
-//! grid, nor with the sweep. They write to a temporary file in the target's folder and rename it
-//! only when every line is written, so an interrupted run never leaves a truncated field.
+//! The writers stream lines as they arrive through a pipeline that compresses and writes them
+//! behind the computation, with a fixed number of pieces in memory whatever the grid or the
+//! sweep. They write to a temporary file in the target's folder and rename it only when every
+//! line is written and synced, so an interrupted run never leaves a truncated field. The readers
+//! read any scanline compression the `exr` crate decodes, block by block, with the offset tables
+//! read a window at a time: memory does not grow with the grid.
 
+mod blocks;
+mod encode;
 mod header;
 mod inputs;
 mod loaded;
+mod pipeline;
+mod prepare;
 mod read;
 mod write;
 
-pub use loaded::{GridCell, LoadedField};
+pub use blocks::{compress_on_one_thread, Compression, Storage, HALF_MAX};
+pub use loaded::{field_memory_bytes, GridCell, LoadedField, FIELD_MEMORY_BYTES};
+pub use pipeline::WriteTimes;
 pub use read::{FieldFile, FieldReader};
 pub use write::{FieldWriter, PartsWriter};
 
@@ -67,6 +76,23 @@ pub enum FieldError {
         held: String,
         asked: String,
     },
+    #[error("{path}: {channel} = {value:e} at grid point ({}, {}, {}) is beyond the range of HALF values (±{max}); the field was not saved", point[0], point[1], point[2])]
+    HalfRange {
+        path: String,
+        channel: &'static str,
+        point: [usize; 3],
+        value: f32,
+        max: f32,
+    },
+    #[error("{path}: {what}; the field was not saved")]
+    Compress { path: String, what: String },
+    #[error("{path}: {what} needs {bytes} bytes of memory at once, more than the {limit} bytes volmap reads a field in")]
+    TooLarge {
+        path: String,
+        what: String,
+        bytes: u64,
+        limit: u64,
+    },
 }
 
 impl Classify for FieldError {
@@ -78,10 +104,13 @@ impl Classify for FieldError {
             FieldError::Format { .. }
             | FieldError::Poses { .. }
             | FieldError::NoPose { .. }
-            | FieldError::Inputs { .. } => ErrorKind::Input,
+            | FieldError::Inputs { .. }
+            | FieldError::HalfRange { .. }
+            | FieldError::TooLarge { .. } => ErrorKind::Input,
             FieldError::OutOfOrder { .. }
             | FieldError::Incomplete { .. }
-            | FieldError::PartOutOfOrder { .. } => ErrorKind::Work,
+            | FieldError::PartOutOfOrder { .. }
+            | FieldError::Compress { .. } => ErrorKind::Work,
         }
     }
 }
@@ -105,7 +134,8 @@ pub struct FieldInfo {
     pub chain: String,
     /// The machine file, verbatim (`volmap.machineToml`).
     pub machine_toml: String,
-    /// CSV tables the machine file reads: `(path as written, text)` (`volmap.csv.<path>`).
+    /// CSV tables the machine file reads: `(path as written, text)` (`volmap.csvPath.N` and
+    /// `volmap.csvText.N` for the `N`-th; `volmap.csv.<path>` in fields written before).
     pub csv_files: Vec<(String, String)>,
     /// The device that computed the field (`volmap.device`).
     pub device: String,
@@ -180,6 +210,8 @@ pub(crate) const FLAG_TILED: u32 = 0x200;
 pub(crate) const FLAG_LONG_NAMES: u32 = 0x400;
 pub(crate) const FLAG_DEEP: u32 = 0x800;
 pub(crate) const FLAG_MULTIPART: u32 = 0x1000;
+pub(crate) const PIXEL_UINT: i32 = 0;
+pub(crate) const PIXEL_HALF: i32 = 1;
 pub(crate) const PIXEL_FLOAT: i32 = 2;
 
 /// The grid and pose in words, exact (shortest round-trip decimals).

@@ -1,25 +1,30 @@
 //! Reading a field written by volmap: the headers checked against what volmap writes, the parts
 //! of a multi-part file (one per pose of a sweep) found by their pose, then lines one by one or
-//! in chunks, in order.
+//! in chunks, in order, each block decoded once. The offset tables are read a window at a time
+//! and checked against the file's length first: memory does not grow with the grid.
 
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
+use super::blocks::{compression_name, BlockCodec};
 use super::header::Cursor;
 use super::{
     pose_list, FieldError, FieldInfo, FLAG_DEEP, FLAG_MULTIPART, FLAG_TILED, MAGIC,
     POSE_TOLERANCE_DEG,
 };
 use crate::io::FileError;
-use crate::model::channels::CHANNELS;
 use crate::model::inputs::InputsRecord;
 
-/// One part of a field file: its name (empty in a single-part file), its header and where its
-/// offset table starts.
+/// One part of a field file: its name (empty in a single-part file), its header, how its blocks
+/// are stored and where its offset table starts.
 struct Part {
     name: String,
     info: FieldInfo,
+    /// The OpenEXR compression code and whether the channels are HALF.
+    code: u8,
+    half: bool,
+    blocks: u64,
     table: u64,
 }
 
@@ -29,6 +34,9 @@ pub struct FieldFile {
     path: PathBuf,
     display: String,
     multipart: bool,
+    /// Where the blocks start (after every offset table) and where the file ends.
+    data_start: u64,
+    file_bytes: u64,
     /// Parts after the first whose machine file and CSV tables are the first's keep them empty
     /// here (a sweep repeats them in every part): [`FieldFile::info`] puts them back.
     parts: Vec<Part>,
@@ -52,10 +60,22 @@ impl FieldFile {
         }
         let multipart = version & FLAG_MULTIPART != 0;
         let mut parts: Vec<Part> = Vec::new();
+        // The least each part's blocks can take: a chunk header and a byte each, or the raw
+        // values where they are stored uncompressed.
+        let mut least_data = 0u64;
         while let Some((mut info, image)) = c.header()? {
-            c.check_image(&info, &image)?;
+            let codec = c.check_image(&info, &image)?;
+            let lines = (info.dims[1] as u64).saturating_mul(info.dims[2] as u64);
+            let blocks = lines.div_ceil(codec.lines_per_block());
+            let head = if multipart { 12 } else { 8 };
+            let least_block = if codec.is_uncompressed() {
+                codec.raw_bytes(codec.lines_per_block().min(lines))
+            } else {
+                1
+            };
+            least_data = least_data.saturating_add(blocks.saturating_mul(head + least_block));
             let name = if multipart {
-                let name = c.check_part(parts.len(), &info, &image)?;
+                let name = c.check_part(parts.len(), blocks, &image)?;
                 if let Some(first) = parts.first() {
                     if info.machine_toml == first.info.machine_toml
                         && info.csv_files == first.info.csv_files
@@ -68,9 +88,13 @@ impl FieldFile {
             } else {
                 String::new()
             };
+            let (code, half) = codec.stored();
             parts.push(Part {
                 name,
                 info,
+                code,
+                half,
+                blocks,
                 table: 0,
             });
             if !multipart {
@@ -80,22 +104,18 @@ impl FieldFile {
         if parts.is_empty() {
             return Err(c.format("the file has no header"));
         }
-        // The offset tables follow the headers, one per part; then the lines, each with its part
-        // number in a multi-part file.
+        // The offset tables follow the headers, one per part; then the blocks, each with its
+        // part number in a multi-part file. Nothing is read of them before the sizes the
+        // headers imply are checked against the file's.
         let mut at = c.reader.stream_position().unwrap_or(0);
-        let mut data_bytes = at;
         for part in &mut parts {
-            // Dimensions come from the file: sums that overflow count as more than it has.
-            let [nx, ny, nz] = part.info.dims.map(|d| d as u64);
-            let chunk_head = if multipart { 12 } else { 8 };
-            let lines = ny.saturating_mul(nz);
-            let chunk = (CHANNELS.len() as u64 * 4).saturating_mul(nx) + 8 + chunk_head;
             part.table = at;
-            at = at.saturating_add(lines.saturating_mul(8));
-            data_bytes = data_bytes.saturating_add(lines.saturating_mul(chunk));
+            at = at.saturating_add(part.blocks.saturating_mul(8));
         }
+        let data_start = at;
+        let needed = data_start.saturating_add(least_data);
         let file_bytes = c.reader.get_ref().metadata().map(|m| m.len()).unwrap_or(0);
-        if data_bytes > file_bytes {
+        if needed > file_bytes {
             let what = match &parts[..] {
                 [one] => {
                     let [nx, ny, nz] = one.info.dims;
@@ -104,13 +124,15 @@ impl FieldFile {
                 many => format!("its {} parts need", many.len()),
             };
             return Err(c.format(format!(
-                "{what} {data_bytes} bytes but the file has {file_bytes}: truncated"
+                "{what} at least {needed} bytes but the file has {file_bytes}: truncated"
             )));
         }
         Ok(FieldFile {
             path: path.to_path_buf(),
             display,
             multipart,
+            data_start,
+            file_bytes,
             parts,
         })
     }
@@ -138,6 +160,18 @@ impl FieldFile {
             info.csv_files = self.parts[0].info.csv_files.clone();
         }
         info
+    }
+
+    /// How part `part` stores its values, in words: its compression (`none`, `zip`, `pxr24`,
+    /// …), and `, HALF` for 16-bit channels.
+    pub fn storage(&self, part: usize) -> String {
+        let stored = &self.parts[part];
+        let name = compression_name(stored.code);
+        if stored.half {
+            format!("{name}, HALF")
+        } else {
+            name
+        }
     }
 
     /// The evaluation inputs part `part` was computed for.
@@ -205,51 +239,57 @@ impl FieldFile {
     /// A reader of the lines of part `part`.
     pub fn reader(&self, part: usize) -> Result<FieldReader, FieldError> {
         let file = File::open(&self.path).map_err(|e| FileError::read(&self.path, e))?;
-        let mut file = BufReader::with_capacity(1 << 20, file);
         let info = self.info(part);
-        let [_, ny, nz] = info.dims;
-        let lines = ny * nz;
-        let read = |source| FileError::Read {
-            path: self.display.clone(),
-            source,
-        };
-        file.seek(SeekFrom::Start(self.parts[part].table))
-            .map_err(read)?;
-        let mut table = vec![0u8; 8 * lines];
-        file.read_exact(&mut table)
-            .map_err(|_| FieldError::Format {
-                path: self.display.clone(),
-                what: "the file ends inside its offset tables".into(),
-            })?;
-        let offsets = table
-            .chunks(8)
-            .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
-            .collect();
+        let stored = &self.parts[part];
+        let lines = (info.dims[1] * info.dims[2]) as u64;
+        let codec = BlockCodec::new(info.dims[0], lines, stored.code, stored.half)
+            .expect("the header's compression was checked");
         Ok(FieldReader {
             path: self.display.clone(),
-            file,
+            file: BufReader::with_capacity(1 << 20, file),
             position: None,
-            scratch: Vec::new(),
             info,
             part: self.multipart.then_some(part as u32),
-            offsets,
+            codec,
+            lines,
+            blocks: stored.blocks,
+            table: stored.table,
+            data_start: self.data_start,
+            file_bytes: self.file_bytes,
+            offsets_first: 0,
+            offsets: Vec::new(),
+            block: None,
+            values: Vec::new(),
         })
     }
 }
 
+/// Offsets read from a table at a time.
+const OFFSET_WINDOW: u64 = 8192;
+
 /// Reads the lines of one field (a single-part file, or one part of a multi-part file) written
-/// by volmap: scanline, uncompressed.
+/// by volmap: scanline blocks, decoded one at a time.
 pub struct FieldReader {
     path: String,
     file: BufReader<File>,
-    /// Where the file stands after the last line read, if known.
+    /// Where the file stands after the last read, if known.
     position: Option<u64>,
-    /// The bytes of the last line read.
-    scratch: Vec<u8>,
     info: FieldInfo,
-    /// The part number every line's chunk starts with, in a multi-part file.
+    /// The part number every block's chunk starts with, in a multi-part file.
     part: Option<u32>,
+    codec: BlockCodec,
+    lines: u64,
+    blocks: u64,
+    /// Where the part's offset table starts, where the blocks start and where the file ends.
+    table: u64,
+    data_start: u64,
+    file_bytes: u64,
+    /// A window of the offset table: the offsets of blocks `offsets_first ..`.
+    offsets_first: u64,
     offsets: Vec<u64>,
+    /// The block decoded last and its values (per line, `nx` values of each channel).
+    block: Option<u64>,
+    values: Vec<f32>,
 }
 
 impl FieldReader {
@@ -265,34 +305,73 @@ impl FieldReader {
     }
 
     pub fn lines(&self) -> u64 {
-        self.offsets.len() as u64
+        self.lines
     }
 
-    /// Reads line `line` into `out` (`6 · nx` values, channels in [`CHANNELS`] order).
-    pub fn read_line(&mut self, line: u64, out: &mut [f32]) -> Result<(), FieldError> {
-        let nx = self.info.dims[0];
-        let format = |what: String| FieldError::Format {
+    fn format(&self, what: String) -> FieldError {
+        FieldError::Format {
             path: self.path.clone(),
             what,
-        };
-        let offset = *self
-            .offsets
-            .get(line as usize)
-            .ok_or_else(|| format(format!("line {line} is past the last line")))?;
-        let io = |source| FileError::Read {
-            path: self.path.clone(),
-            source,
-        };
-        // Lines of volmap's files follow each other: seek (which empties the read buffer) only
-        // when this one does not start where the last one ended.
-        if self.position != Some(offset) {
-            self.file.seek(SeekFrom::Start(offset)).map_err(io)?;
         }
+    }
+
+    fn seek(&mut self, to: u64) -> Result<(), FieldError> {
+        // Blocks of volmap's files follow each other: seek (which empties the read buffer)
+        // only when the next read does not start where the last one ended.
+        if self.position != Some(to) {
+            self.file
+                .seek(SeekFrom::Start(to))
+                .map_err(|source| FileError::Read {
+                    path: self.path.clone(),
+                    source,
+                })?;
+        }
+        Ok(())
+    }
+
+    /// Where block `block` starts, from the window of the offset table that holds it.
+    fn offset(&mut self, block: u64) -> Result<u64, FieldError> {
+        let held = self.offsets_first..self.offsets_first + self.offsets.len() as u64;
+        if !held.contains(&block) {
+            let count = OFFSET_WINDOW.min(self.blocks - block);
+            self.seek(self.table + 8 * block)?;
+            let mut bytes = vec![0u8; 8 * count as usize];
+            self.file
+                .read_exact(&mut bytes)
+                .map_err(|_| self.format("the file ends inside its offset tables".into()))?;
+            self.position = Some(self.table + 8 * (block + count));
+            self.offsets = bytes
+                .chunks_exact(8)
+                .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+                .collect();
+            self.offsets_first = block;
+        }
+        let offset = self.offsets[(block - self.offsets_first) as usize];
+        if offset < self.data_start || offset >= self.file_bytes {
+            return Err(self.format(format!(
+                "the offset of block {block} ({offset}) lies outside the file's blocks"
+            )));
+        }
+        Ok(offset)
+    }
+
+    /// Reads and decodes block `block` into `values`, unless it is there already.
+    fn load_block(&mut self, block: u64) -> Result<(), FieldError> {
+        if self.block == Some(block) {
+            return Ok(());
+        }
+        self.block = None;
+        let offset = self.offset(block)?;
+        self.seek(offset)?;
+        let per_block = self.codec.lines_per_block();
+        let first_line = block * per_block;
+        let lines = per_block.min(self.lines - first_line);
         let head_bytes = if self.part.is_some() { 12 } else { 8 };
         let mut head = [0u8; 12];
+        let truncated = |r: &Self| r.format(format!("the block of line {first_line} is truncated"));
         self.file
             .read_exact(&mut head[..head_bytes])
-            .map_err(|_| format(format!("line {line} is truncated")))?;
+            .map_err(|_| truncated(self))?;
         let word = |at: usize| [head[at], head[at + 1], head[at + 2], head[at + 3]];
         let (y, size) = (
             i32::from_le_bytes(word(head_bytes - 8)),
@@ -301,24 +380,45 @@ impl FieldReader {
         if let Some(part) = self.part {
             let got = u32::from_le_bytes(word(0));
             if got != part {
-                return Err(format(format!(
-                    "line {line} of part {part}: chunk header says part {got}"
+                return Err(self.format(format!(
+                    "the block of line {first_line} of part {part}: its chunk header says part {got}"
                 )));
             }
         }
-        if y as u64 != line || size as usize != CHANNELS.len() * 4 * nx {
-            return Err(format(format!(
-                "line {line}: chunk header says line {y} of {size} bytes"
+        // A block is never stored larger than its raw values (OpenEXR keeps them raw then).
+        let most = self.codec.raw_bytes(lines);
+        if y as i64 != first_line as i64 || size <= 0 || size as u64 > most {
+            return Err(self.format(format!(
+                "block of line {first_line}: its chunk header says line {y} of {size} bytes (at most {most})"
             )));
         }
-        self.scratch.resize(size as usize, 0);
-        self.file
-            .read_exact(&mut self.scratch)
-            .map_err(|_| format(format!("line {line} is truncated")))?;
-        for (v, b) in out.iter_mut().zip(self.scratch.chunks_exact(4)) {
-            *v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        if offset + head_bytes as u64 + size as u64 > self.file_bytes {
+            return Err(truncated(self));
         }
+        let mut stored = vec![0u8; size as usize];
+        self.file
+            .read_exact(&mut stored)
+            .map_err(|_| truncated(self))?;
         self.position = Some(offset + head_bytes as u64 + size as u64);
+        let mut values = std::mem::take(&mut self.values);
+        let decoded = self.codec.decode(first_line, lines, stored, &mut values);
+        self.values = values;
+        decoded.map_err(|what| self.format(format!("block of line {first_line}: {what}")))?;
+        self.block = Some(block);
+        Ok(())
+    }
+
+    /// Reads line `line` into `out` (`6 · nx` values, channels in
+    /// [`CHANNELS`](crate::model::channels::CHANNELS) order).
+    pub fn read_line(&mut self, line: u64, out: &mut [f32]) -> Result<(), FieldError> {
+        if line >= self.lines {
+            return Err(self.format(format!("line {line} is past the last line")));
+        }
+        let per_block = self.codec.lines_per_block();
+        self.load_block(line / per_block)?;
+        let per_line = self.codec.values_per_line();
+        let start = (line % per_block) as usize * per_line;
+        out[..per_line].copy_from_slice(&self.values[start..start + per_line]);
         Ok(())
     }
 
@@ -327,14 +427,24 @@ impl FieldReader {
     pub fn for_each_chunk(
         &mut self,
         lines_per_chunk: u64,
+        f: impl FnMut(u64, u64, &[f32]),
+    ) -> Result<(), FieldError> {
+        self.for_each_chunk_of(0..self.lines, lines_per_chunk, f)
+    }
+
+    /// [`FieldReader::for_each_chunk`] over the lines of `range` only.
+    pub fn for_each_chunk_of(
+        &mut self,
+        range: std::ops::Range<u64>,
+        lines_per_chunk: u64,
         mut f: impl FnMut(u64, u64, &[f32]),
     ) -> Result<(), FieldError> {
-        let values = CHANNELS.len() * self.info.dims[0];
-        let total = self.lines();
+        let values = self.codec.values_per_line();
+        let end = range.end.min(self.lines);
         let mut buffer = Vec::new();
-        let mut first = 0;
-        while first < total {
-            let lines = lines_per_chunk.max(1).min(total - first);
+        let mut first = range.start;
+        while first < end {
+            let lines = lines_per_chunk.max(1).min(end - first);
             buffer.resize(lines as usize * values, 0.0);
             for n in 0..lines {
                 let start = n as usize * values;

@@ -16,11 +16,13 @@ fn temporaries(dir: &Path) -> Vec<String> {
         .collect()
 }
 
-/// Starts a map large enough to be interrupted, waits for its temporary file, sends `signal`
-/// and returns the exit code.
-fn interrupted_map(dir: &Path, signal: &str) -> Option<i32> {
+/// Starts a map large enough to be interrupted (with `extra` arguments), waits for its
+/// temporary file, sends `signal` and returns the exit code.
+fn interrupted_map(dir: &Path, signal: &str, extra: &[&str]) -> Option<i32> {
     let mut child = Command::new(assert_cmd::cargo::cargo_bin("volmap"))
-        .args(["map", "--grid", "400x400x400", "--device", "cpu", "--out"])
+        .args(["map", "--grid", "400x400x400", "--device", "cpu"])
+        .args(extra)
+        .arg("--out")
         .arg(dir.join("big.exr"))
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -46,7 +48,7 @@ fn interrupted_map(dir: &Path, signal: &str) -> Option<i32> {
 #[test]
 fn sigterm_removes_the_temporary_file_and_exits_143() {
     let dir = tempfile::tempdir().unwrap();
-    assert_eq!(interrupted_map(dir.path(), "-TERM"), Some(143));
+    assert_eq!(interrupted_map(dir.path(), "-TERM", &[]), Some(143));
     assert!(
         temporaries(dir.path()).is_empty(),
         "{:?}",
@@ -58,13 +60,64 @@ fn sigterm_removes_the_temporary_file_and_exits_143() {
 #[test]
 fn sigint_removes_the_temporary_file_and_exits_130() {
     let dir = tempfile::tempdir().unwrap();
-    assert_eq!(interrupted_map(dir.path(), "-INT"), Some(130));
+    assert_eq!(interrupted_map(dir.path(), "-INT", &[]), Some(130));
     assert!(
         temporaries(dir.path()).is_empty(),
         "{:?}",
         temporaries(dir.path())
     );
     assert!(!dir.path().join("big.exr").exists());
+}
+
+#[test]
+fn an_interrupted_compressed_map_leaves_nothing() {
+    for extra in [
+        &["--compression", "zip"][..],
+        &["--compression", "pxr24", "--half"],
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(interrupted_map(dir.path(), "-INT", extra), Some(130));
+        let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+        assert!(left.is_empty(), "{extra:?}: {left:?}");
+    }
+}
+
+#[test]
+fn an_interrupted_bench_removes_its_scratch_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut child = Command::new(assert_cmd::cargo::cargo_bin("volmap"))
+        .env("TMPDIR", dir.path())
+        .args(["bench", "--machines", "vmc-li2015", "--grid", "64x64x64"])
+        .args([
+            "--device",
+            "cpu",
+            "--reference-points",
+            "100",
+            "--runs",
+            "50",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let scratch = dir.path().join(format!("volmap-bench-{}", child.id()));
+    let start = Instant::now();
+    // Until a field is being written in the scratch folder.
+    while std::fs::read_dir(&scratch).map_or(true, |d| d.count() == 0) {
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no scratch field appeared"
+        );
+        assert!(child.try_wait().unwrap().is_none(), "the bench ended early");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    assert!(!scratch.exists(), "the scratch folder is left behind");
 }
 
 #[test]

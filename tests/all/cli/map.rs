@@ -204,6 +204,8 @@ fn bench_prints_a_table_and_writes_json() {
             "16x8x4",
             "--reference-points",
             "50",
+            "--runs",
+            "3",
             "--json",
         ])
         .arg(&json)
@@ -212,7 +214,10 @@ fn bench_prints_a_table_and_writes_json() {
         .stdout(
             predicate::str::contains("f64 reference, 1 thread")
                 .and(predicate::str::contains("CPU engine"))
-                .and(predicate::str::contains("EXR write"))
+                .and(predicate::str::contains(
+                    "disk ceiling (field writer, none)",
+                ))
+                .and(predicate::str::contains("map to EXR, CPU engine, pxr24"))
                 .and(predicate::str::contains("map to EXR, f64 reference")),
         );
     let report: serde_json::Value =
@@ -222,8 +227,49 @@ fn bench_prints_a_table_and_writes_json() {
     for m in machines {
         let paths = m["paths"].as_array().unwrap();
         assert_eq!(paths[0]["ratio_to_reference"].as_f64(), Some(1.0));
+        assert!(m["disk_mb_per_s"].as_f64().unwrap() > 0.0);
         for p in paths {
-            assert!(p["mpts_per_s"].as_f64().unwrap() > 0.0, "{p}");
+            // Every figure the median of its runs, with its spread.
+            let (median, spread) = (p["mpts_per_s"].as_f64().unwrap(), &p["spread"]);
+            assert_eq!(spread["runs"], 3, "{p}");
+            assert!(median > 0.0, "{p}");
+            assert!(p["mpts_per_s_min"].as_f64().unwrap() <= median, "{p}");
+            assert!(p["mpts_per_s_max"].as_f64().unwrap() >= median, "{p}");
+            let seconds = |key: &str| spread[key].as_f64().unwrap();
+            assert!(seconds("min") <= seconds("q1") && seconds("q1") <= seconds("median"));
+            assert!(seconds("median") <= seconds("q3") && seconds("q3") <= seconds("max"));
+            assert_eq!(seconds("median"), p["seconds"].as_f64().unwrap());
+        }
+        // The disk ceiling, and every map held against it with its file and stage shares.
+        let path = |name: &str| {
+            paths
+                .iter()
+                .find(|p| p["path"] == name)
+                .unwrap_or_else(|| panic!("no {name} in {paths:?}"))
+        };
+        assert_eq!(
+            path("disk ceiling (field writer, none)")["fraction_of_disk"].as_f64(),
+            Some(1.0)
+        );
+        let mut engines = vec!["CPU engine"];
+        if report["adapter"].is_string() {
+            engines.push("GPU");
+        }
+        for engine in engines {
+            let mut sizes = Vec::new();
+            for compression in ["none", "zip", "pxr24"] {
+                let map = path(&format!("map to EXR, {engine}, {compression}"));
+                assert!(map["fraction_of_disk"].as_f64().unwrap() > 0.0, "{map}");
+                sizes.push(map["file_bytes"].as_u64().unwrap());
+                let stages = &map["stages"];
+                for stage in ["engine", "handoff", "waiting", "compress", "write", "sync"] {
+                    let share = stages[stage].as_f64().unwrap();
+                    assert!((0.0..=1.0).contains(&share), "{stage}: {map}");
+                }
+                assert_eq!(stages["device"].is_number(), engine == "GPU", "{map}");
+                assert_eq!(stages["readback"].is_number(), engine == "GPU", "{map}");
+            }
+            assert!(sizes[2] < sizes[0], "pxr24 is smaller than none: {sizes:?}");
         }
         let gpu_paths = paths
             .iter()

@@ -3,6 +3,9 @@
 mod compensate;
 mod compensate_orientation;
 mod design;
+mod export;
+mod export_fanuc;
+mod field_files;
 mod finite;
 mod hardening_inputs;
 mod hardening_messages;

@@ -163,12 +163,10 @@ fn values_are_the_shortest_decimals_that_read_back_to_the_same_value() {
     }
 }
 
-/// The peak resident memory of `volmap sample` on `count` generated points, in bytes.
-///
-/// Read from the child's own `VmHWM` while it runs: the `ru_maxrss` of `wait4` carries over
-/// the peak of the process it was forked from (Linux keeps it across `execve`), which is this
-/// test binary with every test running beside it. The high-water mark only grows, so the last
-/// reading before the child exits is its peak to within one polling interval.
+/// The peak resident memory of `volmap sample` on `count` generated points, in bytes: the
+/// child's own `VmHWM`, read from `/proc` while it runs. (`wait4`'s `ru_maxrss` would not do: a
+/// child spawned with `CLONE_VM` carries the parent's peak over its `exec`, and this test
+/// process, holding other tests' work, can be larger than the bound.)
 #[cfg(target_os = "linux")]
 fn peak_memory_of_sample(dir: &Path, field: &Path, count: usize) -> u64 {
     let points = dir.join(format!("p{count}.csv"));
@@ -193,30 +191,36 @@ fn peak_memory_of_sample(dir: &Path, field: &Path, count: usize) -> u64 {
         .spawn()
         .unwrap();
     let status_file = format!("/proc/{}/status", child.id());
-    let mut peak_kib = 0u64;
+    let mut peak_kb = 0u64;
     let status = loop {
+        // Only once the child is volmap: before its exec it shares this process's memory.
         if let Ok(text) = std::fs::read_to_string(&status_file) {
-            if let Some(kib) = text
-                .lines()
-                .find_map(|l| l.strip_prefix("VmHWM:"))
-                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-            {
-                peak_kib = peak_kib.max(kib);
+            let field = |key: &str| {
+                text.lines()
+                    .find_map(|l| l.strip_prefix(key))
+                    .map(str::trim)
+            };
+            if field("Name:") == Some("volmap") {
+                if let Some(kb) = field("VmHWM:")
+                    .and_then(|v| v.trim_end_matches("kB").trim().parse::<u64>().ok())
+                {
+                    peak_kb = peak_kb.max(kb);
+                }
             }
         }
         if let Some(status) = child.try_wait().unwrap() {
             break status;
         }
-        std::thread::sleep(std::time::Duration::from_millis(2));
+        std::thread::sleep(std::time::Duration::from_millis(1));
     };
     assert!(status.success());
-    assert!(peak_kib > 0, "no reading of the child's memory");
+    assert!(peak_kb > 0, "the child's memory was never read");
     let written =
         std::io::BufRead::lines(std::io::BufReader::new(std::fs::File::open(&out).unwrap()))
             .count();
     assert_eq!(written, count + 1);
     std::fs::remove_file(&points).unwrap();
-    peak_kib * 1024
+    peak_kb * 1024
 }
 
 /// Not timed: the same bound holds for 200,000 and 2,000,000 points. Holding every point, its

@@ -1,0 +1,313 @@
+//! `volmap export`: the machine's correction as a controller's compensation table, with the
+//! residual the control leaves when it applies the table as written.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use volmap::export::{self, ExportError, Report, Request, TableSize};
+use volmap::plot::{self, Color, Marker, Series};
+
+use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
+use super::failure::{Failure, FlagContext};
+use super::output::{check_plot_paths, progress, write_json, write_plot, written_by};
+
+const UM_PER_MM: f64 = 1000.0;
+/// Below this the structure's remainder is the arithmetic's, mm.
+const NEGLIGIBLE_MM: f64 = 1e-6;
+
+#[derive(clap::Args)]
+pub struct ExportArgs {
+    #[command(flatten)]
+    machine: MachineArg,
+    /// The controller format: grid-csv, linuxcnc, klipper or marlin (see the README for each
+    /// format's tables, limits and how to load them).
+    #[arg(long)]
+    format: String,
+    /// Where to write: the file for a one-file format (grid-csv, klipper, marlin), a folder
+    /// (created) for a format of several files (linuxcnc).
+    #[arg(long, required_unless_present = "sweep_points")]
+    out: Option<PathBuf>,
+    /// Spacing between table nodes, mm (per axis, the nodes from the start of each travel to
+    /// its end or beyond).
+    #[arg(long, conflicts_with = "points")]
+    spacing: Option<f64>,
+    /// Points per table (per axis for a 3-D grid); default: the format's (see the README).
+    #[arg(long)]
+    points: Option<usize>,
+    #[command(flatten)]
+    pose: PoseArg,
+    #[command(flatten)]
+    inputs: InputsArg,
+    /// Refuse the export (write nothing, exit 2) when the largest residual is above this, mm.
+    #[arg(long)]
+    max_residual: Option<f64>,
+    /// Points per linear axis of the grid the residual is measured on (default: twice the
+    /// table's density, 41 to 81).
+    #[arg(long)]
+    residual_grid: Option<usize>,
+    /// Instead of writing a table: the residual for each of these numbers of points per table,
+    /// e.g. `2,3,5,9,17,33`.
+    #[arg(long, conflicts_with_all = ["out", "points", "spacing", "max_residual"])]
+    sweep_points: Option<String>,
+    /// With --sweep-points: a plot of the residual against the number of points (SVG or PNG).
+    #[arg(long, requires = "sweep_points")]
+    plot: Option<PathBuf>,
+    #[command(flatten)]
+    json: JsonArg,
+}
+
+pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
+    if let Some(path) = &args.plot {
+        check_plot_paths(&[path], "--plot")?;
+    }
+    let format = export::format_named(&args.format).flag("--format")?;
+    if let Some(limit) = args.max_residual {
+        if !(limit.is_finite() && limit >= 0.0) {
+            return Err(Failure::input(format!(
+                "--max-residual {limit}: it must be a number of mm, zero or more"
+            )));
+        }
+    }
+    let machine = args.machine.load()?;
+    let inputs = args.inputs.on(&machine)?;
+    let pose = args.pose.on(&machine)?;
+    let size = match (args.points, args.spacing) {
+        (Some(n), _) => TableSize::Points(n),
+        (_, Some(s)) => TableSize::Spacing(s),
+        _ => TableSize::Default,
+    };
+    let size_flag = match size {
+        TableSize::Points(_) => "--points",
+        TableSize::Spacing(_) => "--spacing",
+        TableSize::Default => "--format",
+    };
+    let request = Request {
+        machine: &machine,
+        inputs: &inputs,
+        pose,
+        size,
+        evaluation_points: args.residual_grid,
+        written_by: written_by(),
+    };
+    if let Some(list) = &args.sweep_points {
+        return sweep(format, &request, list, &args);
+    }
+    let bar = progress(None, "exporting", "steps");
+    let result = export::export(format, &request);
+    bar.finish_and_clear();
+    let exported = result.map_err(|e| flag_of(e, size_flag))?;
+    print_report(&exported.report);
+    let r = &exported.report;
+    if r.residual.max_mm > r.before.max_mm {
+        let why = if r.residual_offset_free.max_mm < r.before_offset_free.max_mm {
+            format!(
+                "less a work offset it leaves {} against {}: what it adds is a constant offset, which a work offset (touch-off) takes up",
+                um(r.residual_offset_free.max_mm),
+                um(r.before_offset_free.max_mm)
+            )
+        } else {
+            "it holds too little of this machine's error to help".to_string()
+        };
+        eprintln!(
+            "warning: the {} table leaves a larger largest error than the machine has without it ({} against {}); {why}",
+            r.format,
+            um(r.residual.max_mm),
+            um(r.before.max_mm)
+        );
+    }
+    if let Some(limit) = args.max_residual {
+        exported.check_residual(limit).flag("--max-residual")?;
+    }
+    let out = args
+        .out
+        .as_ref()
+        .expect("clap requires --out without --sweep-points");
+    let paths = exported.write(out).flag("--out")?;
+    for path in &paths {
+        println!("  wrote                  {}", path.display());
+    }
+    if let Some(path) = &args.json.json {
+        let written: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+        write_json(
+            path,
+            &serde_json::json!({ "written": written, "report": exported.report }),
+        )?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// An export error with the flag it comes from.
+fn flag_of(error: ExportError, size_flag: &str) -> Failure {
+    let flag = match &error {
+        ExportError::NoTableSize { .. }
+        | ExportError::TooManyPoints { .. }
+        | ExportError::TooFewPoints { .. }
+        | ExportError::SpacingTooSmall { .. }
+        | ExportError::BadSpacing(_) => Some(size_flag),
+        ExportError::NothingHeld { .. }
+        | ExportError::BeyondFormat { .. }
+        | ExportError::Unrepresentable { .. } => Some("--format"),
+        ExportError::BadEvaluationGrid { .. } => Some("--residual-grid"),
+        ExportError::Singular => Some("--pose"),
+        ExportError::MissingAxes { .. } | ExportError::NoSolution { .. } => Some("--machine"),
+        _ => None,
+    };
+    match flag {
+        Some(flag) => Failure::from(error).context(flag.to_string()),
+        None => Failure::from(error),
+    }
+}
+
+fn um(mm: f64) -> String {
+    format!("{:.3} µm", mm * UM_PER_MM)
+}
+
+fn print_report(r: &Report) {
+    println!("{}: {} for {}", r.format, r.controller, r.machine);
+    println!("  inputs                 {}", r.inputs);
+    println!("  pose                   {}", r.pose);
+    for t in &r.tables {
+        println!("  table {:<16} {}", t.name, t.size);
+    }
+    let g = &r.grid;
+    println!(
+        "  residual measured on   {} x {} x {} points over the travels at the pose (spacing {:.3} x {:.3} x {:.3} mm)",
+        g.points[0], g.points[1], g.points[2], g.spacing_mm[0], g.spacing_mm[1], g.spacing_mm[2]
+    );
+    let at = |a: [f64; 3]| format!("X={:.3} Y={:.3} Z={:.3}", a[0], a[1], a[2]);
+    println!(
+        "  error before           largest {}, RMS {} (largest at {})",
+        um(r.before.max_mm),
+        um(r.before.rms_mm),
+        at(r.before.at_mm)
+    );
+    println!(
+        "  residual               largest {}, RMS {} (largest at {})",
+        um(r.residual.max_mm),
+        um(r.residual.rms_mm),
+        at(r.residual.at_mm)
+    );
+    println!(
+        "  less a work offset     largest {} before, {} after (each less its mean over the grid)",
+        um(r.before_offset_free.max_mm),
+        um(r.residual_offset_free.max_mm)
+    );
+    if r.uses_direction {
+        println!("  directions             the control picks each axis's table by the direction it moves; the residual is for the approach above");
+    }
+    println!("  holds                  {}", r.holds);
+    if r.not_held.is_empty() && r.structural_mm < NEGLIGIBLE_MM {
+        println!("  cannot hold            nothing of this machine's correction at the pose");
+    } else {
+        println!(
+            "  cannot hold            up to {} of the correction at any table size; of each error alone:",
+            um(r.structural_mm)
+        );
+        for n in &r.not_held {
+            println!(
+                "    {:<8} {} of the {} it causes alone",
+                n.error,
+                um(n.not_held_mm),
+                um(n.alone_mm)
+            );
+        }
+    }
+}
+
+/// `--sweep-points`: the residual for each number of points, a table and a plot.
+fn sweep(
+    format: &'static dyn export::Format,
+    request: &Request,
+    list: &str,
+    args: &ExportArgs,
+) -> Result<ExitCode, Failure> {
+    let points: Vec<usize> = list
+        .split(',')
+        .map(|p| p.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| {
+            Failure::input(format!(
+                "--sweep-points `{list}`: expected numbers of points separated by commas, e.g. 2,3,5,9,17"
+            ))
+        })?;
+    if points.is_empty() {
+        return Err(Failure::input("--sweep-points: no numbers of points"));
+    }
+    let bar = progress(Some(points.len() as u64), "exporting", "tables");
+    let mut rows = Vec::new();
+    for &n in &points {
+        let asked = Request {
+            size: TableSize::Points(n),
+            written_by: request.written_by.clone(),
+            ..*request
+        };
+        let exported = export::export(format, &asked).map_err(|e| flag_of(e, "--sweep-points"));
+        bar.inc(1);
+        rows.push((n, exported?.report));
+    }
+    bar.finish_and_clear();
+    let first = &rows[0].1;
+    println!(
+        "{}: {} for {} ({}; pose {})",
+        first.format, first.controller, first.machine, first.inputs, first.pose
+    );
+    println!(
+        "  error before: largest {}, RMS {}",
+        um(first.before.max_mm),
+        um(first.before.rms_mm)
+    );
+    println!(
+        "  {:>7} {:>16} {:>16}",
+        "points", "residual max", "residual RMS"
+    );
+    for (n, r) in &rows {
+        println!(
+            "  {n:>7} {:>16} {:>16}",
+            um(r.residual.max_mm),
+            um(r.residual.rms_mm)
+        );
+    }
+    if let Some(path) = &args.plot {
+        let x: Vec<f64> = rows.iter().map(|(n, _)| *n as f64).collect();
+        let series = vec![
+            Series {
+                name: "residual, largest".into(),
+                x: x.clone(),
+                y: rows
+                    .iter()
+                    .map(|(_, r)| r.residual.max_mm * UM_PER_MM)
+                    .collect(),
+                color: Color::RED,
+                dashed: false,
+                marker: Marker::Up,
+                band: None,
+            },
+            Series {
+                name: "residual, RMS".into(),
+                x: x.clone(),
+                y: rows
+                    .iter()
+                    .map(|(_, r)| r.residual.rms_mm * UM_PER_MM)
+                    .collect(),
+                color: Color::BLUE,
+                dashed: false,
+                marker: Marker::Up,
+                band: None,
+            },
+        ];
+        let title = format!(
+            "{} residual of {} against table size",
+            first.format, first.machine
+        );
+        let drawing = plot::log_chart(&title, "points per table", "residual (µm)", &series, true)?;
+        write_plot(&drawing, path)?;
+    }
+    if let Some(path) = &args.json.json {
+        let json: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|(n, r)| serde_json::json!({ "points": n, "report": r }))
+            .collect();
+        write_json(path, &json)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,167 @@
+//! What a controller format is to the export: one type per format implements [`Format`] (its
+//! limits, what its tables can hold, how it fits and writes them, how it reads them back) and
+//! hands back a [`Control`], the control's own use of the tables as written.
+//!
+//! Adding a format is one file: a unit struct implementing [`Format`] and a struct implementing
+//! [`Control`], registered in [`super::FORMATS`]. The core ([`super::export`]) does the rest:
+//! checks the table size against [`Limits`], calls [`Format::write`], reads the text back with
+//! [`Format::read`], refuses tables that correct nothing, and measures the residual of the
+//! control's command over the workspace.
+
+use super::fitting::Fitting;
+use super::ExportError;
+use crate::model::inputs::Approach;
+use crate::model::Command;
+
+/// One file an export writes: its name (relative to `--out`'s folder for a multi-file format)
+/// and its whole text.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct WrittenFile {
+    pub name: String,
+    pub text: String,
+}
+
+/// Where a format's files go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Layout {
+    /// One file: the output path is that file.
+    File,
+    /// Several files: the output path is a folder (created), the files named by the format.
+    Folder,
+}
+
+/// How a format places the nodes of its tables.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Nodes {
+    /// Anywhere along the travel, in increasing order: volmap chooses them.
+    Free,
+    /// At a constant spacing from a start position.
+    Equidistant,
+    /// No nodes at all: a fixed set of numbers (a skew), so no table size to choose.
+    Fixed,
+}
+
+/// The table sizes a format accepts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    pub nodes: Nodes,
+    /// The fewest and the most points one table (per axis, for a 3-D grid) holds.
+    pub min_points: usize,
+    pub max_points: usize,
+    /// The smallest spacing between nodes the format accepts, mm (0: any).
+    pub min_spacing_mm: f64,
+    /// The points per table when neither a spacing nor a number of points is asked for.
+    pub default_points: usize,
+    /// Where the limits come from, for messages: "LinuxCNC's motion module (EMCMOT_COMP_SIZE)".
+    pub source: &'static str,
+}
+
+/// What the tables of a format can hold of a correction `d(t)`, for the report of what is left.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Structure {
+    /// A 3-D grid: any smooth correction of X, Y, Z at the pose, limited only by its spacing.
+    Grid,
+    /// A sum of functions of one axis position each: `terms[k][i]` says what the correction of
+    /// axis `k` (X, Y, Z) may be as a function of the commanded position of axis `i`.
+    Additive([[Term; 3]; 3]),
+}
+
+/// One term of an [`Structure::Additive`] correction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Term {
+    /// Nothing of it.
+    None,
+    /// `s · q`: a slope through the machine zero (a skew or scale factor).
+    Slope,
+    /// Any function of the position (a table), offsets included.
+    Curve,
+}
+
+/// The table size asked for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TableSize {
+    /// The format's default.
+    Default,
+    /// Points per table (per axis for a 3-D grid).
+    Points(usize),
+    /// Spacing between nodes, mm.
+    Spacing(f64),
+}
+
+/// A table of one file as written, for the report.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct TableInfo {
+    /// What the table is: "grid", "joint 0 (X)", "skew".
+    pub name: String,
+    /// Its size in words: "21 x 21 x 21 points, spacing 50 x 30 x 25 mm", "3 factors".
+    pub size: String,
+    /// The most points along one axis (for the evaluation grid's density).
+    pub points: usize,
+}
+
+/// A controller format.
+pub trait Format: Sync {
+    /// The name `--format` takes: `grid-csv`.
+    fn name(&self) -> &'static str;
+    /// The controller in words: "LinuxCNC (joint compensation files, matrixkins)".
+    fn title(&self) -> &'static str;
+    fn layout(&self) -> Layout;
+    fn limits(&self) -> Limits;
+    fn structure(&self) -> Structure;
+    /// What its tables hold and cannot hold, one sentence for the report.
+    fn holds(&self) -> &'static str;
+    /// Whether the control picks a table by the direction each axis approaches (LinuxCNC's
+    /// forward and reverse columns): the report then says so.
+    fn uses_direction(&self) -> bool {
+        false
+    }
+    /// Fits the tables to the correction and writes them as the control reads them; `points`
+    /// is the size the core checked against [`Format::limits`] (per axis; `None` for
+    /// [`Nodes::Fixed`]), `spacing_mm` set where a spacing was asked for.
+    fn write(
+        &self,
+        fitting: &Fitting,
+        points: Option<[usize; 3]>,
+        spacing_mm: Option<f64>,
+    ) -> Result<Vec<WrittenFile>, ExportError>;
+    /// Reads the files as the control reads them, on a machine whose X, Y, Z travels (the
+    /// control's own limits) are `travel_mm`; what does not read is an error naming the file
+    /// and line.
+    fn read(
+        &self,
+        files: &[WrittenFile],
+        travel_mm: &[[f64; 2]; 3],
+    ) -> Result<Box<dyn Control>, ExportError>;
+    /// [`Format::read`] for the machine the files were written for. A control that runs its own
+    /// kinematic model (the ISG kernel's volumetric compensation) takes the error parameters
+    /// from the files and the nominal kinematics from its own configuration, which the files do
+    /// not carry: such a format reads them here, with `fitting`'s machine as that
+    /// configuration. Every other format reads the files alone, on the travels of `fitting`.
+    fn read_for(
+        &self,
+        files: &[WrittenFile],
+        fitting: &Fitting,
+    ) -> Result<Box<dyn Control>, ExportError> {
+        self.read(files, &fitting.ranges)
+    }
+}
+
+/// What a control does with the tables it loaded.
+pub trait Control: Sync {
+    /// The command the control moves the axes to when the program asks for `target` (X, Y, Z
+    /// mm; rotary axes in degrees, passed through), each axis approaching in `approach`:
+    /// `target + Σ contributions`, every table evaluated with the control's own interpolation at
+    /// the positions the control looks it up by.
+    fn command(&self, target: &Command, approach: &[Approach; 6]) -> Command;
+    /// The tables, for the report.
+    fn tables(&self) -> Vec<TableInfo>;
+}
+
+/// Reading a written file back: a line that does not read, as the control would refuse it.
+pub fn read_error(file: &str, line: usize, message: impl Into<String>) -> ExportError {
+    ExportError::Read {
+        file: file.to_string(),
+        line,
+        message: message.into(),
+    }
+}
