@@ -325,3 +325,22 @@ fn centre_words_after_a_reference_return_are_numbers() {
     let text = compensated_reads_back(&machine(), &regression("gcode-arc-after-home.nc"));
     assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
 }
+
+/// A field header whose attribute claims 2³⁰ bytes in a file of 6 kB: 1 GiB was allocated
+/// before the read found the file's end.
+#[test]
+fn a_header_attribute_claiming_a_gigabyte_allocates_what_the_file_holds() {
+    use crate::fuzz::harness::watch;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.exr");
+    std::fs::write(&path, regression("field-attribute-size.exr")).unwrap();
+    watch::begin();
+    let result = volmap::io::field::FieldFile::open(&path);
+    let usage = watch::end();
+    let error = result.err().expect("refused").to_string();
+    assert!(
+        error.ends_with("the file ends inside its header"),
+        "{error}"
+    );
+    assert!(usage.largest_request_bytes < 4 << 20, "{usage:?}");
+}
