@@ -18,6 +18,7 @@ use toml_edit::{Array, DocumentMut, InlineTable, Item, TableLike, Value};
 
 use super::{toml_number, CalibrateError};
 use crate::io::csv::Csv;
+use crate::io::input::Reach;
 use crate::io::read_text;
 use crate::model::{AxisLetter, Interp, Machine, Table, COMPONENT_NAMES};
 
@@ -435,7 +436,19 @@ pub fn build(
             });
         }
     }
-    Ok((document.to_string(), built))
+    let text = document.to_string();
+    // What is built must read back as a machine: a measured angle no machine tool has (µrad
+    // written as rad), or a table that swings beyond one between its nodes, is refused here,
+    // naming the measurements, rather than written into a file no command reads.
+    let measured: Vec<String> = axes.iter().map(|(_, p)| p.display().to_string()).collect();
+    Machine::from_toml_reaching(
+        &text,
+        &measured.join(", "),
+        base.source.folder.as_deref(),
+        Reach::Anywhere,
+    )
+    .map_err(|e| CalibrateError::Parameter(e.to_string()))?;
+    Ok((text, built))
 }
 
 #[cfg(test)]

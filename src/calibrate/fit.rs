@@ -22,6 +22,9 @@ use super::identifiability::identifiability;
 pub use super::identifiability::Identifiability;
 pub use super::unknowns::Unknown;
 use super::CalibrateError;
+use crate::io::machine_file::{
+    MAX_PLAUSIBLE_ANGLE_RAD, MAX_PLAUSIBLE_LENGTH_MM, PLAUSIBLE_TEMPERATURE_CHANGE_K,
+};
 use crate::model::inputs::Inputs;
 use crate::model::Machine;
 use crate::standards::iso230_2::{positioning_with, PositioningData};
@@ -156,10 +159,24 @@ fn rms(values: &[f64]) -> f64 {
     (values.iter().map(|v| v * v).sum::<f64>() / values.len().max(1) as f64).sqrt()
 }
 
+/// Fits the unknowns the file names to its tests. An error of the estimation itself (unknowns
+/// the tests cannot tell apart, too few points, estimates no machine can have) names the file
+/// and its `estimate`.
 pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateError> {
     let unknowns = file.unknowns(machine)?;
     let tests = read_tests(file, machine)?;
-    let (before, nuisance) = residuals(&tests, machine)?;
+    estimate(machine, &unknowns, &tests).map_err(|e| match e {
+        CalibrateError::Parameter(message) => file.key_error("estimate", message),
+        other => other,
+    })
+}
+
+fn estimate(
+    machine: &Machine,
+    unknowns: &[Unknown],
+    tests: &[Test],
+) -> Result<FitReport, CalibrateError> {
+    let (before, nuisance) = residuals(tests, machine)?;
     let points = before.len();
     let k = unknowns.len();
     let dof = points.checked_sub(k + nuisance).filter(|&d| d > 0).ok_or_else(|| {
@@ -170,16 +187,19 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
     // Each coefficient's step is scaled to the widest temperature difference of its input.
     let steps: Vec<f64> = unknowns
         .iter()
-        .map(|u| u.step(temperature_span(u, &tests, machine)))
+        .map(|u| u.step(temperature_span(u, tests, machine)))
         .collect();
-    let (current, r, j) = gauss_newton(machine, &tests, &unknowns, &steps, before.clone())?;
-    let identifiability = identifiability(&j, &unknowns, machine)?;
+    let (current, r, j) = gauss_newton(machine, tests, unknowns, &steps, before.clone())?;
+    let identifiability = identifiability(&j, unknowns, machine)?;
     let sigma2 = r.norm_squared() / dof as f64;
     let normal = j.transpose() * &j;
     let covariance = normal
         .try_inverse()
         .ok_or_else(|| CalibrateError::Parameter("the normal equations are singular".into()))?
         * sigma2;
+    for u in unknowns {
+        check_plausible(u, u.get(&current))?;
+    }
     let estimates = unknowns
         .iter()
         .enumerate()
@@ -200,6 +220,29 @@ pub fn fit(machine: &Machine, file: &FitFile) -> Result<FitReport, CalibrateErro
         identifiability,
         machine: current,
     })
+}
+
+/// Refuses an estimate no machine file may hold: the measurements do not fit the machine (a unit
+/// mistake, a test of another machine, a file of another test).
+fn check_plausible(unknown: &Unknown, value: f64) -> Result<(), CalibrateError> {
+    let largest = if unknown.target.is_angular() {
+        MAX_PLAUSIBLE_ANGLE_RAD
+    } else {
+        MAX_PLAUSIBLE_LENGTH_MM
+    };
+    let largest = match unknown.per_kelvin {
+        None => largest,
+        Some(_) => largest / PLAUSIBLE_TEMPERATURE_CHANGE_K,
+    };
+    if value.is_finite() && value.abs() <= largest {
+        return Ok(());
+    }
+    Err(CalibrateError::Parameter(format!(
+        "the estimate of {} is {} {unit}, more than any machine tool has (at most {largest:e} {unit}): the measurements do not fit this machine (their units? another machine's tests?)",
+        unknown.name(),
+        crate::error::shown(value),
+        unit = unknown.unit()
+    )))
 }
 
 /// The largest `|T − reference_C|` of a coefficient's input over the tests, K (0 for a value).

@@ -185,10 +185,11 @@ struct Reader<'a> {
 }
 
 impl Reader<'_> {
+    /// An error at `key` (cut to an excerpt: a key the file misspells may be any length).
     fn key_error(&self, key: &str, message: impl Into<String>) -> ToleranceError {
         ToleranceError::Key {
             file: self.file.to_string(),
-            key: key.to_string(),
+            key: crate::error::excerpt(key).into_owned(),
             message: message.into(),
         }
     }

@@ -41,7 +41,8 @@ fn circumcentre(a: &[f64; 6], b: &[f64; 6], c: &[f64; 6], plane: Plane) -> Optio
     ])
 }
 
-/// The centre a control computes for an R arc from `from` to `to` (R < 0: more than 180°).
+/// The centre a control computes for an R arc from `from` to `to` (R < 0: more than 180°); none
+/// where R does not reach across the chord.
 pub(super) fn centre_from_radius(
     from: &[f64; 6],
     to: &[f64; 6],
@@ -51,7 +52,9 @@ pub(super) fn centre_from_radius(
 ) -> Option<[f64; 2]> {
     let (du, dv) = (to[plane.u] - from[plane.u], to[plane.v] - from[plane.v]);
     let chord = du.hypot(dv);
-    if chord < 1e-9 {
+    // A radius that does not reach across the chord (a half circle whose written R rounded
+    // below its written ends' distance) is an arc the reader refuses: none.
+    if chord < 1e-9 || !super::toolpath::radius_reaches(r, chord) {
         return None;
     }
     let h = (r * r - chord * chord / 4.0).max(0.0).sqrt();

@@ -15,7 +15,7 @@ use super::program::{
     end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
 };
 use super::rotation::apply_rotations;
-use super::subprograms::expand_subprograms;
+use super::subprograms::{expand_subprograms, Room};
 use super::toolpath::{arc_path, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
@@ -28,22 +28,32 @@ use crate::model::{Command, Machine};
 pub(super) const MAX_PIECES: usize = 100_000;
 
 /// The program's lines, its state before the first, and the machine per tool.
+/// The program as the control runs it: its blocks read, subprogram calls and canned cycles
+/// expanded, coordinate rotations applied; and the number of cycle holes expanded.
+pub(super) fn as_run(
+    program: &[u8],
+    path: &str,
+    pass_unknown: bool,
+) -> Result<(Vec<Line>, usize), NcError> {
+    let read = parse_program(program, path, pass_unknown)?;
+    // What calls and cycles together may add.
+    let mut room = Room::new();
+    let (lines, holes) = expand_cycles(
+        expand_subprograms(read, path, pass_unknown, &mut room)?,
+        path,
+        pass_unknown,
+        &mut room,
+    )?;
+    Ok((apply_rotations(lines, path)?, holes))
+}
+
 pub(super) fn begin<'a>(
     machine: &'a Machine,
     program: &[u8],
     path: &'a str,
     options: &'a Options,
 ) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
-    let (lines, holes) = expand_cycles(
-        expand_subprograms(
-            parse_program(program, path, options.pass_unknown)?,
-            path,
-            options.pass_unknown,
-        )?,
-        path,
-        options.pass_unknown,
-    )?;
-    let lines = apply_rotations(lines, path)?;
+    let (lines, holes) = as_run(program, path, options.pass_unknown)?;
     let start = starting_position(&lines, machine, path, options)?;
     let state = State {
         motion: Motion::Rapid,
@@ -265,10 +275,13 @@ fn process_line(
     let (start, end, motion) = (state.position, end_position(line, state), state.motion);
     let mut pieces: Vec<[f64; 6]> = Vec::new();
     let mut arcs = ArcPieces::new();
+    // Where the output has the tool at the start (see `written_start`).
+    let from: [f64; 6];
     if motion == Motion::Rapid {
         let programmed = line_directions(&start, &end, &state.programmed);
+        from = block.written_start(state.written, &start, &state.approach)?;
         let mut walk = Walk {
-            at: block.written_start(state.written, &start, &state.approach)?,
+            at: from,
             directions: state.approach,
         };
         let line = Toolpath::Line {
@@ -298,8 +311,9 @@ fn process_line(
             .max(block.angle_before(&|t| intended.at(t), &|t| {
                 segment_at(&segments, t).directions
             }));
+        from = block.written_start(state.written, &start, &state.approach)?;
         let mut walk = Walk {
-            at: block.written_start(state.written, &start, &state.approach)?,
+            at: from,
             directions: state.approach,
         };
         block.feed_move(
@@ -320,7 +334,7 @@ fn process_line(
         .largest_correction_mm
         .max(block.largest_correction.get());
     state.position = end;
-    write_block(line, state, &pieces, &arcs, out, options)
+    write_block(line, state, &from, &pieces, &arcs, out, options)
 }
 
 /// Points sampled along an intended move of `length` mm: every 0.5 mm, from 8 to 256.

@@ -16,7 +16,14 @@
 //! cycles in another plane are refused.
 
 use super::parse::{parse_line, Line};
+use super::subprograms::{Room, MAX_EXPANDED_WORDS};
 use super::NcError;
+use crate::error::shown;
+
+/// The most pecks a G73 or G83 hole may take from its R plane to its depth: a peck depth Q far
+/// smaller than the hole (or a hole far deeper than any travel) would otherwise make moves
+/// past any memory.
+pub const MAX_PECKS: u32 = 10_000;
 
 /// The retract of G73 and the clearance G83 stops above the last peck, mm (0.010 in on the
 /// controls' defaults).
@@ -84,6 +91,7 @@ pub(super) fn expand_cycles(
     lines: Vec<Line>,
     path: &str,
     pass_unknown: bool,
+    room: &mut Room,
 ) -> Result<(Vec<Line>, usize), NcError> {
     let mut holes = 0;
     let mut scan = Scan {
@@ -176,7 +184,7 @@ pub(super) fn expand_cycles(
                 return Err(missing("a positive peck depth Q"));
             }
             scan.cycle = Some(cycle);
-            expand_hole(&line, &mut scan, path, &mut out)?;
+            expand_hole(&line, &mut scan, path, room, &mut out)?;
             holes += 1;
         } else if scan.cycle.is_some() && axis_words {
             let cycle = scan.cycle.as_mut().expect("a cycle is in force");
@@ -191,7 +199,7 @@ pub(super) fn expand_cycles(
             if let Some(w) = line.word('P') {
                 cycle.dwell = Some(w.text.clone());
             }
-            expand_hole(&line, &mut scan, path, &mut out)?;
+            expand_hole(&line, &mut scan, path, room, &mut out)?;
             holes += 1;
         } else {
             if scan.passed_cycle.is_some() && axis_words {
@@ -220,6 +228,7 @@ fn expand_hole(
     line: &Line,
     scan: &mut Scan,
     path: &str,
+    room: &mut Room,
     out: &mut Vec<Line>,
 ) -> Result<(), NcError> {
     let cycle = scan.cycle.clone().expect("a cycle is in force");
@@ -275,6 +284,36 @@ fn expand_hole(
             feed_word.take().unwrap_or_default()
         ))
     };
+    if matches!(cycle.code, 73 | 83) {
+        let q = cycle.q.expect("a peck depth");
+        let pecks = ((cycle.r - cycle.depth) / q).ceil();
+        if !(pecks <= MAX_PECKS as f64) {
+            return Err(NcError::line(
+                path,
+                line.number,
+                format!(
+                    "G{}: a peck depth Q{} from R{} to Z{} makes {} pecks, more than the {MAX_PECKS} a hole may take",
+                    cycle.code,
+                    shown(q),
+                    shown(cycle.r),
+                    shown(cycle.depth),
+                    shown(pecks)
+                ),
+            ));
+        }
+    }
+    // The hole's blocks may not pass what calls and cycles may add (each block counts one, and
+    // one more for each of its words once read).
+    let too_many = || {
+        NcError::line(
+            path,
+            line.number,
+            format!(
+                "the subprogram calls and canned cycles add more than {MAX_EXPANDED_WORDS} words and blocks to the program"
+            ),
+        )
+    };
+    let room_for_blocks = room.left();
     let mut z = scan.z.unwrap_or(cycle.initial);
     for _ in 0..repeats as usize {
         if z < cycle.r {
@@ -290,7 +329,12 @@ fn expand_hole(
                 let mut reached = cycle.r;
                 loop {
                     let next = (reached - q).max(cycle.depth);
+                    // A peck too small to change a number this large goes to the depth.
+                    let next = if next < reached { next } else { cycle.depth };
                     feed_to(&mut texts, next);
+                    if texts.len() > room_for_blocks {
+                        return Err(too_many());
+                    }
                     reached = next;
                     if reached <= cycle.depth {
                         break;
@@ -317,6 +361,9 @@ fn expand_hole(
             texts.push(format!("G0 Z{}", number(clear)));
         }
         z = clear;
+        if texts.len() > room_for_blocks {
+            return Err(too_many());
+        }
     }
     scan.z = Some(z);
     let between = if line.ending.is_empty() {
@@ -331,7 +378,11 @@ fn expand_hole(
         } else {
             between
         };
-        out.push(parse_line(&text, ending, line.number, path)?);
+        let block = parse_line(&text, ending, line.number, path)?;
+        if !room.take(&block) {
+            return Err(too_many());
+        }
+        out.push(block);
     }
     Ok(())
 }

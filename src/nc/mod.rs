@@ -51,6 +51,19 @@ mod walk;
 mod write;
 
 pub use compensate::{compensate, compensate_with_progress, trace, Compensated, TracePoint};
+pub use cycles::MAX_PECKS;
+pub use subprograms::MAX_EXPANDED_WORDS;
+
+/// The blocks of `program` (its bytes; `path` names it in errors) as the control runs them:
+/// subprogram calls and canned cycles expanded, coordinate rotations (G68) applied. With
+/// `pass_unknown`, blocks volmap does not follow pass as they are.
+pub fn blocks_as_run(
+    program: &[u8],
+    path: &str,
+    pass_unknown: bool,
+) -> Result<Vec<parse::Line>, NcError> {
+    compensate::as_run(program, path, pass_unknown).map(|(lines, _)| lines)
+}
 pub use trace::{per_block, trace_compensated, trace_path, TraceSample};
 
 use std::collections::{BTreeMap, HashMap};

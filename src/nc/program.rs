@@ -353,7 +353,7 @@ pub(super) fn take_line(
             return Err(NcError::Unsupported {
                 path: path.to_string(),
                 line: line.number,
-                code: code.to_string(),
+                code: crate::error::excerpt(&code).into_owned(),
             });
         }
         apply_modals(line, state, path)?;

@@ -14,9 +14,50 @@ use super::NcError;
 /// The deepest nesting of calls followed (Fanuc allows four levels).
 const MAX_DEPTH: usize = 8;
 
-/// The most blocks a program may have once its calls are expanded: nested calls repeated up to
-/// 1000 times each would otherwise expand past any memory.
-pub const MAX_EXPANDED_BLOCKS: usize = 4_000_000;
+/// The most that subprogram calls and canned cycles together may add to a program, counted in
+/// words, each block one more (and a long block one more for every 32 characters): nested calls repeated up to 1000 times each, or pecks far
+/// smaller than their holes, would otherwise expand a few lines past any memory and any time.
+/// Two million (400,000 blocks of four words) are read in about 0.3 s and 200 MB; compensating
+/// them is the work of a program that long.
+pub const MAX_EXPANDED_WORDS: usize = 2_000_000;
+
+/// What the expansion of calls and cycles may still add (see [`MAX_EXPANDED_WORDS`]).
+pub(super) struct Room {
+    left: usize,
+}
+
+impl Room {
+    pub(super) fn new() -> Room {
+        Room {
+            left: MAX_EXPANDED_WORDS,
+        }
+    }
+
+    /// Takes what `line` adds (one more for every 32 characters of a long block); false where
+    /// that is more than is left.
+    pub(super) fn take(&mut self, line: &Line) -> bool {
+        self.take_blocks(1 + line.words.len() + line.text.len() / 32)
+    }
+
+    /// Takes `n` (blocks and words); false where that is more than is left.
+    pub(super) fn take_blocks(&mut self, n: usize) -> bool {
+        match self.left.checked_sub(n) {
+            Some(left) => {
+                self.left = left;
+                true
+            }
+            None => {
+                self.left = 0;
+                false
+            }
+        }
+    }
+
+    /// What is left.
+    pub(super) fn left(&self) -> usize {
+        self.left
+    }
+}
 
 fn is_call(line: &Line) -> bool {
     line.words
@@ -43,6 +84,7 @@ pub(super) fn expand_subprograms(
     lines: Vec<Line>,
     path: &str,
     pass_unknown: bool,
+    room: &mut Room,
 ) -> Result<Vec<Line>, NcError> {
     // Bodies: an `O` block that ends with M99 before any program end.
     let mut bodies: HashMap<u32, (usize, usize)> = HashMap::new();
@@ -73,7 +115,7 @@ pub(super) fn expand_subprograms(
                 ..line.clone()
             });
         } else {
-            match expand_line(&lines, line, &bodies, path, 0, &mut out) {
+            match expand_line(&lines, line, &bodies, path, 0, room, &mut out) {
                 Err(NcError::Line { .. }) if pass_unknown => out.push(line.clone()),
                 result => result?,
             }
@@ -88,9 +130,20 @@ fn expand_line(
     bodies: &HashMap<u32, (usize, usize)>,
     path: &str,
     depth: usize,
+    room: &mut Room,
     out: &mut Vec<Line>,
 ) -> Result<(), NcError> {
     if !is_call(line) {
+        // The file's own blocks pass; those of the calls' bodies are what the calls add.
+        if depth > 0 && !room.take(line) {
+            return Err(NcError::line(
+                path,
+                line.number,
+                format!(
+                    "the calls add more than {MAX_EXPANDED_WORDS} words and blocks to the program"
+                ),
+            ));
+        }
         out.push(line.clone());
         return Ok(());
     }
@@ -142,12 +195,16 @@ fn expand_line(
     out.push(parse_line(&comment, ending, line.number, path)?);
     for _ in 0..repeats as usize {
         for body_line in &lines[start..end] {
-            expand_line(lines, body_line, bodies, path, depth + 1, out)?;
-        }
-        if out.len() > MAX_EXPANDED_BLOCKS {
-            return Err(error(format!(
-                "the calls expand to more than {MAX_EXPANDED_BLOCKS} blocks"
-            )));
+            expand_line(lines, body_line, bodies, path, depth + 1, room, out).map_err(|e| {
+                // Calls that add too much are named by the outermost of them.
+                if room.left() == 0 {
+                    error(format!(
+                        "the calls add more than {MAX_EXPANDED_WORDS} words and blocks to the program"
+                    ))
+                } else {
+                    e
+                }
+            })?;
         }
     }
     Ok(())

@@ -123,6 +123,14 @@ pub(super) fn arc_through(
 }
 
 /// The intended arc of a G2/G3 block: centre from I/J/K (from the start) or R.
+/// Whether an R arc of radius `r` (negative: more than 180°) reaches across `chord` as volmap
+/// reads it: R at least half the chord, short of it by no more than the rounding of written
+/// numbers allows (1e-6 of R² in R² − chord²/4).
+pub(super) fn radius_reaches(r: f64, chord: f64) -> bool {
+    let r = r.abs();
+    r * r - chord * chord / 4.0 >= -1e-6 * r * r.max(1.0)
+}
+
 pub(super) fn arc_path(
     line: &Line,
     state: &State,
@@ -149,7 +157,7 @@ pub(super) fn arc_path(
             ));
         }
         let h2 = r * r - chord * chord / 4.0;
-        if h2 < -1e-6 * r * r.max(1.0) {
+        if !radius_reaches(r, chord) {
             return Err(NcError::line(
                 path,
                 line.number,

@@ -131,6 +131,7 @@ type Edit = (std::ops::Range<usize>, String);
 pub(super) fn write_block(
     line: &Line,
     state: &mut State,
+    start: &[f64; 6],
     pieces: &[[f64; 6]],
     arcs: &[(usize, [f64; 2])],
     out: &mut String,
@@ -155,7 +156,7 @@ pub(super) fn write_block(
         line,
         state,
         &style,
-        &first_written,
+        (start, &first_written),
         keep_arc,
         arc_becomes_lines,
     ));
@@ -179,7 +180,12 @@ pub(super) fn write_block(
         text.replace_range(range.clone(), replacement);
     }
     out.push_str(&text);
-    out.push_str(&line.ending);
+    // Added pieces start on lines of their own, after a last line without a line end too.
+    out.push_str(if line.ending.is_empty() && pieces.len() > 1 {
+        "\n"
+    } else {
+        &line.ending
+    });
     // An axis sent to its reference point stays unwritten until a block names it.
     let unwritten: [bool; 6] =
         std::array::from_fn(|d| state.written[d].is_nan() && !line.has(AXIS_LETTERS[d]));
@@ -201,7 +207,8 @@ pub(super) fn write_block(
         motion: state.motion,
         radius: line.has('R'),
     };
-    Ok(1 + write_pieces(&pieces[1..], &centres, arc, state, &style, ending, out))
+    let pieces = (&pieces[1..], &centres[..], first_written);
+    Ok(1 + write_pieces(pieces, arc, state, &style, ending, out))
 }
 
 /// The axis words: linear ones take the compensated values; rotary ones change only where the
@@ -249,13 +256,13 @@ fn axis_edits(
     (edits, Some((at..at, added)))
 }
 
-/// The centre words of a kept arc, relative to the written start; removed where the arc became
-/// lines.
+/// The centre words of a kept arc, relative to the written start (`start` for an axis not
+/// written since its reference return); removed where the arc became lines.
 fn centre_edits(
     line: &Line,
     state: &State,
     style: &Style,
-    first_written: &[f64; 6],
+    (start, first_written): (&[f64; 6], &[f64; 6]),
     keep_arc: Option<[f64; 2]>,
     arc_becomes_lines: bool,
 ) -> Vec<Edit> {
@@ -269,9 +276,14 @@ fn centre_edits(
             }
             (_, Some(k), Some(c)) => {
                 let coordinate = if k == 0 { state.plane.u } else { state.plane.v };
+                let from = if state.written[coordinate].is_nan() {
+                    start[coordinate]
+                } else {
+                    state.written[coordinate]
+                };
                 edits.push((
                     w.number.clone(),
-                    format_value((c[k] - state.written[coordinate]) / unit, decimals),
+                    format_value((c[k] - from) / unit, decimals),
                 ));
             }
             ('R', None, Some(c)) => {
@@ -334,14 +346,16 @@ struct ArcWords {
 /// The added lines of a split move, one per piece after the first (a piece that moves no written
 /// value is left out): straight, or an arc about `centres[i]`. Returns how many were written.
 fn write_pieces(
-    pieces: &[[f64; 6]],
-    centres: &[Option<[f64; 2]>],
+    (pieces, centres, first_written): (&[[f64; 6]], &[Option<[f64; 2]>], [f64; 6]),
     arc: ArcWords,
     state: &mut State,
     style: &Style,
     ending: &str,
     out: &mut String,
 ) -> usize {
+    // Where each piece starts: the last one's end (where an axis is not written since its
+    // reference return too, unlike `state.written`).
+    let mut at = first_written;
     let mut count = 0;
     for (piece, centre) in pieces.iter().zip(centres) {
         let motion = if centre.is_some() {
@@ -382,13 +396,14 @@ fn write_pieces(
                         "{}{}{}",
                         style.separator,
                         style.letter(state.plane.centre[k]),
-                        format_value((c[k] - state.written[d]) / style.unit, style.decimals)
+                        format_value((c[k] - at[d]) / style.unit, style.decimals)
                     );
                 }
             }
         }
         out.push_str(&words);
         out.push_str(ending);
+        at = piece_written;
         state.written = std::array::from_fn(|d| {
             if state.written[d].is_nan() {
                 f64::NAN

@@ -241,7 +241,7 @@ pub(super) fn positioning_from(m: &Measured) -> Result<PositioningData, Standard
                     row,
                     format!(
                         "target {target} after {last} in run {} ({}): rows of a run come in the order of approach, {}",
-                        group.1,
+                        crate::error::excerpt(&group.1),
                         if up { "+" } else { "-" },
                         if up { "rising" } else { "falling" }
                     ),
@@ -279,7 +279,7 @@ pub(super) fn positioning_from(m: &Measured) -> Result<PositioningData, Standard
                     0,
                     format!(
                         "run {} ({}) does not visit the same targets as the first run",
-                        run.1,
+                        crate::error::excerpt(&run.1),
                         if up { "+" } else { "-" }
                     ),
                 ));

@@ -258,8 +258,16 @@ pub(crate) fn circular_with(
         let min = radial.iter().copied().fold(f64::INFINITY, f64::min);
         Ok([range_of(&residuals), max, min])
     };
-    let p = figures_of(&predicted)?;
-    let m = measured.map(|m| figures_of(&m.columns[1])).transpose()?;
+    // With measurements the angles are the file's: what they cannot do names it.
+    let in_file = |e: StandardsError| match measured {
+        Some(m) => parameter(format!("{}: {e}", m.path)),
+        None => e,
+    };
+    let p = figures_of(&predicted).map_err(in_file)?;
+    let m = measured
+        .map(|m| figures_of(&m.columns[1]))
+        .transpose()
+        .map_err(in_file)?;
     if let Some(pitch) = spec.pitch_mm {
         if !(pitch > 0.0 && pitch.is_finite()) {
             return Err(parameter(format!("pitch {pitch} mm: it must be positive")));

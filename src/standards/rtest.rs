@@ -117,16 +117,24 @@ pub(crate) fn rtest_with(
         setup.nominal_command_for_tip(sphere, &command)
     };
     let mut moving = vec![letter];
-    for &angle in &angles {
-        let command = command_at(angle)?;
-        setup.check_travel(
-            &command,
-            &format!("R-test of {letter} at {letter}={angle}°"),
-        )?;
+    for (row, &angle) in angles.iter().enumerate() {
+        // With measurements the angles are the file's: an angle the test cannot take names
+        // its line.
+        let at_row = |e: StandardsError| match measured {
+            Some(m) => m.error(row, e.to_string()),
+            None => e,
+        };
+        let command = command_at(angle).map_err(at_row)?;
+        setup
+            .check_travel(
+                &command,
+                &format!("R-test of {letter} at {letter}={angle}°"),
+            )
+            .map_err(at_row)?;
         // The rotary axis turns `+` (angles rising); each linear axis moves the way its command
         // changed over the last LOOK_BACK_DEG of the sweep (at a turning point: the way it
         // arrived); one whose command does not change approaches as the inputs say.
-        let before = command_at(angle - LOOK_BACK_DEG)?;
+        let before = command_at(angle - LOOK_BACK_DEG).map_err(at_row)?;
         let mut directions = [None; 6];
         directions[letter.index()] = Some(Approach::Positive);
         for linear in [AxisLetter::X, AxisLetter::Y, AxisLetter::Z] {

@@ -1,6 +1,11 @@
 //! volmap's integration tests, one binary. GPU tests skip only where no adapter exists; with
 //! `VOLMAP_REQUIRE_GPU=1` (set by CI) a missing adapter is a failure.
 
+/// The fuzzing harness counts the heap of the campaigns' threads (`fuzz`); other threads only
+/// pass through it.
+#[global_allocator]
+static ALLOCATOR: fuzz::harness::watch::CountingAllocator = fuzz::harness::watch::CountingAllocator;
+
 mod ballbar;
 mod calibrate;
 mod citations;
@@ -20,6 +25,8 @@ mod features;
 mod field;
 mod field_inputs;
 mod field_storage;
+mod fuzz;
+mod fuzz_findings;
 mod golden;
 mod gpu;
 mod gpu_sparse;

@@ -201,7 +201,7 @@ impl Machine {
             if !known {
                 return Err(MachineError::AxisNotInChain {
                     file: file.to_string(),
-                    section: section.clone(),
+                    section: excerpt(section).into_owned(),
                     chain: raw.chain.clone(),
                 });
             }
@@ -323,10 +323,11 @@ impl Reader {
         }
     }
 
+    /// An error at `key` (cut to an excerpt: a key the file misspells may be any length).
     fn key_error(&self, key: &str, message: impl Into<String>) -> MachineError {
         MachineError::Key {
             file: self.file.clone(),
-            key: key.to_string(),
+            key: excerpt(key).into_owned(),
             message: message.into(),
         }
     }

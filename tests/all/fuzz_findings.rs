@@ -1,0 +1,346 @@
+//! What the fuzzing campaigns found (README "Fuzzing"), each kept as the input that showed it
+//! (`tests/fuzz-regressions/`) or a hand-made one like it, with the error volmap now gives.
+
+use std::path::PathBuf;
+
+use volmap::model::Machine;
+use volmap::nc::{self, NcError, Options};
+
+fn regression(name: &str) -> Vec<u8> {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz-regressions")
+        .join(name);
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn machine() -> Machine {
+    volmap::io::embedded::embedded("vmc-li2015")
+        .unwrap()
+        .unwrap()
+}
+
+fn options() -> Options {
+    Options {
+        work_offsets: [(54, [200.0, 200.0, 300.0, 0.0, 0.0, 0.0])].into(),
+        ..Options::default()
+    }
+}
+
+fn line_error(result: Result<impl std::fmt::Debug, NcError>) -> (usize, String) {
+    match result {
+        Err(NcError::Line { line, message, .. }) => (line, message),
+        other => panic!("expected an error naming a line, got {other:?}"),
+    }
+}
+
+/// A G83 hole 6 km deep in pecks of 2 mm made three million pecks (a 4 GB allocation, then an
+/// abort): a hole takes at most 10,000 pecks.
+#[test]
+fn pecks_past_the_limit_are_refused_naming_the_block() {
+    let program = regression("gcode-pecks.nc");
+    let (line, message) = line_error(nc::compensate(&machine(), &program, "p.nc", &options()));
+    assert_eq!(line, 24);
+    assert_eq!(
+        message,
+        "G83: a peck depth Q2 from R3 to Z-6000000 makes 3000002 pecks, more than the 10000 a hole may take"
+    );
+    // A peck depth of a ten-thousandth of a micrometre in a 7 mm hole.
+    let tiny = b"G0 X10 Y10 Z10\nG83 X10 Y10 Z-5 R2 Q0.0000001\nG80\nM30\n";
+    let (line, message) = line_error(nc::blocks_as_run(tiny, "q.nc", false));
+    assert_eq!(line, 2);
+    assert!(
+        message.contains("makes 70000000 pecks, more than the 10000"),
+        "{message}"
+    );
+}
+
+/// A peck smaller than the last digit of the levels it pecks between went on for ever: each
+/// peck left the level where it was. Such a peck now goes to the depth.
+#[test]
+fn pecks_below_the_resolution_of_their_levels_end() {
+    let program = b"G0 X10 Y10 Z1e17\nG83 X10 Y10 Z99999999999999990 R1e17 Q2\nG80\nM30\n";
+    let blocks = nc::blocks_as_run(program, "deep.nc", false).unwrap();
+    let feeds: Vec<&str> = blocks
+        .iter()
+        .map(|b| b.text.trim())
+        .filter(|t| t.starts_with("G1 Z"))
+        .collect();
+    // The depth as an f64 holds it (its last digit is 16).
+    assert_eq!(feeds, ["G1 Z99999999999999984"], "{blocks:#?}");
+}
+
+/// Subprograms calling subprograms a thousand times each expanded three million blocks from
+/// 30 lines (1.25 GB and 7 s to compensate); calls and cycles add at most two million words and
+/// blocks, which a million blocks of eight words (700 MB, 1 s to read) also passed.
+#[test]
+fn calls_and_cycles_add_at_most_two_million_words_and_blocks() {
+    let program = regression("gcode-calls.nc");
+    let (line, message) = line_error(nc::blocks_as_run(&program, "c.nc", false));
+    assert_eq!(line, 8, "the outermost call");
+    assert_eq!(
+        message,
+        "M98: the calls add more than 2000000 words and blocks to the program"
+    );
+    let words = regression("gcode-words.nc");
+    let (line, message) = line_error(nc::blocks_as_run(&words, "w.nc", false));
+    assert_eq!(line, 18);
+    assert_eq!(
+        message,
+        "M98: the calls add more than 2000000 words and blocks to the program"
+    );
+    // Canned cycles count against the same bound: 1000 repeats of 1000 pecks.
+    let cycles = b"G0 X10 Y10 Z10\nG83 X10 Y10 Z-999 R1 Q1 L1000\nG80\nM30\n";
+    let (line, message) = line_error(nc::blocks_as_run(cycles, "h.nc", false));
+    assert_eq!(line, 2);
+    assert_eq!(
+        message,
+        "the subprogram calls and canned cycles add more than 2000000 words and blocks to the program"
+    );
+    // Long blocks count for their length: a 6 kB block repeated a million times.
+    let long = format!(
+        "G0 X10 Y10 Z10\nM98 P1 L1000\nM30\nO1\nM98 P2 L1000\nM99\nO2\nG1 X11 ({})\nM99\n",
+        "x".repeat(6000)
+    );
+    let (line, _) = line_error(nc::blocks_as_run(long.as_bytes(), "l.nc", false));
+    assert_eq!(line, 2);
+    // A program's own blocks do not count: two million and more of them are read as they are.
+    let mut own = String::from("G0 X10 Y10 Z10\nM98 P1\nM30\nO1\nG1 X11 F100\nM99\n");
+    own.push_str(&"G1 X12\n".repeat(1_100_000));
+    let blocks = nc::blocks_as_run(own.as_bytes(), "own.nc", false).unwrap();
+    assert!(blocks.len() > 1_100_000);
+}
+
+/// Writes an input of several files (`harness::corpus::split`) into `dir`; the main file's path.
+fn write_files(dir: &std::path::Path, main: &str, input: &[u8]) -> PathBuf {
+    let (first, others) = crate::fuzz::harness::corpus::split(input);
+    std::fs::write(dir.join(main), first).unwrap();
+    for (name, bytes) in others {
+        std::fs::write(dir.join(name), bytes).unwrap();
+    }
+    dir.join(main)
+}
+
+/// A circle with one deviation of 387 mm (micrometres written as mm) fitted a squareness of
+/// 0.29 rad, reported as an estimate and written by `fit --out` into a file no reader takes:
+/// such an estimate is refused, naming the fit file.
+#[test]
+fn estimates_no_machine_can_have_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_files(dir.path(), "fit.toml", &regression("fit-implausible.toml"));
+    let file = volmap::calibrate::fit::FitFile::read(&path).unwrap();
+    let error = volmap::calibrate::fit::fit(&machine(), &file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "{}: estimate: the estimate of EC0Y is -0.29",
+            path.display()
+        )) && error.contains("more than any machine tool has (at most 1e-2 rad)"),
+        "{error}"
+    );
+}
+
+/// What the tests cannot tell apart was said without the file it is about.
+#[test]
+fn errors_of_the_estimation_name_the_fit_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let seed = std::fs::read(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fuzz-corpus/fit/diagonal-positioning.toml"),
+    )
+    .unwrap();
+    let two = String::from_utf8(seed)
+        .unwrap()
+        .replace("estimate = [\"EC0Y\"]", "estimate = [\"EC0Y\", \"EB0Z\"]");
+    let path = write_files(dir.path(), "fit.toml", two.as_bytes());
+    let file = volmap::calibrate::fit::FitFile::read(&path).unwrap();
+    let error = volmap::calibrate::fit::fit(&machine(), &file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "{}: estimate: EC0Y and EB0Z cannot be told apart",
+            path.display()
+        )),
+        "{error}"
+    );
+}
+
+/// 2³² µrad of pitch at one position (a count where the angle belonged) was built into a
+/// machine file that no command then read: `build` refuses it, naming the measurements and
+/// the component.
+#[test]
+fn measured_tables_no_machine_can_have_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.csv");
+    std::fs::write(&path, regression("interferometer-implausible.csv")).unwrap();
+    let axes = [(volmap::model::AxisLetter::X, path.as_path())];
+    let error = volmap::calibrate::build::build(&machine(), &axes, &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "{}: axes.X.EBX: an angular error of 4294.9673 rad at X=200.000 mm is more than any machine tool has",
+            path.display()
+        )),
+        "{error}"
+    );
+}
+
+fn five_axis_setup() -> volmap::standards::Setup {
+    let machine = volmap::io::embedded::embedded("5axis-hwang2014")
+        .unwrap()
+        .unwrap();
+    volmap::standards::Setup::new(&machine, "").unwrap()
+}
+
+/// Measured results of a circle at one angle: the error said the angles do not determine a
+/// circle without saying whose angles; it names the file now.
+#[test]
+fn a_circle_of_measured_angles_that_determine_none_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.csv");
+    std::fs::write(&path, regression("measured-one-angle.csv")).unwrap();
+    let spec = volmap::standards::CircularSpec {
+        plane: "XY".into(),
+        centre_mm: None,
+        radius_mm: None,
+        points: 36,
+        direction: "ccw".into(),
+        start_deg: 0.0,
+        pose: String::new(),
+        csv: Some(path.clone()),
+        pitch_mm: None,
+    };
+    let error = volmap::standards::circular(&five_axis_setup(), &spec)
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        error,
+        format!(
+            "{}: the angles do not determine a circle (at least 3 distinct angles spread around it)",
+            path.display()
+        )
+    );
+}
+
+/// An R-test measured at C = 30,000,000°: the sphere there lies outside the travel, said
+/// without the file or line that asked for it; both are named now.
+#[test]
+fn an_r_test_angle_beyond_the_travel_names_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("r.csv");
+    std::fs::write(&path, regression("measured-rtest-angle.csv")).unwrap();
+    let spec = volmap::standards::RTestSpec {
+        axis: "C".into(),
+        sphere_mm: Some([300.0, 200.0, 250.0]),
+        from_deg: Some(0.0),
+        to_deg: Some(30.0),
+        step_deg: 10.0,
+        pose: String::new(),
+        csv: Some(path.clone()),
+    };
+    let error = volmap::standards::rtest(&five_axis_setup(), &spec)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.starts_with(&format!(
+            "{}: line 5: R-test of C at C=30000000°: Y=",
+            path.display()
+        )) && error.contains("lies outside the travel of Y (0 to 600)"),
+        "{error}"
+    );
+}
+
+fn compensated_reads_back(machine: &Machine, program: &[u8]) -> String {
+    let options = Options {
+        tool_lengths: nc::ToolLengths::parse("T1=80").unwrap(),
+        ..options()
+    };
+    let out = nc::compensate(machine, program, "in.nc", &options).unwrap();
+    if let Err(e) = nc::trace(machine, out.text.as_bytes(), "out.nc", &options) {
+        panic!(
+            "the compensated program does not read back: {e}\n{}",
+            out.text
+        );
+    }
+    out.text
+}
+
+/// A last line without a line end whose arc was split: the added pieces were written onto it,
+/// one block of two arcs (`X59.9299 Y19.7988 I-9.8263 X49.9317 …`) that no reader takes.
+#[test]
+fn pieces_after_a_last_line_without_a_line_end_start_lines_of_their_own() {
+    let program = regression("gcode-last-line.nc");
+    assert!(!program.ends_with(b"\n"));
+    let text = compensated_reads_back(&machine(), &program);
+    for line in text.lines() {
+        assert!(line.matches('X').count() <= 1, "{line}\n{text}");
+    }
+}
+
+/// A half circle by R (`G3 X40 Y0 R10` from X20): compensated, its written R (9.9999) fell
+/// short of half its written chord (10.0000), which the reader refuses; the planner now holds
+/// a written R to the reader's rule and splits such an arc.
+#[test]
+fn compensated_half_circles_by_radius_read_back() {
+    let five = volmap::io::embedded::embedded("5axis-hwang2014")
+        .unwrap()
+        .unwrap();
+    compensated_reads_back(&five, &regression("gcode-half-circle-r.nc"));
+}
+
+/// A misspelt key of 3,000 characters was quoted whole in the message, as the command line
+/// shows it (`capped` cuts what is quoted between backticks, not the key's path).
+#[test]
+fn long_keys_are_quoted_within_80_characters() {
+    use volmap::error::capped;
+    let key = "k".repeat(3000);
+    let text = format!("name = \"m\"\nchain = \"FYXFZ\"\n[axes.X]\nrange = [0.0, 100.0]\n\"{key}\" = 1\n[axes.Y]\nrange = [0.0, 100.0]\n[axes.Z]\nrange = [0.0, 100.0]\n");
+    let message = capped(
+        &Machine::from_toml(&text, "m.toml", None)
+            .unwrap_err()
+            .to_string(),
+    );
+    assert!(message.len() < 400, "{message}");
+    assert!(message.starts_with("m.toml: axes.X.kkk"), "{message}");
+    let tolerances = format!("[\"{key}\"]\nx = 1\n");
+    let message = capped(
+        &volmap::io::tolerance_file::ToleranceFile::parse(
+            &tolerances,
+            std::path::Path::new("t.toml"),
+            &machine(),
+        )
+        .unwrap_err()
+        .to_string(),
+    );
+    assert!(message.len() < 400, "{message}");
+    assert!(message.starts_with("t.toml: kkk"), "{message}");
+}
+
+/// An arc in the XZ plane after `G53 G0 Z0` and no Z word since: its K was written relative to
+/// a Z the output had not written, as `KNaN`.
+#[test]
+fn centre_words_after_a_reference_return_are_numbers() {
+    let text = compensated_reads_back(&machine(), &regression("gcode-arc-after-home.nc"));
+    assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
+}
+
+/// A field header whose attribute claims 2³⁰ bytes in a file of 6 kB: 1 GiB was allocated
+/// before the read found the file's end.
+#[test]
+fn a_header_attribute_claiming_a_gigabyte_allocates_what_the_file_holds() {
+    use crate::fuzz::harness::watch;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.exr");
+    std::fs::write(&path, regression("field-attribute-size.exr")).unwrap();
+    watch::begin();
+    let result = volmap::io::field::FieldFile::open(&path);
+    let usage = watch::end();
+    let error = result.err().expect("refused").to_string();
+    assert!(
+        error.ends_with("the file ends inside its header"),
+        "{error}"
+    );
+    assert!(usage.largest_request_bytes < 4 << 20, "{usage:?}");
+}
