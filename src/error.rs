@@ -117,6 +117,69 @@ pub fn toml_message(error: &toml::de::Error, text: &str) -> String {
     located_message(error.message(), error.span(), text)
 }
 
+/// The deepest nesting of arrays and inline tables a TOML file may have: the TOML parser
+/// recurses once per level, and a file of ten thousand unclosed `{` overflows the stack before it
+/// reports anything. volmap's own files nest four levels at most.
+pub const MAX_TOML_DEPTH: usize = 64;
+
+/// Where `text` nests arrays and inline tables deeper than [`MAX_TOML_DEPTH`], the message a
+/// parse error would give (`line L, column C: …`, the line quoted); `None` where it does not.
+/// Brackets inside strings and comments do not count.
+pub fn toml_too_deep(text: &str) -> Option<String> {
+    let bytes = text.as_bytes();
+    let mut depth = 0usize;
+    let mut n = 0;
+    while n < bytes.len() {
+        match bytes[n] {
+            b'#' => {
+                while n < bytes.len() && bytes[n] != b'\n' {
+                    n += 1;
+                }
+            }
+            quote @ (b'"' | b'\'') => {
+                let triple = bytes[n..].starts_with(&[quote; 3]);
+                n += if triple { 3 } else { 1 };
+                while n < bytes.len() {
+                    if quote == b'"' && bytes[n] == b'\\' {
+                        n += 2;
+                        continue;
+                    }
+                    if !triple && bytes[n] == b'\n' {
+                        break;
+                    }
+                    if bytes[n] == quote && (!triple || bytes[n..].starts_with(&[quote; 3])) {
+                        // A closing triple quote may have up to two more quotes before it.
+                        if triple {
+                            while bytes[n..].starts_with(&[quote; 4]) {
+                                n += 1;
+                            }
+                            n += 2;
+                        }
+                        break;
+                    }
+                    n += 1;
+                }
+            }
+            b'[' | b'{' => {
+                depth += 1;
+                if depth > MAX_TOML_DEPTH {
+                    return Some(located_message(
+                        &format!(
+                            "arrays and inline tables nested more than {MAX_TOML_DEPTH} levels deep"
+                        ),
+                        Some(n..n + 1),
+                        text,
+                    ));
+                }
+            }
+            b']' | b'}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+        n += 1;
+    }
+    None
+}
+
 /// [`toml_message`] for an error of `toml_edit` (the parser of files volmap edits in place).
 pub fn toml_edit_message(error: &toml_edit::TomlError, text: &str) -> String {
     located_message(error.message(), error.span(), text)
@@ -193,6 +256,33 @@ mod tests {
 #[cfg(test)]
 mod toml_tests {
     use super::*;
+
+    #[test]
+    fn nesting_beyond_the_limit_is_found_outside_strings_and_comments() {
+        let deep = "a = ".to_string() + &"[".repeat(MAX_TOML_DEPTH + 1);
+        let message = toml_too_deep(&deep).unwrap();
+        assert!(
+            message.starts_with("line 1, column 69: arrays and inline tables nested more than 64"),
+            "{message}"
+        );
+        let unclosed = "x = { [1.0]\n".repeat(100);
+        assert!(toml_too_deep(&unclosed)
+            .unwrap()
+            .starts_with("line 64, column 7:"));
+        let fine = format!(
+            "# {}\na = \"{}\"\nb = '{}'\nc = \"\"\"\n{}\"\"\"\nd = '''{}'''\ne = \"\\\"[\"\n[t]\nf = [[1, 2], {{ g = [3] }}]\n[[u]]\n",
+            "[".repeat(100),
+            "{".repeat(100),
+            "[".repeat(100),
+            "[".repeat(100),
+            "{".repeat(100)
+        );
+        assert_eq!(toml_too_deep(&fine), None, "{fine}");
+        let at_limit =
+            "a = ".to_string() + &"[".repeat(MAX_TOML_DEPTH) + &"]".repeat(MAX_TOML_DEPTH);
+        assert_eq!(toml_too_deep(&at_limit), None);
+        assert!(toml::from_str::<toml::Table>(&at_limit).is_ok());
+    }
 
     #[test]
     fn capped_messages_cut_quotes_and_long_numbers() {

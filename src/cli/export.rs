@@ -19,12 +19,14 @@ const NEGLIGIBLE_MM: f64 = 1e-6;
 pub struct ExportArgs {
     #[command(flatten)]
     machine: MachineArg,
-    /// The controller format: grid-csv, linuxcnc, klipper or marlin (see the README for each
-    /// format's tables, limits and how to load them).
+    /// The controller format: grid-csv, linuxcnc, klipper, marlin, siemens, heidenhain, fanuc,
+    /// fanuc-3d, isg or isg-axis (see the README for each format's tables, limits and how to
+    /// load them).
     #[arg(long)]
     format: String,
-    /// Where to write: the file for a one-file format (grid-csv, klipper, marlin), a folder
-    /// (created) for a format of several files (linuxcnc).
+    /// Where to write: the file for a one-file format (grid-csv, klipper, marlin, fanuc-3d), a
+    /// folder (created) for a format of several files (linuxcnc, siemens, heidenhain, fanuc, isg,
+    /// isg-axis).
     #[arg(long, required_unless_present = "sweep_points")]
     out: Option<PathBuf>,
     /// Spacing between table nodes, mm (per axis, the nodes from the start of each travel to
@@ -199,10 +201,19 @@ fn print_report(r: &Report) {
     if r.not_held.is_empty() && r.structural_mm < NEGLIGIBLE_MM {
         outln!("  cannot hold            nothing of this machine's correction at the pose");
     } else {
-        outln!(
-            "  cannot hold            up to {} of the correction at any table size; of each error alone:",
-            um(r.structural_mm)
-        );
+        if r.structural_mm < NEGLIGIBLE_MM {
+            outln!("  cannot hold            nothing of the whole correction at any table size (the parts below cancel); of each error alone:");
+        } else if r.not_held.is_empty() {
+            outln!(
+                "  cannot hold            up to {} of the correction at any table size (no single error's part above 0.001 µm)",
+                um(r.structural_mm)
+            );
+        } else {
+            outln!(
+                "  cannot hold            up to {} of the correction at any table size; of each error alone:",
+                um(r.structural_mm)
+            );
+        }
         for n in &r.not_held {
             outln!(
                 "    {:<8} {} of the {} it causes alone",

@@ -14,7 +14,7 @@
 //!
 //! Both formats fix or choose the node positions themselves and write the curves at them; the
 //! Heidenhain format chooses free nodes shared by the curves of one table
-//! ([`free_nodes_of_curves`]).
+//! ([`free_nodes`](super::nodes::free_nodes)).
 
 use super::fitting::{Field, Fitting, LINEAR};
 use super::format::Term;
@@ -132,84 +132,10 @@ pub fn own_curves_at(
     }))
 }
 
-/// The largest distance of the curves at the candidates strictly between `i` and `j` from their
-/// chords through the candidates `i` and `j`.
-fn chord_error(q: &[f64], curves: &[&[f64]], i: usize, j: usize) -> f64 {
-    let mut worst: f64 = 0.0;
-    for f in curves {
-        let slope = (f[j] - f[i]) / (q[j] - q[i]);
-        for m in (i + 1)..j {
-            worst = worst.max((f[m] - (f[i] + slope * (q[m] - q[i]))).abs());
-        }
-    }
-    worst
-}
-
-/// Chooses at most `n` of the candidate positions `q` (strictly increasing) as the nodes of one
-/// table that holds several curves at the same positions (`curves`, each given at every
-/// candidate): the first and the last candidate always, no two closer than `min_spacing`, so
-/// that the largest distance of any curve from its chords between consecutive nodes is the
-/// smallest possible (the minimax over the candidates, exact by dynamic programming). Of the
-/// choices within `tolerance` of that smallest distance, the one of fewest nodes. Returns the
-/// indices of the nodes in `q`, in order.
-pub fn free_nodes_of_curves(
-    q: &[f64],
-    curves: &[&[f64]],
-    n: usize,
-    min_spacing: f64,
-    tolerance: f64,
-) -> Vec<usize> {
-    let m = q.len();
-    if m <= 2 {
-        return (0..m).collect();
-    }
-    let n = n.clamp(2, m);
-    let allowed = |i: usize, j: usize| q[j] - q[i] >= min_spacing * (1.0 - 1e-12);
-    // cost[i * m + j]: the chord error of a segment from candidate i to candidate j.
-    let mut cost = vec![f64::INFINITY; m * m];
-    for i in 0..m {
-        for j in (i + 1)..m {
-            if allowed(i, j) {
-                cost[i * m + j] = chord_error(q, curves, i, j);
-            }
-        }
-    }
-    // best[s][j]: the smallest largest error of s segments from candidate 0 to candidate j;
-    // from[s][j]: the node before j on that choice.
-    let mut best = vec![vec![f64::INFINITY; m]; n];
-    let mut from = vec![vec![usize::MAX; m]; n];
-    best[0][0] = 0.0;
-    for s in 1..n {
-        for j in s..m {
-            let (mut b, mut at) = (f64::INFINITY, usize::MAX);
-            for i in (s - 1)..j {
-                let e = best[s - 1][i].max(cost[i * m + j]);
-                if e < b {
-                    (b, at) = (e, i);
-                }
-            }
-            best[s][j] = b;
-            from[s][j] = at;
-        }
-    }
-    let target = (1..n).map(|s| best[s][m - 1]).fold(f64::INFINITY, f64::min);
-    let segments = (1..n)
-        .find(|&s| best[s][m - 1] <= target + tolerance)
-        .unwrap_or(n - 1);
-    let mut nodes = vec![m - 1];
-    let mut j = m - 1;
-    for s in (1..=segments).rev() {
-        j = from[s][j];
-        nodes.push(j);
-    }
-    nodes.reverse();
-    nodes
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::export::nodes::Pwl;
+    use crate::export::nodes::{free_nodes, Pwl};
 
     #[test]
     fn the_nodes_of_several_curves_find_the_kinks_of_each() {
@@ -217,14 +143,11 @@ mod tests {
         let a: Vec<f64> = q.iter().map(|&x| (x - 30.0).abs()).collect();
         let b: Vec<f64> = q.iter().map(|&x| (x - 70.0).max(0.0)).collect();
         assert_eq!(
-            free_nodes_of_curves(&q, &[&a, &b], 10, 0.0, 1e-12),
+            free_nodes(&q, &[&a, &b], 10, 0.0, 1e-12),
             vec![0, 30, 70, 100]
         );
         // One curve alone needs one kink.
-        assert_eq!(
-            free_nodes_of_curves(&q, &[&a], 10, 0.0, 1e-12),
-            vec![0, 30, 100]
-        );
+        assert_eq!(free_nodes(&q, &[&a], 10, 0.0, 1e-12), vec![0, 30, 100]);
     }
 
     #[test]
@@ -247,7 +170,7 @@ mod tests {
                 })
                 .fold(0.0, f64::max)
         };
-        let chosen = free_nodes_of_curves(&q, &[&a, &b], 4, 0.0, 0.0);
+        let chosen = free_nodes(&q, &[&a, &b], 4, 0.0, 0.0);
         assert_eq!(chosen.len(), 4);
         let mut best = f64::INFINITY;
         for i in 1..59 {
@@ -257,7 +180,7 @@ mod tests {
         }
         assert!(worst(&chosen) <= best + 1e-15, "{chosen:?}");
         // A spacing kept: no two nodes closer than 0.2.
-        let spaced = free_nodes_of_curves(&q, &[&a, &b], 6, 0.2, 0.0);
+        let spaced = free_nodes(&q, &[&a, &b], 6, 0.2, 0.0);
         assert!(spaced.windows(2).all(|w| q[w[1]] - q[w[0]] >= 0.2 - 1e-12));
     }
 }

@@ -356,8 +356,10 @@ pub fn structural_remainder(
     structure: Structure,
     grid: &[Vec<f64>; 3],
 ) -> Result<f64, ExportError> {
-    let Structure::Additive(terms) = structure else {
-        return Ok(0.0);
+    let terms = match structure {
+        Structure::Grid => return Ok(0.0),
+        Structure::AxisAndPlane => return axis_and_plane_remainder(field, grid),
+        Structure::Additive(terms) => terms,
     };
     let fit = additive_fit(field, terms, grid, grid.clone())?;
     let mut indices = Vec::new();
@@ -381,6 +383,57 @@ pub fn structural_remainder(
             let f = fit.at_indices(index, xyz);
             ((d[0] - f[0]).powi(2) + (d[1] - f[1]).powi(2) + (d[2] - f[2]).powi(2)).sqrt()
         })
+        .fold(0.0, f64::max))
+}
+
+/// [`structural_remainder`] of [`Structure::AxisAndPlane`]: on a factorial grid the
+/// least-squares `f_k(q_k) + g_k(q_i, q_j)` is the mean of `d_k` over the plane at each `q_k`
+/// plus its mean along `k` at each plane point, less the grand mean; what is left is the
+/// interaction of axis `k`'s position with the plane's.
+fn axis_and_plane_remainder(field: &Field, grid: &[Vec<f64>; 3]) -> Result<f64, ExportError> {
+    let n = [grid[0].len(), grid[1].len(), grid[2].len()];
+    let index = |i: usize, j: usize, l: usize| (i * n[1] + j) * n[2] + l;
+    let mut targets = Vec::with_capacity(n[0] * n[1] * n[2]);
+    for &x in &grid[0] {
+        for &y in &grid[1] {
+            for &z in &grid[2] {
+                targets.push([x, y, z]);
+            }
+        }
+    }
+    let d = field.corrections(&targets)?;
+    let mut remainder = vec![[0.0f64; 3]; d.len()];
+    for k in 0..3 {
+        let grand = mean(&d.iter().map(|v| v[k]).collect::<Vec<_>>());
+        // Mean over the plane at each position of axis k, and along k at each plane point.
+        let mut along_k = vec![0.0; n[k]];
+        let mut plane = std::collections::HashMap::<[usize; 2], f64>::new();
+        for i in 0..n[0] {
+            for j in 0..n[1] {
+                for l in 0..n[2] {
+                    let at = [i, j, l];
+                    let v = d[index(i, j, l)][k];
+                    along_k[at[k]] += v;
+                    let others = [at[(k + 1) % 3], at[(k + 2) % 3]];
+                    *plane.entry(others).or_insert(0.0) += v;
+                }
+            }
+        }
+        let plane_points = (n[0] * n[1] * n[2] / n[k]) as f64;
+        for i in 0..n[0] {
+            for j in 0..n[1] {
+                for l in 0..n[2] {
+                    let at = [i, j, l];
+                    let others = [at[(k + 1) % 3], at[(k + 2) % 3]];
+                    let fit = along_k[at[k]] / plane_points + plane[&others] / n[k] as f64 - grand;
+                    remainder[index(i, j, l)][k] = d[index(i, j, l)][k] - fit;
+                }
+            }
+        }
+    }
+    Ok(remainder
+        .iter()
+        .map(|r| (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt())
         .fold(0.0, f64::max))
 }
 

@@ -64,6 +64,9 @@ pub enum Structure {
     /// A sum of functions of one axis position each: `terms[k][i]` says what the correction of
     /// axis `k` (X, Y, Z) may be as a function of the commanded position of axis `i`.
     Additive([[Term; 3]; 3]),
+    /// Per axis `k`, a function of its own position plus a function of the other two axes'
+    /// positions together: `d_k = f_k(q_k) + g_k(q_i, q_j)` (an axis table and a plane table).
+    AxisAndPlane,
 }
 
 /// One term of an [`Structure::Additive`] correction.

@@ -14,7 +14,7 @@
 //!   control reads only the tables).
 //!
 //! The control interpolates linearly between points; the points are free (volmap chooses them,
-//! [`axis_tables::free_nodes_of_curves`], shared by the columns of a table) and cover the
+//! [`free_nodes`](node_choice::free_nodes), shared by the columns of a table) and cover the
 //! travel, so nothing is read beyond the ends (where the end values are taken to hold).
 //! **Sign**: the tables hold the error, actual − commanded position ("The error is positive if
 //! the table travel is too long"), so the values are the negated command correction, `−d`.
@@ -225,7 +225,7 @@ fn free_tables(fitting: &Fitting, points: [usize; 3]) -> Result<[ComTable; 3], E
             );
         }
         let refs: Vec<&[f64]> = held.iter().map(Vec::as_slice).collect();
-        let at = axis_tables::free_nodes_of_curves(
+        let at = node_choice::free_nodes(
             &curves.positions[i],
             &refs,
             points[i],

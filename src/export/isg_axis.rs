@@ -86,8 +86,7 @@ impl Format for IsgAxis {
     }
 
     fn structure(&self) -> Structure {
-        // A lower bound: the plane tables also hold the interaction of their two masters.
-        Structure::Additive([[Term::Curve; 3]; 3])
+        Structure::AxisAndPlane
     }
 
     fn holds(&self) -> &'static str {

@@ -65,10 +65,11 @@ pub fn free_nodes(
     tolerance: f64,
 ) -> Vec<usize> {
     let m = q.len();
-    if n >= m || m <= 2 {
+    let all_apart = q.windows(2).all(|w| w[1] - w[0] >= min_spacing);
+    if m <= 2 || (n >= m && all_apart) {
         return (0..m).collect();
     }
-    let n = n.max(2);
+    let n = n.clamp(2, m);
     // cost[i][j]: the chord error of a segment from candidate i to candidate j.
     let allowed = |i: usize, j: usize| q[j] - q[i] >= min_spacing * (1.0 - 1e-12);
     let cost: Vec<Vec<f64>> = (0..m)

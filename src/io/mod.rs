@@ -51,21 +51,21 @@ pub enum FileError {
 impl FileError {
     pub fn read(path: &Path, source: std::io::Error) -> FileError {
         FileError::Read {
-            path: path.display().to_string(),
+            path: shown_path(path),
             source,
         }
     }
 
     pub fn write(path: &Path, source: std::io::Error) -> FileError {
         FileError::Write {
-            path: path.display().to_string(),
+            path: shown_path(path),
             source,
         }
     }
 
     pub fn too_large(path: &Path, kind: input::InputKind) -> FileError {
         FileError::TooLarge {
-            path: path.display().to_string(),
+            path: shown_path(path),
             limit: input::describe_bytes(kind.limit_bytes()),
             kind: kind.name(),
         }
@@ -75,6 +75,28 @@ impl FileError {
     pub fn is_outside_folder(&self) -> bool {
         matches!(self, FileError::OutsideFolder { .. })
     }
+}
+
+/// The most characters of a path a message shows: the start and the end of a longer one.
+const SHOWN_PATH_CHARS: usize = 320;
+
+/// `path` as a message shows it: control characters (a newline inside a name written in a file)
+/// as `?`, and a path longer than [`SHOWN_PATH_CHARS`] cut in the middle, so that a name of 4 kB
+/// from a file does not become a 4 kB message.
+pub fn shown_path(path: &Path) -> String {
+    let chars: Vec<char> = path
+        .display()
+        .to_string()
+        .chars()
+        .map(|c| if c.is_control() { '?' } else { c })
+        .collect();
+    if chars.len() <= SHOWN_PATH_CHARS {
+        return chars.into_iter().collect();
+    }
+    let half = SHOWN_PATH_CHARS / 2;
+    let head: String = chars[..half].iter().collect();
+    let tail: String = chars[chars.len() - half..].iter().collect();
+    format!("{head}…{tail}")
 }
 
 /// How the input an output would replace was named, where that differs from the output's name.

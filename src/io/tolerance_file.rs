@@ -77,6 +77,9 @@ impl ToleranceFile {
         machine: &Machine,
     ) -> Result<ToleranceFile, ToleranceError> {
         let file = path.display().to_string();
+        if let Some(message) = crate::error::toml_too_deep(text) {
+            return Err(ToleranceError::Toml { file, message });
+        }
         let document: DocumentMut =
             text.parse()
                 .map_err(|e: toml_edit::TomlError| ToleranceError::Toml {

@@ -275,6 +275,9 @@ pub fn read_work_offsets(path: &std::path::Path) -> Result<Vec<(u32, [f64; 6])>,
         message,
     };
     let text = read_text(path)?;
+    if let Some(message) = crate::error::toml_too_deep(&text) {
+        return Err(file_error(message));
+    }
     let table: std::collections::BTreeMap<String, Vec<f64>> =
         toml::from_str(&text).map_err(|e| file_error(crate::error::toml_message(&e, &text)))?;
     table

@@ -280,6 +280,12 @@ impl PartFile {
     }
 
     pub fn parse(text: &str, file: &str) -> Result<PartFile, FeatureError> {
+        if let Some(message) = crate::error::toml_too_deep(text) {
+            return Err(FeatureError::Toml {
+                file: file.to_string(),
+                message,
+            });
+        }
         let part: PartFile = toml::from_str(text).map_err(|e| FeatureError::Toml {
             file: file.to_string(),
             message: crate::error::toml_message(&e, text),

@@ -224,6 +224,24 @@ fn isg_axis_round_trip_gives_the_reported_residual() {
     );
     assert!((rms - report.residual.rms_mm).abs() < 1e-12);
     assert!(max < 0.5 * report.before.max_mm);
+    // What no table size holds is about what these lists leave, and less than what sums of
+    // one-axis tables leave: a plane list also holds the interaction of its two masters.
+    assert!(
+        report.structural_mm > 0.5 * max && report.structural_mm < 1.1 * max,
+        "{} vs {max}",
+        report.structural_mm
+    );
+    let siemens = export::export(
+        export::format_named("siemens").unwrap(),
+        &request(&gantry, &inputs, TableSize::Points(9)),
+    )
+    .unwrap();
+    assert!(
+        report.structural_mm < 0.9 * siemens.report.structural_mm,
+        "{} vs {}",
+        report.structural_mm,
+        siemens.report.structural_mm
+    );
     let startup = &exported
         .files
         .iter()

@@ -344,3 +344,82 @@ fn a_header_attribute_claiming_a_gigabyte_allocates_what_the_file_holds() {
     );
     assert!(usage.largest_request_bytes < 4 << 20, "{usage:?}");
 }
+
+/// Work offsets of ten thousand unclosed inline tables overflowed the TOML parser's stack (an
+/// abort, on the command line too): every TOML reader refuses nesting beyond 64 levels first,
+/// naming the line.
+#[test]
+fn toml_nested_beyond_the_limit_is_refused_before_it_is_parsed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("offsets.toml");
+    std::fs::write(&path, "G54 = { [200.0, 200.0, 300.0]\n".repeat(10_000)).unwrap();
+    let error = nc::read_work_offsets(&path).unwrap_err().to_string();
+    assert!(
+        error.ends_with(
+            "line 64, column 9: arrays and inline tables nested more than 64 levels deep\n  | G54 = { [200.0, 200.0, 300.0]"
+        ),
+        "{error}"
+    );
+    let machine_file = dir.path().join("m.toml");
+    std::fs::write(&machine_file, format!("name = {}", "[".repeat(100_000))).unwrap();
+    let error = volmap::model::Machine::from_path(&machine_file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("line 1, column 72: arrays and inline tables nested more than 64"),
+        "{error}"
+    );
+}
+
+/// A CSV name of 4 kB in a fit file (newlines in it) was quoted whole in the message: a path is
+/// shown with its control characters as `?` and cut in the middle beyond 320 characters.
+#[test]
+fn a_long_csv_name_is_shown_cut_in_the_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let fit = dir.path().join("fit.toml");
+    std::fs::write(
+        &fit,
+        format!(
+            "estimate = [\"EX0C\", \"EY0C\"]\n[[rtest]]\naxis = \"C\"\nsphere_mm = [100.0, 200.0, 250.0]\nfrom_deg = 0.0\nto_deg = 30.0\nstep_deg = 10.0\ncsv = \"\"\"a\n{}\nb\"\"\"\n",
+            "0,".repeat(2000)
+        ),
+    )
+    .unwrap();
+    let out = crate::cli::volmap()
+        .args(["fit", "--machine", "5axis-hwang2014", "--measurements"])
+        .arg(&fit)
+        .assert()
+        .code(2)
+        .get_output()
+        .stderr
+        .clone();
+    let message = String::from_utf8(out).unwrap();
+    assert!(message.len() < 1200, "{} bytes: {message}", message.len());
+    assert!(message.contains("[[rtest]] number 1: "), "{message}");
+    assert!(message.contains("a?0,0,0,"), "{message}");
+    assert!(message.contains(",0,…0,0,"), "{message}");
+    assert!(
+        message
+            .trim_end()
+            .ends_with(",?b: cannot read: File name too long (os error 36)"),
+        "{message}"
+    );
+}
+
+/// A multi-part field whose part, not a scanline image, was named with a machine file's text
+/// quoted the whole name: the name is quoted cut to 80 characters.
+#[test]
+fn a_long_part_name_is_quoted_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.exr");
+    std::fs::write(&path, regression("field-part-name.exr")).unwrap();
+    let error = volmap::io::field::FieldFile::open(&path)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(error.len() < 400, "{error}");
+    assert!(
+        error.ends_with("…`) is not a scanline image; volmap reads the fields it writes"),
+        "{error}"
+    );
+}

@@ -321,14 +321,16 @@ impl Cursor<'_> {
             .name
             .clone()
             .ok_or_else(|| self.format(format!("part {part} has no name")))?;
+        // A name is the writer's text, of any length: quoted cut.
+        let shown = crate::error::excerpt(&name);
         if image.kind.as_deref() != Some("scanlineimage") {
             return Err(self.format(format!(
-                "part {part} ({name}) is not a scanline image; volmap reads the fields it writes"
+                "part {part} (`{shown}`) is not a scanline image; volmap reads the fields it writes"
             )));
         }
         if image.chunk_count.map(i64::from) != Some(blocks as i64) {
             return Err(self.format(format!(
-                "part {part} ({name}): chunkCount must be its {blocks} blocks of lines"
+                "part {part} (`{shown}`): chunkCount must be its {blocks} blocks of lines"
             )));
         }
         Ok(name)

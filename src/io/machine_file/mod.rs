@@ -166,6 +166,12 @@ impl Machine {
         csv_base: Option<&Path>,
         reach: Reach,
     ) -> Result<Machine, MachineError> {
+        if let Some(message) = crate::error::toml_too_deep(text) {
+            return Err(MachineError::Toml {
+                file: file.to_string(),
+                message,
+            });
+        }
         let raw: RawMachine = toml::from_str(text).map_err(|e| MachineError::Toml {
             file: file.to_string(),
             message: toml_message(&e, text),
