@@ -1,8 +1,9 @@
 //! The residual of each embedded machine against the size of its table (grid-csv points per
-//! axis, LinuxCNC entries per joint): the README's figure `docs/export-residual.svg`, from the
-//! values in `tests/golden/export-residual.csv`. `VOLMAP_BLESS=1 cargo test export_figure`
-//! recomputes every size and redraws the figure; without it a few sizes are recomputed and must
-//! equal the stored values, so the figure shows what volmap computes.
+//! axis, LinuxCNC entries per joint, SINUMERIK, HEIDENHAIN and ISG points per table): the
+//! README's figure `docs/export-residual.svg`, from the values in
+//! `tests/golden/export-residual.csv`. `VOLMAP_BLESS=1 cargo test export_figure` recomputes every
+//! size and redraws the figure; without it a few sizes are recomputed and must equal the stored
+//! values, so the figure shows what volmap computes.
 
 use std::path::PathBuf;
 
@@ -11,8 +12,39 @@ use volmap::io::embedded::{self, EMBEDDED};
 use volmap::model::inputs::Inputs;
 use volmap::plot::{self, Color, Marker, Series};
 
-const GRID_POINTS: [usize; 10] = [2, 3, 4, 5, 7, 9, 13, 17, 25, 33];
-const LINUXCNC_POINTS: [usize; 12] = [2, 3, 4, 6, 8, 12, 16, 32, 64, 128, 192, 256];
+/// The figure's panels: format, table sizes, title, horizontal axis.
+const PANELS: [(&str, &[usize], &str, &str); 5] = [
+    (
+        "grid-csv",
+        &[2, 3, 4, 5, 7, 9, 13, 17, 25, 33],
+        "grid-csv: trilinear 3-D grid, residual against points per axis",
+        "points per axis",
+    ),
+    (
+        "linuxcnc",
+        &[2, 3, 4, 6, 8, 12, 16, 32, 64, 128, 192, 256],
+        "linuxcnc: joint tables (free nodes) + matrixkins, residual against entries",
+        "entries per joint",
+    ),
+    (
+        "siemens",
+        &[2, 3, 5, 9, 17, 33, 65, 129, 200],
+        "siemens: MSEC + sag/cross tables (equidistant), residual against points",
+        "points per table",
+    ),
+    (
+        "heidenhain",
+        &[2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64],
+        "heidenhain: *.COM axis tables (free nodes), residual against points",
+        "points per table",
+    ),
+    (
+        "isg-axis",
+        &[2, 3, 5, 9, 17, 33, 65],
+        "isg-axis: leadscrew + plane lists (free nodes), residual against points",
+        "points per axis of a list",
+    ),
+];
 
 /// One export's figures: before and residual largest, residual RMS, mm.
 #[derive(Debug, Clone, PartialEq)]
@@ -117,13 +149,10 @@ fn chart(rows: &[Row], format: &str, title: &str, x_label: &str) -> plot::Drawin
 fn residual_against_table_size_of_the_embedded_machines() {
     if std::env::var_os("VOLMAP_BLESS").is_some() {
         let mut rows = Vec::new();
-        for (machine, _) in EMBEDDED {
-            rows.extend(GRID_POINTS.iter().map(|&n| compute(machine, "grid-csv", n)));
-            rows.extend(
-                LINUXCNC_POINTS
-                    .iter()
-                    .map(|&n| compute(machine, "linuxcnc", n)),
-            );
+        for (format, sizes, _, _) in PANELS {
+            for (machine, _) in EMBEDDED {
+                rows.extend(sizes.iter().map(|&n| compute(machine, format, n)));
+            }
         }
         let mut text = String::from(
             "# volmap export over the embedded machines at their default inputs, pose 0: largest |VE| before,\n# largest and RMS residual, mm (VOLMAP_BLESS=1 cargo test export_figure)\nmachine,format,points,before_mm,residual_mm,residual_rms_mm\n",
@@ -137,20 +166,12 @@ fn residual_against_table_size_of_the_embedded_machines() {
         std::fs::write(golden(), text).unwrap();
     }
     let stored = read_golden();
-    let figure = plot::stacked(vec![
-        chart(
-            &stored,
-            "grid-csv",
-            "grid-csv: trilinear 3-D grid, residual against points per axis",
-            "points per axis",
-        ),
-        chart(
-            &stored,
-            "linuxcnc",
-            "linuxcnc: joint tables (free nodes) + matrixkins, residual against entries",
-            "entries per joint",
-        ),
-    ]);
+    let figure = plot::stacked(
+        PANELS
+            .iter()
+            .map(|(format, _, title, x_label)| chart(&stored, format, title, x_label))
+            .collect(),
+    );
     let svg = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("docs/export-residual.svg");
     if std::env::var_os("VOLMAP_BLESS").is_some() {
         figure.write(&svg).unwrap();
@@ -165,7 +186,7 @@ fn residual_against_table_size_of_the_embedded_machines() {
     );
     assert_eq!(
         stored.len(),
-        EMBEDDED.len() * (GRID_POINTS.len() + LINUXCNC_POINTS.len())
+        EMBEDDED.len() * PANELS.iter().map(|p| p.1.len()).sum::<usize>()
     );
     // What the figure shows: a grid's residual falls with its spacing, to a fraction of a per
     // cent; joint tables fall to the part of the correction they cannot hold.
@@ -185,11 +206,13 @@ fn residual_against_table_size_of_the_embedded_machines() {
             grid[grid.len() - 1].residual_mm < 0.01 * grid[0].before_mm,
             "{machine}"
         );
-        let lc = of("linuxcnc");
-        assert!(
-            lc[lc.len() - 1].residual_mm <= 1.01 * lc[0].residual_mm,
-            "{machine}"
-        );
+        for format in ["linuxcnc", "siemens", "heidenhain", "isg-axis"] {
+            let tables = of(format);
+            assert!(
+                tables[tables.len() - 1].residual_mm <= 1.01 * tables[0].residual_mm,
+                "{machine} {format}"
+            );
+        }
     }
     // A few sizes recomputed equal the stored values.
     for (machine, format, points) in [
@@ -197,6 +220,9 @@ fn residual_against_table_size_of_the_embedded_machines() {
         ("gantry-2m", "grid-csv", 9),
         ("5axis-hwang2014", "linuxcnc", 6),
         ("vmc-dobariya2015", "linuxcnc", 8),
+        ("gantry-2m", "siemens", 5),
+        ("vmc-li2015", "heidenhain", 4),
+        ("5axis-hwang2014", "isg-axis", 3),
     ] {
         let now = compute(machine, format, points);
         let then = stored
