@@ -90,12 +90,23 @@ pub fn read_bytes(path: &Path, kind: InputKind) -> Result<Vec<u8>, FileError> {
     {
         return Err(FileError::too_large(path, kind));
     }
+    // Read in pieces and stop before the limit is passed: `read_to_end` of `limit + 1` bytes
+    // doubles its buffer to twice the limit at the last byte (a device that never ends, such
+    // as /dev/zero, made a mesh's 512 MiB limit a 1 GiB allocation).
+    let mut file = file;
     let mut bytes = Vec::new();
-    file.take(limit + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| FileError::read(path, e))?;
-    if bytes.len() as u64 > limit {
-        return Err(FileError::too_large(path, kind));
+    let mut piece = vec![0u8; 1 << 16];
+    loop {
+        let n = match file.read(&mut piece) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(FileError::read(path, e)),
+        };
+        if (bytes.len() + n) as u64 > limit {
+            return Err(FileError::too_large(path, kind));
+        }
+        bytes.extend_from_slice(&piece[..n]);
     }
     Ok(bytes)
 }

@@ -423,3 +423,44 @@ fn a_long_part_name_is_quoted_cut() {
         "{error}"
     );
 }
+
+/// A part file naming `/dev/zero` as its mesh held 1 GiB: reading up to a 512 MiB limit doubled
+/// the buffer to 1 GiB at the last byte. Reads now stop before the limit is passed.
+#[test]
+fn a_file_that_never_ends_is_read_within_its_limit() {
+    use crate::fuzz::harness::watch;
+    use volmap::io::input::{read_bytes, InputKind};
+    watch::begin();
+    let result = read_bytes(std::path::Path::new("/dev/zero"), InputKind::Text);
+    let usage = watch::end();
+    let error = result.unwrap_err().to_string();
+    assert!(
+        error.starts_with("/dev/zero: larger than 64 MiB"),
+        "{error}"
+    );
+    let limit = InputKind::Text.limit_bytes();
+    assert!(usage.largest_request_bytes <= limit, "{usage:?}");
+}
+
+/// A floor sampled every 0.5 mm (241,001 points) took 2.3 s and 600 MB: its minimum zone was
+/// one linear programme of two rows a point. It is now solved on subsets (the same optimum).
+#[test]
+fn a_finely_sampled_floor_is_evaluated_in_little_memory() {
+    use crate::fuzz::harness::watch;
+    use volmap::part::{self, ErrorSource, PartFile};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("part.toml");
+    std::fs::write(&path, regression("part-fine-floor.toml")).unwrap();
+    let part = PartFile::read(&path).unwrap();
+    let machine = machine();
+    // On this thread alone, where the heap is counted.
+    let (result, usage) = crate::fuzz::harness::campaign::single_threaded(|| {
+        watch::begin();
+        let result = part::evaluate(&part, ErrorSource::Exact(&machine), "part.toml").unwrap();
+        (result, watch::end())
+    });
+    assert!(usage.peak_bytes < 200 << 20, "{usage:?}");
+    assert_eq!(result.len(), 1);
+    let floor = format!("{:?}", result[0]);
+    assert!(floor.contains("pocket floor"), "{floor}");
+}
