@@ -380,7 +380,7 @@ fn text_mutation(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
         }
         9 => {
             // Line ends changed throughout: CR LF, CR only, none.
-            let to: &[u8] = *rng.pick::<&[u8]>(&[&b"\r\n"[..], b"\r", b"\n\n", b""]);
+            let to: &[u8] = rng.pick::<&[u8]>(&[&b"\r\n"[..], b"\r", b"\n\n", b""]);
             let mut out = Vec::with_capacity(data.len() * 2);
             for &b in data.iter() {
                 if b == b'\n' {
@@ -403,8 +403,7 @@ fn text_mutation(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
         _ => {
             // An empty line, or a line of blanks, or a comment.
             let at = pick_line_start(data, rng);
-            let line: &[u8] =
-                *rng.pick::<&[u8]>(&[&b"\n"[..], b"   \n", b"#\n", b"; x\n", b"//\n"]);
+            let line: &[u8] = rng.pick::<&[u8]>(&[&b"\n"[..], b"   \n", b"#\n", b"; x\n", b"//\n"]);
             data.splice(at..at, line.iter().copied());
         }
     }

@@ -134,7 +134,6 @@ pub fn own_curves_at(
 
 #[cfg(test)]
 mod tests {
-    use super::*;
     use crate::export::nodes::{free_nodes, Pwl};
 
     #[test]

@@ -287,7 +287,7 @@ fn expand_hole(
     if matches!(cycle.code, 73 | 83) {
         let q = cycle.q.expect("a peck depth");
         let pecks = ((cycle.r - cycle.depth) / q).ceil();
-        if !(pecks <= MAX_PECKS as f64) {
+        if pecks.is_nan() || pecks > MAX_PECKS as f64 {
             return Err(NcError::line(
                 path,
                 line.number,

@@ -343,10 +343,14 @@ struct ArcWords {
     radius: bool,
 }
 
+/// A split move: its pieces' end values, the centre of each piece that is an arc, and the
+/// values its first line wrote.
+type SplitMove<'a> = (&'a [[f64; 6]], &'a [Option<[f64; 2]>], [f64; 6]);
+
 /// The added lines of a split move, one per piece after the first (a piece that moves no written
 /// value is left out): straight, or an arc about `centres[i]`. Returns how many were written.
 fn write_pieces(
-    (pieces, centres, first_written): (&[[f64; 6]], &[Option<[f64; 2]>], [f64; 6]),
+    (pieces, centres, first_written): SplitMove<'_>,
     arc: ArcWords,
     state: &mut State,
     style: &Style,

@@ -173,7 +173,7 @@ pub(super) fn ascii_stl(data: &mut Vec<u8>, rng: &mut Rng) {
             data.splice(at..at, line);
         }
         _ => {
-            let keyword: &[u8] = *rng.pick::<&[u8]>(&[
+            let keyword: &[u8] = rng.pick::<&[u8]>(&[
                 &b"solid"[..],
                 b"endsolid",
                 b"facet normal 0 0 1",

@@ -165,7 +165,7 @@ pub(super) fn toml(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
             // An unclosed string, array or table.
             let at = rng.below(data.len() + 1);
             let cut: &[u8] =
-                *rng.pick::<&[u8]>(&[&b"\""[..], b"'", b"[", b"{", b"\"\"\"", b"'''", b"\\"]);
+                rng.pick::<&[u8]>(&[&b"\""[..], b"'", b"[", b"{", b"\"\"\"", b"'''", b"\\"]);
             data.splice(at..at, cut.iter().copied());
         }
     }
@@ -276,7 +276,7 @@ pub(super) fn csv(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
         6 => {
             // Other separators on a line.
             let n = rng.below(rows.len());
-            let sep: &[u8] = *rng.pick::<&[u8]>(&[&b";"[..], b"\t", b" ", b",,", b", "]);
+            let sep: &[u8] = rng.pick::<&[u8]>(&[&b";"[..], b"\t", b" ", b",,", b", "]);
             let line = rows[n].join(sep);
             rows[n] = vec![line];
         }
@@ -381,7 +381,7 @@ pub(super) fn gcode(data: &mut Vec<u8>, rng: &mut Rng) {
         }
         4 => {
             // A comment or a program mark, closed or not.
-            let text: &[u8] = *rng.pick::<&[u8]>(&[
+            let text: &[u8] = rng.pick::<&[u8]>(&[
                 &b"(comment)"[..],
                 b"(open",
                 b"; note",

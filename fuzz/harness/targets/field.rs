@@ -33,8 +33,8 @@ fn field(cx: &mut Context, input: &[u8]) -> Verdict {
         }
         let loaded = read!(LoadedField::open_part(&file, part), &[FILE]);
         let mut middle = [0.0; 6];
-        for d in 0..3 {
-            middle[d] = info.origin_mm[d]
+        for (d, m) in middle.iter_mut().take(3).enumerate() {
+            *m = info.origin_mm[d]
                 + info.spacing_mm[d] * (info.dims[d].saturating_sub(1)) as f64 / 2.0;
         }
         middle[3..].copy_from_slice(&info.pose_deg);
