@@ -12,6 +12,7 @@
 
 use super::perturbation::ErrorTarget;
 use super::{AxisLetter, ErrorFunction, Machine};
+use crate::error::excerpt;
 
 /// `[thermal]`: the declared temperature inputs and the temperature of the geometric model.
 #[derive(Debug, Clone, PartialEq)]
@@ -60,19 +61,23 @@ pub struct Dependent {
 /// Why evaluation inputs do not fit a machine.
 #[derive(Debug, thiserror::Error)]
 pub enum InputsError {
-    #[error("`{0}`: expected NAME=VALUE pairs separated by commas")]
+    #[error("`{}`: expected NAME=VALUE pairs separated by commas", excerpt(.0))]
     Syntax(String),
-    #[error("`{name}` is not a thermal input of this machine ({known})")]
+    #[error("`{}` is not a thermal input of this machine ({known})", excerpt(name))]
     UnknownInput { name: String, known: String },
-    #[error("`{name}={value}`: the temperature is not a finite number of °C at or above absolute zero (-273.15 °C)")]
+    #[error("`{}={}`: the temperature is not a finite number of °C at or above absolute zero (-273.15 °C)", excerpt(name), excerpt(value))]
     Temperature { name: String, value: String },
-    #[error("`{axis}` is not an axis of this machine (chain {chain})")]
+    #[error("`{}` is not an axis of this machine (chain {chain})", excerpt(axis))]
     UnknownAxis { axis: String, chain: String },
-    #[error("`{axis}={value}`: the approach direction is + or -")]
+    #[error(
+        "`{}={}`: the approach direction is + or -",
+        excerpt(axis),
+        excerpt(value)
+    )]
     Direction { axis: String, value: String },
-    #[error("`{0}` is given twice")]
+    #[error("`{}` is given twice", excerpt(.0))]
     Twice(String),
-    #[error("`{0}`: temperatures without the reference temperature they are relative to")]
+    #[error("`{}`: temperatures without the reference temperature they are relative to", excerpt(.0))]
     NoReference(String),
 }
 

@@ -464,3 +464,22 @@ fn a_finely_sampled_floor_is_evaluated_in_little_memory() {
     let floor = format!("{:?}", result[0]);
     assert!(floor.contains("pocket floor"), "{floor}");
 }
+
+/// A field whose `volmap.temperatures` attribute held a kilobyte of other attributes' text (with
+/// a backquote in it) was quoted whole: the inputs' messages quote what they were given cut.
+#[test]
+fn a_bad_inputs_attribute_is_quoted_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.exr");
+    std::fs::write(&path, regression("field-temperatures-attribute.exr")).unwrap();
+    let error = volmap::io::field::FieldFile::open(&path)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(error.len() < 400, "{error}");
+    assert!(
+        error.contains("not a volmap field: attribute volmap.temperatures: `")
+            && error.ends_with("…`: expected NAME=VALUE pairs separated by commas"),
+        "{error}"
+    );
+}
