@@ -36,7 +36,8 @@ pub(super) fn as_run(
     pass_unknown: bool,
 ) -> Result<(Vec<Line>, usize), NcError> {
     let read = parse_program(program, path, pass_unknown)?;
-    // What calls and cycles together may add.
+    let own_blocks = read.len();
+    // What calls and cycles together may add, and what rotating the blocks they add takes.
     let mut room = Room::new();
     let (lines, holes) = expand_cycles(
         expand_subprograms(read, path, pass_unknown, &mut room)?,
@@ -44,7 +45,7 @@ pub(super) fn as_run(
         pass_unknown,
         &mut room,
     )?;
-    Ok((apply_rotations(lines, path)?, holes))
+    Ok((apply_rotations(lines, path, own_blocks, &mut room)?, holes))
 }
 
 pub(super) fn begin<'a>(
