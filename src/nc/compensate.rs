@@ -12,7 +12,7 @@ use super::cycles::expand_cycles;
 use super::kinematics::{Compensator, Kinematics};
 use super::parse::{parse_program, Line};
 use super::program::{
-    end_position, starting_position, take_line, unknown_code, Motion, State, Step, XY,
+    end_position, starting_position, take_line, unknown_code, AxisSet, Motion, State, Step, XY,
 };
 use super::rotation::apply_rotations;
 use super::subprograms::{expand_subprograms, Room};
@@ -36,7 +36,8 @@ pub(super) fn as_run(
     pass_unknown: bool,
 ) -> Result<(Vec<Line>, usize), NcError> {
     let read = parse_program(program, path, pass_unknown)?;
-    // What calls and cycles together may add.
+    let own_blocks = read.len();
+    // What calls and cycles together may add, and what rotating the blocks they add takes.
     let mut room = Room::new();
     let (lines, holes) = expand_cycles(
         expand_subprograms(read, path, pass_unknown, &mut room)?,
@@ -44,7 +45,7 @@ pub(super) fn as_run(
         pass_unknown,
         &mut room,
     )?;
-    Ok((apply_rotations(lines, path)?, holes))
+    Ok((apply_rotations(lines, path, own_blocks, &mut room)?, holes))
 }
 
 pub(super) fn begin<'a>(
@@ -54,7 +55,7 @@ pub(super) fn begin<'a>(
     options: &'a Options,
 ) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
     let (lines, holes) = as_run(program, path, options.pass_unknown)?;
-    let start = starting_position(&lines, machine, path, options)?;
+    let (start, named) = starting_position(&lines, machine, path, options)?;
     let state = State {
         motion: Motion::Rapid,
         plane: XY,
@@ -66,10 +67,13 @@ pub(super) fn begin<'a>(
         tool_lengths: options.tool_lengths.clone(),
         pending_tool: None,
         position: start,
-        written: start,
+        // An axis the program names is, for the reader of the output, where the output first
+        // names it: until then the output has not written it (no word is added for it).
+        written: std::array::from_fn(|d| if named[d] { f64::NAN } else { start[d] }),
         written_motion: Motion::Rapid,
         approach: options.inputs.approach,
         programmed: options.inputs.approach,
+        set: [AxisSet::Never; 6],
     };
     Ok((
         lines,
@@ -268,8 +272,16 @@ fn process_line(
         against: Cell::new(0),
     };
     if !*start_compensated {
-        // The output starts where the compensated start of the program is.
-        state.written = block.compensate_point(&state.position, &state.approach)?;
+        // The output starts where the compensated start of the program is, for the axes it
+        // does not leave unwritten (see `begin`).
+        let compensated = block.compensate_point(&state.position, &state.approach)?;
+        state.written = std::array::from_fn(|d| {
+            if state.written[d].is_nan() {
+                f64::NAN
+            } else {
+                compensated[d]
+            }
+        });
         *start_compensated = true;
     }
     let (start, end, motion) = (state.position, end_position(line, state), state.motion);

@@ -90,17 +90,32 @@ pub(super) struct State {
     pub(super) approach: Directions,
     /// The same in the program as it was.
     pub(super) programmed: Directions,
+    /// Which axes the program has given a value (by a block naming them) since its start or
+    /// their last reference return: an arc needs its start, so both axes of its plane.
+    pub(super) set: [AxisSet; 6],
+}
+
+/// Whether the program has given an axis a value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum AxisSet {
+    /// Named by a block.
+    Yes,
+    /// Not named by any block yet.
+    Never,
+    /// Sent to the reference point (G28) or moved in machine coordinates (G53) by the block on
+    /// this line, and not named since.
+    Reference(usize),
 }
 
 /// Where each axis is before the program moves it: the first absolute value the program gives
-/// it (rotary axes the program never names: 0). An axis first moved incrementally, or a linear
-/// axis never set, has no known start.
+/// it (rotary axes the program never names: 0), and whether the program names it. An axis first
+/// moved incrementally, or a linear axis never set, has no known start.
 pub(super) fn starting_position(
     lines: &[Line],
     machine: &Machine,
     path: &str,
     options: &Options,
-) -> Result<[f64; 6], NcError> {
+) -> Result<([f64; 6], [bool; 6]), NcError> {
     let mut start: [Option<f64>; 6] = [None; 6];
     let mut absolute = true;
     let mut inch = false;
@@ -163,7 +178,7 @@ pub(super) fn starting_position(
             }
         };
     }
-    Ok(position)
+    Ok((position, start.map(|s| s.is_some())))
 }
 
 /// The distance mode (G90/G91) and units (G20/G21) a line sets, for the scans ahead of the
@@ -284,7 +299,39 @@ pub(super) fn reference_return(
                 state.position[d] = v;
             }
             state.written[d] = f64::NAN;
+            state.set[d] = AxisSet::Reference(line.number);
         }
+    }
+    Ok(())
+}
+
+/// The axes a block names have a value from then on.
+fn mark_set(line: &Line, state: &mut State) {
+    for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
+        if line.has(letter) {
+            state.set[d] = AxisSet::Yes;
+        }
+    }
+}
+
+/// An arc turns about a centre given from its start (I J K) or found from it (R): where an axis
+/// of its plane has no value the program gave it, the control's start (wherever the axis stood
+/// before the program, or the machine's reference point) is not a point of the program.
+fn arc_start_known(line: &Line, state: &State, path: &str) -> Result<(), NcError> {
+    for d in [state.plane.u, state.plane.v] {
+        let letter = AXIS_LETTERS[d];
+        let why = match state.set[d] {
+            AxisSet::Yes => continue,
+            AxisSet::Never => "the program has not set it before this block".to_string(),
+            AxisSet::Reference(at) => format!(
+                "it went to the reference point or a machine position on line {at} and the program has not set it since"
+            ),
+        };
+        return Err(NcError::line(
+            path,
+            line.number,
+            format!("an arc (G{}) starts where {letter} is not known: {why}, so the arc's start and centre are not known; set {letter} before the arc", state.motion.code()),
+        ));
     }
     Ok(())
 }
@@ -362,6 +409,7 @@ pub(super) fn take_line(
         state.programmed = line_directions(&state.position, &end, &state.programmed);
         state.position = end;
         state.written = end;
+        mark_set(line, state);
         return Ok(Step::Pass);
     }
     let length_before = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
@@ -419,6 +467,10 @@ pub(super) fn take_line(
         }
         return Ok(Step::Pass);
     }
+    if arc {
+        arc_start_known(line, state, path)?;
+    }
+    mark_set(line, state);
     Ok(Step::Move)
 }
 

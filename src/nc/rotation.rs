@@ -8,6 +8,7 @@
 //! The G68 and G69 blocks become comments that say what was applied.
 
 use super::parse::{parse_line, Line};
+use super::subprograms::{Room, MAX_EXPANDED_WORDS};
 use super::NcError;
 
 /// What is known of the program while reading it.
@@ -45,14 +46,24 @@ fn turn(v: [f64; 2], angle: f64) -> [f64; 2] {
 }
 
 /// The program with every G68 rotation applied to its coordinates (see the module's
-/// documentation).
-pub(super) fn apply_rotations(lines: Vec<Line>, path: &str) -> Result<Vec<Line>, NcError> {
+/// documentation). Rewriting a block costs several times what adding it did: beyond the
+/// program's `own_blocks` (as many rewrites as the file has blocks), each rewritten block takes
+/// its words from the `room` calls and cycles left, so that calls repeated under a rotation
+/// stay within [`MAX_EXPANDED_WORDS`] together.
+pub(super) fn apply_rotations(
+    lines: Vec<Line>,
+    path: &str,
+    own_blocks: usize,
+    room: &mut Room,
+) -> Result<Vec<Line>, NcError> {
     let mut scan = Scan {
         absolute: true,
         xy_plane: true,
         at: [None, None],
         rotation: None,
     };
+    // The line of the G68 in force, and how many blocks have been rewritten.
+    let (mut rotated_at, mut rewritten) = (0, 0usize);
     let mut out = Vec::with_capacity(lines.len());
     for line in lines {
         let error = |message: String| NcError::line(path, line.number, message);
@@ -86,6 +97,7 @@ pub(super) fn apply_rotations(lines: Vec<Line>, path: &str) -> Result<Vec<Line>,
                 ));
             };
             scan.rotation = Some(([cx, cy], angle.to_radians()));
+            rotated_at = line.number;
             out.push(comment(
                 &line,
                 path,
@@ -189,7 +201,16 @@ pub(super) fn apply_rotations(lines: Vec<Line>, path: &str) -> Result<Vec<Line>,
             words.join(" "),
             line.text.trim().replace('(', "[").replace(')', "]")
         );
-        out.push(parse_line(text.trim(), &line.ending, line.number, path)?);
+        let rotated = parse_line(text.trim(), &line.ending, line.number, path)?;
+        rewritten += 1;
+        if rewritten > own_blocks && !room.take(&rotated) {
+            return Err(NcError::line(
+                path,
+                rotated_at,
+                format!("G68: the blocks it rotates, with what subprogram calls and canned cycles add, come to more than {MAX_EXPANDED_WORDS} words and blocks"),
+            ));
+        }
+        out.push(rotated);
     }
     Ok(out)
 }

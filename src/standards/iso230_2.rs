@@ -35,6 +35,30 @@ pub struct PositioningData {
     pub targets_mm: Vec<f64>,
     pub up: Vec<Vec<f64>>,
     pub down: Vec<Vec<f64>>,
+    /// Measured runs: the file they were read from and the line of each target's first row
+    /// (what an error about a target names); `None` for predicted runs.
+    pub read_from: Option<TargetLines>,
+}
+
+/// The file measured targets were read from, and the line of each target's first row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TargetLines {
+    pub path: String,
+    pub lines: Vec<usize>,
+}
+
+impl PositioningData {
+    /// `error`, about target `i`, naming the file and line it was read from (measured runs).
+    pub fn at_target(&self, i: usize, error: StandardsError) -> StandardsError {
+        match &self.read_from {
+            Some(from) => StandardsError::Csv(crate::io::csv::CsvError {
+                path: from.path.clone(),
+                line: from.lines[i],
+                message: error.to_string(),
+            }),
+            None => error,
+        }
+    }
 }
 
 /// The ISO 230-2 figures, mm.
@@ -296,10 +320,23 @@ pub(super) fn positioning_from(m: &Measured) -> Result<PositioningData, Standard
     }
     let down = per_direction.pop().expect("two directions");
     let up = per_direction.pop().expect("two directions");
+    let lines = targets
+        .iter()
+        .map(|&t| {
+            let row = (0..m.len())
+                .find(|&row| (m.columns[0][row] - t).abs() <= 1e-9 * (1.0 + t.abs()))
+                .expect("every target is a row's");
+            m.lines[row]
+        })
+        .collect();
     Ok(PositioningData {
         targets_mm: targets,
         up,
         down,
+        read_from: Some(TargetLines {
+            path: m.path.clone(),
+            lines,
+        }),
     })
 }
 
@@ -356,11 +393,16 @@ pub(crate) fn positioning_with(
     down_directions[letter.index()] = Some(Approach::Negative);
     let mut up = Vec::with_capacity(targets.len());
     let mut down = Vec::with_capacity(targets.len());
-    for &t in &targets {
+    for (i, &t) in targets.iter().enumerate() {
         let mut p = at;
         p[d] = t;
         let command = setup.command(p);
-        setup.check_travel(&command, &format!("positioning of {letter}, target {t}"))?;
+        setup
+            .check_travel(&command, &format!("positioning of {letter}, target {t}"))
+            .map_err(|e| match &measured {
+                Some(data) => data.at_target(i, e),
+                None => e,
+            })?;
         // The laser lies along the way the tool moves relative to the workpiece when the axis
         // moves: e_k at zero pose, turned with a work-side rotary axis.
         let laser = setup.ideal_direction(&command, Vector3::ith(d, 1.0));
@@ -407,6 +449,7 @@ pub(super) fn positioning_result(
         targets_mm: targets.clone(),
         up: up.iter().map(runs).collect(),
         down: down.iter().map(runs).collect(),
+        read_from: None,
     };
     let predicted_figures = predicted.figures();
     let measured_figures = measured.map(PositioningData::figures);

@@ -92,10 +92,15 @@ pub(super) fn rotary_positioning_with(
     let ideal = setup.twin();
     let mut up = Vec::with_capacity(targets.len());
     let mut down = Vec::with_capacity(targets.len());
-    for &t in &targets {
+    for (i, &t) in targets.iter().enumerate() {
         let mut command = setup.command(at);
         command[letter.index()] = t;
-        setup.check_travel(&command, &format!("positioning of {letter}, target {t}°"))?;
+        setup
+            .check_travel(&command, &format!("positioning of {letter}, target {t}°"))
+            .map_err(|e| match measured {
+                Some(data) => data.at_target(i, e),
+                None => e,
+            })?;
         let mut turned = command;
         turned[letter.index()] += 1.0;
         let turn = ideal.ideal_rotation(&turned) * ideal.ideal_rotation(&command).transpose();

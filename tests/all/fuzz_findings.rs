@@ -319,10 +319,19 @@ fn long_keys_are_quoted_within_80_characters() {
 }
 
 /// An arc in the XZ plane after `G53 G0 Z0` and no Z word since: its K was written relative to
-/// a Z the output had not written, as `KNaN`.
+/// a Z the output had not written, as `KNaN`. Such an arc starts where the control has Z, not at
+/// a point of the program: it is refused now, naming its line and the G53 block
+/// (`fuzz_findings_nc`); with Z set again before it, its centre words are numbers.
 #[test]
 fn centre_words_after_a_reference_return_are_numbers() {
-    let text = compensated_reads_back(&machine(), &regression("gcode-arc-after-home.nc"));
+    let program = regression("gcode-arc-after-home.nc");
+    let (line, message) = line_error(nc::compensate(&machine(), &program, "p.nc", &options()));
+    assert_eq!(line, 10);
+    assert!(message.contains("on line 7"), "{message}");
+    let set = String::from_utf8(program)
+        .unwrap()
+        .replace("G18 G2 X60 Z-1", "G1 Z-1\nG18 G2 X60 Z-1");
+    let text = compensated_reads_back(&machine(), set.as_bytes());
     assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
 }
 

@@ -27,6 +27,7 @@ mod field_inputs;
 mod field_storage;
 mod fuzz;
 mod fuzz_findings;
+mod fuzz_findings_nc;
 mod golden;
 mod gpu;
 mod gpu_sparse;
