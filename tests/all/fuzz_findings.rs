@@ -492,3 +492,23 @@ fn a_bad_inputs_attribute_is_quoted_cut() {
         "{error}"
     );
 }
+
+/// A field of 150 channels was refused listing every one: the message names the first eight and
+/// how many there are.
+#[test]
+fn a_field_of_many_channels_names_the_first_few() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.exr");
+    std::fs::write(&path, regression("field-many-channels.exr")).unwrap();
+    let error = volmap::io::field::FieldFile::open(&path)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(error.len() < 600, "{error}");
+    assert!(
+        error.contains("channels must be OE.X OE.Y OE.Z VE.X VE.Y VE.Z all FLOAT (or all HALF), found OE.X FLOAT, OE.Y FLOAT,"),
+        "{error}"
+    );
+    assert!(error.contains(", … ("), "{error}");
+    assert!(error.ends_with(" channels in all)"), "{error}");
+}

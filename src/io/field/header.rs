@@ -274,11 +274,17 @@ impl Cursor<'_> {
             .iter()
             .all(|&t| t == Some(PIXEL_FLOAT) || (half && t == Some(PIXEL_HALF)));
         if names != CHANNELS || !uniform {
-            let found: Vec<String> = image
+            // A channel list is the writer's, of any length: the first few named.
+            const SHOWN_CHANNELS: usize = 8;
+            let mut found: Vec<String> = image
                 .channels
                 .iter()
-                .map(|(n, t)| format!("{n} {}", pixel_type_name(*t)))
+                .take(SHOWN_CHANNELS)
+                .map(|(n, t)| format!("{} {}", crate::error::excerpt(n), pixel_type_name(*t)))
                 .collect();
+            if image.channels.len() > SHOWN_CHANNELS {
+                found.push(format!("… ({} channels in all)", image.channels.len()));
+            }
             return Err(self.format(format!(
                 "channels must be {} all FLOAT (or all HALF), found {}",
                 CHANNELS.join(" "),
