@@ -21,7 +21,7 @@
 
 use super::fitting::{breakpoints, Fitting};
 use super::format::{Control, Format, Layout, Limits, Nodes, Structure, WrittenFile};
-use super::nodes::candidates;
+use super::nodes::{candidates, free_nodes_multi};
 use super::ExportError;
 use nalgebra::Vector3;
 
@@ -394,68 +394,6 @@ fn tabulate(
         nodes,
         values,
     })
-}
-
-/// [`super::nodes::free_nodes`] for several curves at once: `n` of the candidates `q` (both
-/// ends among them) whose chords leave the smallest largest deviation over every curve. Returns
-/// the indices of the nodes; every candidate where `n` is at least their number.
-pub fn free_nodes_multi(q: &[f64], curves: &[Vec<f64>], n: usize) -> Vec<usize> {
-    let m = q.len();
-    if n >= m || m <= 2 {
-        return (0..m).collect();
-    }
-    let n = n.max(2);
-    // Deviations at the rounding of the values are none: a straight piece takes no node.
-    let scale = curves.iter().flatten().fold(0.0_f64, |a, v| a.max(v.abs()));
-    let negligible = 1e-12 * scale;
-    let chord = |i: usize, j: usize| -> f64 {
-        let mut worst: f64 = 0.0;
-        for f in curves {
-            let slope = (f[j] - f[i]) / (q[j] - q[i]);
-            for k in (i + 1)..j {
-                worst = worst.max((f[k] - (f[i] + slope * (q[k] - q[i]))).abs());
-            }
-        }
-        if worst <= negligible {
-            0.0
-        } else {
-            worst
-        }
-    };
-    let cost: Vec<Vec<f64>> = (0..m)
-        .map(|i| {
-            (0..m)
-                .map(|j| if j > i { chord(i, j) } else { f64::INFINITY })
-                .collect()
-        })
-        .collect();
-    let mut best = vec![vec![f64::INFINITY; m]; n];
-    let mut from = vec![vec![usize::MAX; m]; n];
-    best[0][0] = 0.0;
-    for s in 1..n {
-        for j in s..m {
-            let (mut b, mut at) = (f64::INFINITY, usize::MAX);
-            for i in (s - 1)..j {
-                let e = best[s - 1][i].max(cost[i][j]);
-                if e < b {
-                    b = e;
-                    at = i;
-                }
-            }
-            best[s][j] = b;
-            from[s][j] = at;
-        }
-    }
-    let target = best[n - 1][m - 1];
-    let segments = (1..n).find(|&s| best[s][m - 1] <= target).unwrap_or(n - 1);
-    let mut nodes = vec![m - 1];
-    let mut j = m - 1;
-    for s in (1..=segments).rev() {
-        j = from[s][j];
-        nodes.push(j);
-    }
-    nodes.reverse();
-    nodes
 }
 
 /// The ISG chain: the axes from the workpiece to the tool (the work branch from the workpiece

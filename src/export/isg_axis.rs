@@ -19,8 +19,7 @@
 
 use super::fitting::{breakpoints, others, uniform, Fitting, AVERAGING_POINTS, LINEAR};
 use super::format::{Control, Format, Layout, Limits, Nodes, Structure, Term, WrittenFile};
-use super::isg::free_nodes_multi;
-use super::nodes::candidates;
+use super::nodes::{candidates, free_nodes_multi};
 use super::ExportError;
 use crate::model::inputs::Approach;
 

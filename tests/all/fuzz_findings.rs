@@ -13,6 +13,17 @@ fn regression(name: &str) -> Vec<u8> {
     std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
+/// The error opening the saved field `name` gives (it must be refused).
+fn field_error(name: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("f.exr");
+    std::fs::write(&path, regression(name)).unwrap();
+    volmap::io::field::FieldFile::open(&path)
+        .err()
+        .expect("refused")
+        .to_string()
+}
+
 fn machine() -> Machine {
     volmap::io::embedded::embedded("vmc-li2015")
         .unwrap()
@@ -419,13 +430,7 @@ fn a_long_csv_name_is_shown_cut_in_the_message() {
 /// quoted the whole name: the name is quoted cut to 80 characters.
 #[test]
 fn a_long_part_name_is_quoted_cut() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("f.exr");
-    std::fs::write(&path, regression("field-part-name.exr")).unwrap();
-    let error = volmap::io::field::FieldFile::open(&path)
-        .err()
-        .expect("refused")
-        .to_string();
+    let error = field_error("field-part-name.exr");
     assert!(error.len() < 400, "{error}");
     assert!(
         error.ends_with("…`) is not a scanline image; volmap reads the fields it writes"),
@@ -478,13 +483,7 @@ fn a_finely_sampled_floor_is_evaluated_in_little_memory() {
 /// a backquote in it) was quoted whole: the inputs' messages quote what they were given cut.
 #[test]
 fn a_bad_inputs_attribute_is_quoted_cut() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("f.exr");
-    std::fs::write(&path, regression("field-temperatures-attribute.exr")).unwrap();
-    let error = volmap::io::field::FieldFile::open(&path)
-        .err()
-        .expect("refused")
-        .to_string();
+    let error = field_error("field-temperatures-attribute.exr");
     assert!(error.len() < 400, "{error}");
     assert!(
         error.contains("not a volmap field: attribute volmap.temperatures: `")
@@ -497,13 +496,7 @@ fn a_bad_inputs_attribute_is_quoted_cut() {
 /// how many there are.
 #[test]
 fn a_field_of_many_channels_names_the_first_few() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("f.exr");
-    std::fs::write(&path, regression("field-many-channels.exr")).unwrap();
-    let error = volmap::io::field::FieldFile::open(&path)
-        .err()
-        .expect("refused")
-        .to_string();
+    let error = field_error("field-many-channels.exr");
     assert!(error.len() < 600, "{error}");
     assert!(
         error.contains("channels must be OE.X OE.Y OE.Z VE.X VE.Y VE.Z all FLOAT (or all HALF), found OE.X FLOAT, OE.Y FLOAT,"),
