@@ -104,25 +104,31 @@ fn check(
     Ok(direction / norm)
 }
 
-/// Rows the linear programme of [`chebyshev`] takes at once: beyond them it is solved on a
-/// growing subset (its memory grows by kilobytes a row: a floor of 240,000 points took 600 MB).
-const CHEBYSHEV_ROWS_AT_ONCE: usize = 2000;
+/// Rows [`chebyshev`] starts its subset with: a zone is fixed by a handful of rows (four for
+/// a plane, six or so for a cylinder), so a small programme solved a few times is much quicker
+/// than one of every row (and its memory grows by kilobytes a row: a floor of 240,000 points
+/// took 600 MB solved at once).
+const CHEBYSHEV_START_ROWS: usize = 32;
+
+/// The most rows one round of [`chebyshev`] adds to its subset.
+const CHEBYSHEV_MOST_ADDED: usize = 1000;
 
 /// Minimises `w` subject to `0 ≤ target_i − Σ_k x_k·coefficients_ik ≤ w`; returns `x` and `w`.
 ///
-/// Many rows are solved by constraint generation: the programme on a subset (evenly spread
-/// rows and the highest and lowest targets), then again with the rows its solution violates
-/// added, until it violates none. The subset's programme is a relaxation of the whole one, so
-/// a solution that satisfies every row is the whole programme's optimum: the same answer.
+/// Solved by constraint generation: the programme on a subset (evenly spread rows and the
+/// highest and lowest targets), then again with the rows its solution violates most added (as
+/// many as the subset has, so rounds are few), until it violates none. The subset's programme
+/// is a relaxation of the whole one, so a solution that satisfies every row is the whole
+/// programme's optimum: the same answer.
 fn chebyshev(
     feature: &'static str,
     rows: &[(Vec<f64>, f64)],
     unknowns: usize,
 ) -> Result<(Vec<f64>, f64), ToleranceError> {
-    if rows.len() <= CHEBYSHEV_ROWS_AT_ONCE {
+    if rows.len() <= 2 * CHEBYSHEV_START_ROWS {
         return chebyshev_all(feature, rows, unknowns);
     }
-    let half = CHEBYSHEV_ROWS_AT_ONCE / 2;
+    let half = CHEBYSHEV_START_ROWS / 2;
     let mut chosen = vec![false; rows.len()];
     let step = rows.len().div_ceil(half);
     (0..rows.len()).step_by(step).for_each(|i| chosen[i] = true);
@@ -157,7 +163,10 @@ fn chebyshev(
             return Ok((x, w));
         }
         violated.sort_by(|a, b| b.0.total_cmp(&a.0));
-        for &(_, i) in violated.iter().take(half) {
+        let added = subset
+            .len()
+            .clamp(CHEBYSHEV_START_ROWS, CHEBYSHEV_MOST_ADDED);
+        for &(_, i) in violated.iter().take(added) {
             chosen[i] = true;
         }
     }
@@ -391,8 +400,8 @@ pub fn cylindricity_min_zone(
 mod tests {
     use super::*;
 
-    /// Constraint generation gives the one programme's optimum: a plane of 20,000 points with a
-    /// waviness and a few outliers, solved both ways.
+    /// Constraint generation gives the one programme's optimum: planes of 200 to 20,000 points
+    /// with a waviness and a few outliers, solved both ways.
     #[test]
     fn many_rows_solved_by_subsets_give_the_whole_programme_s_optimum() {
         let mut state = 0x2545_f491_4f6c_dd1du64;
@@ -402,26 +411,28 @@ mod tests {
             state ^= state << 17;
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
-        let rows: Vec<(Vec<f64>, f64)> = (0..20_000)
-            .map(|_| {
-                let (x, y) = (2.0 * random() - 1.0, 2.0 * random() - 1.0);
-                let mut z = 0.3 * x - 0.2 * y + 0.05 * (7.0 * x).sin() * (5.0 * y).cos();
-                if random() < 0.001 {
-                    z += random() - 0.5;
-                }
-                (vec![x, y, 1.0], z)
-            })
-            .collect();
-        let (x, w) = chebyshev("flatness", &rows, 3).unwrap();
-        let (x_all, w_all) = chebyshev_all("flatness", &rows, 3).unwrap();
-        assert!((w - w_all).abs() < 1e-9, "{w} vs {w_all}");
-        for (a, b) in x.iter().zip(&x_all) {
-            assert!((a - b).abs() < 1e-6, "{x:?} vs {x_all:?}");
-        }
-        // Every row within the zone found.
-        for (c, t) in &rows {
-            let r = t - c.iter().zip(&x).map(|(c, v)| c * v).sum::<f64>();
-            assert!(r > -1e-8 && r < w + 1e-8, "{r} of {w}");
+        for count in [200, 2_000, 20_000] {
+            let rows: Vec<(Vec<f64>, f64)> = (0..count)
+                .map(|_| {
+                    let (x, y) = (2.0 * random() - 1.0, 2.0 * random() - 1.0);
+                    let mut z = 0.3 * x - 0.2 * y + 0.05 * (7.0 * x).sin() * (5.0 * y).cos();
+                    if random() < 0.001 {
+                        z += random() - 0.5;
+                    }
+                    (vec![x, y, 1.0], z)
+                })
+                .collect();
+            let (x, w) = chebyshev("flatness", &rows, 3).unwrap();
+            let (x_all, w_all) = chebyshev_all("flatness", &rows, 3).unwrap();
+            assert!((w - w_all).abs() < 1e-9, "{count} rows: {w} vs {w_all}");
+            for (a, b) in x.iter().zip(&x_all) {
+                assert!((a - b).abs() < 1e-6, "{count} rows: {x:?} vs {x_all:?}");
+            }
+            // Every row within the zone found.
+            for (c, t) in &rows {
+                let r = t - c.iter().zip(&x).map(|(c, v)| c * v).sum::<f64>();
+                assert!(r > -1e-8 && r < w + 1e-8, "{count} rows: {r} of {w}");
+            }
         }
     }
 }
