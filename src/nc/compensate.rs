@@ -12,7 +12,8 @@ use super::cycles::expand_cycles;
 use super::kinematics::{Compensator, Kinematics};
 use super::parse::{parse_program, Line};
 use super::program::{
-    end_position, starting_position, take_line, unknown_code, AxisSet, Motion, State, Step, XY,
+    end_position, starting_position, take_line, unknown_code, AxisSet, Motion, State, Step,
+    AXIS_LETTERS, XY,
 };
 use super::rotation::apply_rotations;
 use super::subprograms::{expand_subprograms, Room};
@@ -56,6 +57,24 @@ pub(super) fn begin<'a>(
 ) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
     let (lines, holes) = as_run(program, path, options.pass_unknown)?;
     let (start, named) = starting_position(&lines, machine, path, options)?;
+    if options.orientation_tolerance_rad.is_some() {
+        // The correction turns both rotary axes: from a position the program never sets it
+        // would turn the axis from wherever it stands to the model's 0 (a table at C37 turned
+        // by −37°), and in G91 its first word would be an increment from nowhere.
+        if let Some(&d) = super::orientation::rotary_axes(machine)
+            .iter()
+            .find(|&&d| !named[d])
+        {
+            return Err(NcError::line(
+                path,
+                1,
+                format!(
+                    "the program never sets {}: compensating the tool orientation turns it, and where it stands is not known; set it in the first positioning block (e.g. {}0)",
+                    AXIS_LETTERS[d], AXIS_LETTERS[d]
+                ),
+            ));
+        }
+    }
     let state = State {
         motion: Motion::Rapid,
         plane: XY,

@@ -255,3 +255,50 @@ fn singular_poses_and_rotary_limits_name_the_line() {
         .to_string();
     assert!(error.contains("has 0 rotary axes"), "{error}");
 }
+
+/// A rotary axis the program never sets: the correction would turn it from wherever it stands
+/// to the model's 0, and in G91 write an increment from nowhere; refused, naming the axis. Set
+/// once, the same G91 program is compensated and its output reads back.
+#[test]
+fn a_rotary_axis_the_program_never_sets_is_refused_with_orientation() {
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let options = Options {
+        work_offsets: [(54, [200.0, 200.0, 300.0, 0.0, 0.0, 0.0])]
+            .into_iter()
+            .collect(),
+        ..orientation_options(4)
+    };
+    let moves = "G91\nG1 X10. F500\nY10.\nX-10. Y-5.\nZ-5.\nM30\n";
+    for first in [
+        "G90 G54\nG0 X0 Y0 Z50. B30.\n",
+        "G90 G54\nG0 X0 Y0 Z50. B30.\nG90 G1 X5.\n",
+    ] {
+        let program = format!("{first}{moves}");
+        let error = nc::compensate(&machine, program.as_bytes(), "r.nc", &options)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.starts_with("r.nc: line 1: the program never sets C")
+                && error.contains("orientation"),
+            "{error}"
+        );
+    }
+    let program = format!("G90 G54\nG0 X0 Y0 Z50. B30. C0\n{moves}");
+    let out = nc::compensate(&machine, program.as_bytes(), "r.nc", &options).unwrap();
+    assert!(
+        out.text
+            .lines()
+            .any(|l| l.starts_with("G1 ") && l.contains('C')),
+        "{}",
+        out.text
+    );
+    nc::trace(&machine, out.text.as_bytes(), "out.nc", &options).unwrap();
+    // Without the orientation the rotary words stay as programmed: nothing is assumed of C.
+    let plain = Options {
+        orientation_tolerance_rad: None,
+        ..options.clone()
+    };
+    let program = format!("G90 G54\nG0 X0 Y0 Z50. B30.\n{moves}");
+    let out = nc::compensate(&machine, program.as_bytes(), "r.nc", &plain).unwrap();
+    assert!(!out.text.contains('C'), "{}", out.text);
+}
