@@ -11,7 +11,7 @@ use super::fitting::Fitting;
 use super::format::{
     read_error, Control, Format, Layout, Limits, Nodes, Structure, TableInfo, WrittenFile,
 };
-use super::nodes::equidistant;
+use super::nodes::lattice;
 use super::ExportError;
 use crate::io::csv::Csv;
 use crate::model::inputs::Approach;
@@ -63,24 +63,7 @@ impl Format for GridCsv {
         spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError> {
         let points = points.unwrap_or([self.limits().default_points; 3]);
-        let axes: [Vec<f64>; 3] = std::array::from_fn(|d| {
-            let [lo, hi] = fitting.ranges[d];
-            let step = spacing_mm.unwrap_or((hi - lo) / (points[d] - 1) as f64);
-            let mut q = equidistant(lo, step, points[d]);
-            if spacing_mm.is_none() {
-                // The last node exactly on the end of the travel.
-                q[points[d] - 1] = hi;
-            }
-            q
-        });
-        let mut targets = Vec::with_capacity(points.iter().product());
-        for &z in &axes[2] {
-            for &y in &axes[1] {
-                for &x in &axes[0] {
-                    targets.push([x, y, z]);
-                }
-            }
-        }
+        let (axes, targets) = lattice(&fitting.ranges, points, spacing_mm, |x| x);
         let corrections = fitting.field().corrections(&targets)?;
         let mut text = String::new();
         for line in &fitting.header {

@@ -37,6 +37,39 @@ pub fn equidistant(start: f64, spacing: f64, n: usize) -> Vec<f64> {
     (0..n).map(|i| start + i as f64 * spacing).collect()
 }
 
+/// A lattice over the travels `ranges` (X, Y, Z, mm): per axis `points` nodes from the start of
+/// its travel, `spacing_mm` apart, or spread over the travel with the last node exactly on its
+/// end; each node but that last one as `round` writes it. Returns the nodes per axis and the
+/// lattice's points, X fastest, then Y, then Z.
+pub fn lattice(
+    ranges: &[[f64; 2]; 3],
+    points: [usize; 3],
+    spacing_mm: Option<f64>,
+    round: impl Fn(f64) -> f64,
+) -> ([Vec<f64>; 3], Vec<[f64; 3]>) {
+    let axes: [Vec<f64>; 3] = std::array::from_fn(|d| {
+        let [lo, hi] = ranges[d];
+        let step = spacing_mm.unwrap_or((hi - lo) / (points[d] - 1) as f64);
+        let mut q: Vec<f64> = equidistant(lo, step, points[d])
+            .into_iter()
+            .map(&round)
+            .collect();
+        if spacing_mm.is_none() {
+            q[points[d] - 1] = hi;
+        }
+        q
+    });
+    let mut targets = Vec::with_capacity(points.iter().product());
+    for &z in &axes[2] {
+        for &y in &axes[1] {
+            for &x in &axes[0] {
+                targets.push([x, y, z]);
+            }
+        }
+    }
+    (axes, targets)
+}
+
 /// The largest distance of any of the curves `f` at the candidates strictly between `i` and `j`
 /// from its chord through `(q_i, f_i)` and `(q_j, f_j)`.
 fn chord_error(q: &[f64], f: &[&[f64]], i: usize, j: usize) -> f64 {
