@@ -22,7 +22,8 @@ use super::FileError;
 /// A file being written under a temporary name; [`AtomicFile::commit`] puts it in place.
 pub struct AtomicFile {
     out: BufWriter<File>,
-    temp: PathBuf,
+    /// The temporary name; none where the target is a device or a pipe, written directly.
+    temp: Option<PathBuf>,
     path: PathBuf,
     committed: bool,
 }
@@ -31,6 +32,28 @@ impl AtomicFile {
     /// Starts writing `path` (through a buffer of `buffer_bytes`).
     pub fn create(path: &Path, buffer_bytes: usize) -> Result<AtomicFile, FileError> {
         super::input::check_not_input(path)?;
+        if let Ok(metadata) = std::fs::metadata(path) {
+            if metadata.is_dir() {
+                return Err(FileError::write(
+                    path,
+                    std::io::Error::new(std::io::ErrorKind::IsADirectory, "it is a folder"),
+                ));
+            }
+            if !metadata.is_file() {
+                // A device or a pipe (`/dev/null`, `/dev/stdout`): renaming over it would
+                // replace the device with a file, so it is written directly.
+                let file = std::fs::OpenOptions::new()
+                    .write(true)
+                    .open(path)
+                    .map_err(|e| FileError::write(path, e))?;
+                return Ok(AtomicFile {
+                    out: BufWriter::with_capacity(buffer_bytes, file),
+                    temp: None,
+                    path: path.to_path_buf(),
+                    committed: false,
+                });
+            }
+        }
         let name = path
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -57,7 +80,7 @@ impl AtomicFile {
         drop(live);
         Ok(AtomicFile {
             out: BufWriter::with_capacity(buffer_bytes, file),
-            temp,
+            temp: Some(temp),
             path: path.to_path_buf(),
             committed: false,
         })
@@ -94,16 +117,23 @@ impl AtomicFile {
         }
     }
 
-    /// Flushes, syncs and renames the file into place.
+    /// Flushes, syncs and renames the file into place (a device or pipe: flushes).
     pub fn commit(mut self) -> Result<(), FileError> {
         let result = (|| -> std::io::Result<()> {
             self.out.flush()?;
-            self.out.get_ref().sync_all()?;
-            std::fs::rename(&self.temp, &self.path)
+            match &self.temp {
+                Some(temp) => {
+                    self.out.get_ref().sync_all()?;
+                    std::fs::rename(temp, &self.path)
+                }
+                None => Ok(()),
+            }
         })();
         result.map_err(|e| self.error(e))?;
         self.committed = true;
-        forget(&self.temp);
+        if let Some(temp) = &self.temp {
+            forget(temp);
+        }
         Ok(())
     }
 }
@@ -132,9 +162,9 @@ impl Seek for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if !self.committed {
-            let _ = std::fs::remove_file(&self.temp);
-            forget(&self.temp);
+        if let (false, Some(temp)) = (self.committed, &self.temp) {
+            let _ = std::fs::remove_file(temp);
+            forget(temp);
         }
     }
 }
@@ -299,6 +329,34 @@ mod tests {
         second.commit().unwrap();
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "second, whole\n");
         assert_eq!(names(dir.path()), ["out.csv"]);
+    }
+
+    /// A target that is not a regular file is never renamed over: a device is written
+    /// directly (`/dev/null` stays a device), a socket refuses to be opened and stays, a folder
+    /// is refused.
+    #[cfg(unix)]
+    #[test]
+    fn devices_sockets_and_folders_are_not_replaced_by_a_file() {
+        use std::os::unix::fs::FileTypeExt;
+        let null = Path::new("/dev/null");
+        let mut file = AtomicFile::create(null, 16).unwrap();
+        file.write_all(b"discarded\n").unwrap();
+        file.commit().unwrap();
+        assert!(std::fs::metadata(null)
+            .unwrap()
+            .file_type()
+            .is_char_device());
+        let dir = tempfile::tempdir().unwrap();
+        let socket = dir.path().join("out.sock");
+        let _listener = std::os::unix::net::UnixListener::bind(&socket).unwrap();
+        assert!(AtomicFile::create(&socket, 16).is_err());
+        assert!(std::fs::metadata(&socket).unwrap().file_type().is_socket());
+        let error = AtomicFile::create(dir.path(), 16)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(error.ends_with("cannot write: it is a folder"), "{error}");
+        assert_eq!(names(dir.path()), ["out.sock"]);
     }
 
     #[test]

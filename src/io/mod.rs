@@ -109,13 +109,22 @@ fn read_as(path: &str, input: &str) -> String {
 }
 
 impl Classify for FileError {
-    /// A file that cannot be read is the input's fault; one that cannot be written, the work's.
+    /// A file that cannot be read is the input's fault; one that cannot be written, the work's,
+    /// unless no file can have its name (a NUL byte in it, a folder's name).
     fn kind(&self) -> ErrorKind {
         match self {
             FileError::Read { .. }
             | FileError::TooLarge { .. }
             | FileError::OverwritesInput { .. }
             | FileError::OutsideFolder { .. } => ErrorKind::Input,
+            FileError::Write { source, .. }
+                if matches!(
+                    source.kind(),
+                    std::io::ErrorKind::InvalidInput | std::io::ErrorKind::IsADirectory
+                ) =>
+            {
+                ErrorKind::Input
+            }
             FileError::Write { .. } => ErrorKind::Work,
         }
     }
