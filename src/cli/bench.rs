@@ -26,7 +26,7 @@ pub struct BenchArgs {
     #[command(flatten)]
     pose: PoseArg,
     /// Points the single-thread f64 reference computes (its rate does not depend on how many).
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     reference_points: u64,
     /// Runs of every path: each figure is their median, printed with the slowest and fastest.
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]

@@ -116,7 +116,10 @@ pub enum ExportError {
     },
     #[error("a spacing of {0} mm: it must be a positive number of mm")]
     BadSpacing(f64),
-    #[error("{points} points per axis for the residual: at least 2")]
+    #[error(
+        "{points} points per axis for the residual: at least 2 and at most {}",
+        residual::MAX_RESIDUAL_GRID_POINTS
+    )]
     BadEvaluationGrid { points: usize },
     #[error("{format} can hold none of this machine's errors: {holds}; the table as written corrects nothing")]
     NothingHeld {
@@ -335,7 +338,9 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     let tables = control.tables();
     let table_points = tables.iter().map(|t| t.points).max().unwrap_or(2);
     let n = match request.evaluation_points {
-        Some(n) if n < 2 => return Err(ExportError::BadEvaluationGrid { points: n }),
+        Some(n) if !(2..=residual::MAX_RESIDUAL_GRID_POINTS).contains(&n) => {
+            return Err(ExportError::BadEvaluationGrid { points: n })
+        }
         Some(n) => n,
         None => EvaluationGrid::default_points(table_points),
     };

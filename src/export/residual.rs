@@ -20,6 +20,10 @@ use crate::model::{Command, Machine};
 pub const MIN_EVALUATION_POINTS: usize = 41;
 pub const MAX_EVALUATION_POINTS: usize = 81;
 
+/// The most points per linear axis a residual grid may be asked for (8 million points, fifteen
+/// times the densest default): checked before the grid is made.
+pub const MAX_RESIDUAL_GRID_POINTS: usize = 201;
+
 /// The grid the residual is measured on: `points` per linear axis over the travels.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct EvaluationGrid {

@@ -67,6 +67,12 @@ pub enum InputsError {
     UnknownInput { name: String, known: String },
     #[error("`{}={}`: the temperature is not a finite number of °C at or above absolute zero (-273.15 °C)", excerpt(name), excerpt(value))]
     Temperature { name: String, value: String },
+    #[error("`{}={}`: more than {MAX_TEMPERATURE_CHANGE_K} K from the machine's reference_C ({reference_c} °C): no machine tool runs there, and a linear thermal term means nothing so far out", excerpt(name), excerpt(value))]
+    TemperatureFar {
+        name: String,
+        value: String,
+        reference_c: f64,
+    },
     #[error("`{}` is not an axis of this machine (chain {chain})", excerpt(axis))]
     UnknownAxis { axis: String, chain: String },
     #[error(
@@ -100,6 +106,8 @@ fn pairs(text: &str) -> Result<Vec<(&str, &str)>, InputsError> {
 /// the chain in words for messages.
 struct Against<'a> {
     declared: &'a [String],
+    /// `[thermal].reference_C` (none where no input is declared).
+    reference_c: Option<f64>,
     axes: &'a [AxisLetter],
     chain: &'a str,
 }
@@ -115,6 +123,7 @@ impl Inputs {
         let axes: Vec<AxisLetter> = machine.chain.axes().collect();
         let against = Against {
             declared: machine.thermal.as_ref().map_or(&[], |t| &t.inputs),
+            reference_c: machine.thermal.as_ref().map(|t| t.reference_c),
             axes: &axes,
             chain: &machine.chain.hwang_notation(),
         };
@@ -137,6 +146,7 @@ impl Inputs {
             .collect();
         let against = Against {
             declared: &declared,
+            reference_c: record.reference_c,
             axes: &axes,
             chain,
         };
@@ -165,6 +175,15 @@ impl Inputs {
                 return Err(InputsError::Twice(name.to_string()));
             }
             let t = temperature(name, value)?;
+            if let Some(reference_c) = against.reference_c {
+                if (t - reference_c).abs() > MAX_TEMPERATURE_CHANGE_K {
+                    return Err(InputsError::TemperatureFar {
+                        name: name.to_string(),
+                        value: value.to_string(),
+                        reference_c,
+                    });
+                }
+            }
             inputs.temperatures_c.push((name.to_string(), t));
         }
         let mut named = [false; 6];
@@ -215,6 +234,12 @@ impl Inputs {
 
 /// The lowest temperature there is, °C.
 pub const ABSOLUTE_ZERO_C: f64 = -273.15;
+
+/// The farthest a temperature given may lie from the machine's `reference_C`, K.
+pub const MAX_TEMPERATURE_CHANGE_K: f64 = 200.0;
+
+/// The highest `reference_C` a machine file may declare, °C.
+pub const MAX_REFERENCE_C: f64 = 1000.0;
 
 /// A temperature of input `name` in °C: a finite number, not below absolute zero.
 fn temperature(name: &str, value: &str) -> Result<f64, InputsError> {

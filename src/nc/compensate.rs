@@ -102,6 +102,9 @@ pub(super) fn begin<'a>(
     ))
 }
 
+/// The largest chord tolerance, mm: a kilometre, the largest length a machine file holds.
+pub const MAX_CHORD_TOLERANCE_MM: f64 = 1e6;
+
 /// A compensated program.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Compensated {
@@ -130,11 +133,12 @@ pub fn compensate_with_progress(
     options: &Options,
     mut on_progress: impl FnMut(usize, usize),
 ) -> Result<Compensated, NcError> {
-    if options.chord_tolerance_mm.is_nan() || options.chord_tolerance_mm <= 0.0 {
+    let chord = options.chord_tolerance_mm;
+    if !(chord > 0.0 && chord <= MAX_CHORD_TOLERANCE_MM) {
         return Err(NcError::Option {
             option: NcOption::ChordTolerance,
-            value: options.chord_tolerance_mm.to_string(),
-            message: "it must be positive".into(),
+            value: crate::error::shown(chord),
+            message: format!("it must be positive and at most {MAX_CHORD_TOLERANCE_MM} mm"),
         });
     }
     if let Some(decimals) = options.decimals.filter(|&d| d > MAX_DECIMALS) {

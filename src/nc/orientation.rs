@@ -50,11 +50,11 @@ pub(super) fn check_options(machine: &Machine, options: &Options) -> Result<(), 
     let Some(tolerance) = options.orientation_tolerance_rad else {
         return Ok(());
     };
-    if tolerance.is_nan() || tolerance <= 0.0 {
+    if !(tolerance > 0.0 && tolerance <= 1.0) {
         return Err(NcError::Option {
             option: NcOption::AngularTolerance,
-            value: tolerance.to_string(),
-            message: "it must be positive".into(),
+            value: crate::error::shown(tolerance),
+            message: "it must be positive and at most 1 rad".into(),
         });
     }
     let rotary = rotary_axes(machine);

@@ -12,7 +12,7 @@ use crate::gpu::GpuSampler;
 use crate::io::field::{FieldError, FieldFile, FieldInfo, GridCell, LoadedField};
 use crate::io::points::{PointColumns, QueryPoint};
 use crate::model::channels::Sample;
-use crate::model::Machine;
+use crate::model::{AxisLetter, Machine};
 use crate::reference::Twin;
 
 /// What to do with a position outside the field's grid.
@@ -505,8 +505,10 @@ pub fn check_exact_columns(
     columns: &PointColumns,
     path: &str,
 ) -> Result<(), QueryError> {
+    // The points file holds X, Y and Z always: a linear axis the machine lacks stands at 0
+    // (see `sample_exact_within`).
     for letter in columns.axes.iter().flatten() {
-        if machine.axis(*letter).is_none() {
+        if machine.axis(*letter).is_none() && !letter.is_linear() {
             return Err(QueryError::NoAxis {
                 path: path.to_string(),
                 line: columns.line,
@@ -531,6 +533,13 @@ pub fn sample_exact_within(
         .axes
         .iter()
         .map(|a| (a.letter.index(), a.letter.as_char(), a.range))
+        // A linear axis the machine lacks has a travel of its 0 alone.
+        .chain(
+            AxisLetter::ALL[..3]
+                .iter()
+                .filter(|l| machine.axis(**l).is_none())
+                .map(|l| (l.index(), l.as_char(), [0.0, 0.0])),
+        )
         .collect();
     let beyond = |p: &QueryPoint| {
         axes.iter()

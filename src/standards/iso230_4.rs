@@ -269,8 +269,13 @@ pub(crate) fn circular_with(
         .transpose()
         .map_err(in_file)?;
     if let Some(pitch) = spec.pitch_mm {
-        if !(pitch > 0.0 && pitch.is_finite()) {
-            return Err(parameter(format!("pitch {pitch} mm: it must be positive")));
+        // A micrometre to a kilometre: a lead a screw can have, and one whose phase `x / pitch`
+        // stays a number over any travel.
+        if !(1e-3..=1e6).contains(&pitch) {
+            return Err(parameter(format!(
+                "pitch {} mm: a screw's lead is between 0.001 and 1e6 mm",
+                crate::error::shown(pitch)
+            )));
         }
     }
     let circle = Circle {

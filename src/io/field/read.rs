@@ -14,6 +14,7 @@ use super::{
     POSE_TOLERANCE_DEG,
 };
 use crate::io::FileError;
+use crate::model::channels::CHANNELS;
 use crate::model::inputs::InputsRecord;
 
 /// One part of a field file: its name (empty in a single-part file), its header, how its blocks
@@ -404,6 +405,22 @@ impl FieldReader {
         let decoded = self.codec.decode(first_line, lines, stored, &mut values);
         self.values = values;
         decoded.map_err(|what| self.format(format!("block of line {first_line}: {what}")))?;
+        // volmap never writes a value that is not a number: one is damage, not an error field.
+        if let Some(at) = self.values.iter().position(|v| !v.is_finite()) {
+            let per_line = self.codec.values_per_line();
+            let nx = (per_line / CHANNELS.len()).max(1);
+            let ny = self.info().dims[1].max(1) as u64;
+            let line = first_line + (at / per_line) as u64;
+            let (channel, i) = ((at % per_line) / nx, at % nx);
+            let what = format!(
+                "{} of grid point ({i}, {}, {}) is {}, not a number volmap writes",
+                CHANNELS.get(channel).copied().unwrap_or("a channel"),
+                line % ny,
+                line / ny,
+                self.values[at]
+            );
+            return Err(self.format(what));
+        }
         self.block = Some(block);
         Ok(())
     }

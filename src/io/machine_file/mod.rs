@@ -293,11 +293,15 @@ fn thermal(file: &str, raw: RawThermal) -> Result<Thermal, MachineError> {
         key: "thermal.inputs".into(),
         message,
     };
-    if !raw.reference_c.is_finite() {
+    use crate::model::inputs::{ABSOLUTE_ZERO_C, MAX_REFERENCE_C};
+    if !(ABSOLUTE_ZERO_C..=MAX_REFERENCE_C).contains(&raw.reference_c) {
         return Err(MachineError::Key {
             file: file.to_string(),
             key: "thermal.reference_C".into(),
-            message: format!("{} is not a finite temperature", raw.reference_c),
+            message: format!(
+                "{} °C: a reference temperature lies between absolute zero ({ABSOLUTE_ZERO_C} °C) and {MAX_REFERENCE_C} °C",
+                crate::error::shown(raw.reference_c)
+            ),
         });
     }
     for (n, input) in raw.inputs.iter().enumerate() {

@@ -25,6 +25,7 @@ mod sample;
 mod standards;
 mod standards_frames;
 mod sweep;
+mod sweep_findings;
 mod sweep_readers;
 mod trace;
 
