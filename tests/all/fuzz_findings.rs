@@ -524,9 +524,9 @@ fn an_output_name_no_file_can_have_is_bad_input() {
     .unwrap();
     let part = PartFile::read(&path).unwrap();
     let machine = machine();
-    let error = part::evaluate(&part, ErrorSource::Exact(&machine), "part.toml")
-        .err()
-        .expect("refused");
+    let Err(error) = part::evaluate(&part, ErrorSource::Exact(&machine), "part.toml") else {
+        panic!("refused");
+    };
     let message = error.to_string();
     assert_eq!(error.kind(), ErrorKind::Input, "{message}");
     assert!(
