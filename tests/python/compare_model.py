@@ -274,6 +274,10 @@ def points(machine, n, rng, rotary_in_csv):
             lo, hi = axes[c]["range"] if c in axes else (0.0, 0.0)
             if i < 2:  # both ends of every travel
                 v = (lo, hi)[i]
+            elif c in ROTARY and i % 10 == 2:  # where periodic tables wrap and have nodes
+                special = [v for v in (-370.0, -360.0, -270.0, -180.0, -90.0, 0.0, 45.0, 90.0, 100.0,
+                                       180.0, 190.0, 270.0, 280.0, 360.0, 370.0) if lo <= v <= hi]
+                v = rng.choice(special)
             else:
                 v = rng.uniform(lo, hi)
                 if rng.random() < 0.05:  # now and then a round position (table nodes)
@@ -296,6 +300,8 @@ def variants(machine, rng):
         args += ["--temperatures", temps]
         out.append(("temps", ["--temperatures", temps]))
     out.append(("mixed" + ("+temps" if temps else ""), args))
+    if temps:
+        out.append(("all-+temps", out[1][1] + ["--temperatures", temps]))
     return out
 
 
@@ -347,6 +353,8 @@ def compare(binary, name, machine_arg, machine, folder, n, rng, report, failures
 
 def main(argv):
     binary = argv[1]
+    if "--probes-only" in argv:
+        return 1 if probes(binary, argv[argv.index("--keep") + 1] if "--keep" in argv else tempfile.mkdtemp()) else 0
     n = int(argv[argv.index("--points") + 1]) if "--points" in argv else 300
     seed = int(argv[argv.index("--seed") + 1]) if "--seed" in argv else 1
     keep = argv[argv.index("--keep") + 1] if "--keep" in argv else None
@@ -384,8 +392,139 @@ def main(argv):
             print(f"{r[0]:22} {r[1][:34]:34} {r[2]:4d} {r[3]:10.2e} {r[4]:11.2e} {r[5]:10.3g} {r[6]:11.3g} {r[7]}/{r[2]}")
     for f in failures:
         print("DISAGREEMENT:", f)
+    bad = probes(binary, base) if not only else []
     print(f"files in {base}")
-    return 1 if failures else 0
+    return 1 if failures or bad else 0
+
+
+
+# ---------------------------------------------------------------- the machine file's rules
+BASE = """name = "probe"
+chain = "FYXFZ"
+{top}
+[tool]
+offset = [0.0, 0.0, -100.0]
+[axes.Y]
+range = [0.0, 400.0]
+{y}
+[axes.X]
+range = [0.0, 500.0]
+{x}
+[axes.Z]
+range = [0.0, 300.0]
+{z}
+{rest}
+"""
+THERMAL = '[thermal]\nreference_C = 20.0\ninputs = ["t"]'
+
+# (what, MODEL.md's verdict: "refuse" | "accept" | "open", machine parts, evaluation flags)
+PROBES = [
+    ("unknown key in an axis section", "refuse", {"x": "FOO = 1.0"}, []),
+    ("unknown key in an error value", "refuse", {"x": "EXX = { poly = [0.0, 1e-6], foo = 1 }"}, []),
+    ("component error of another axis in a section", "refuse", {"x": "EXY = 0.001"}, []),
+    ("of an axis not in the chain", "refuse", {"x": 'EXX = { poly = [0.0, 1e-6], of = "B" }'}, []),
+    ("per_kelvin input not declared", "refuse",
+     {"top": "", "x": "EXX = { value = 0.0, per_kelvin = { t = 1e-6 } }"}, []),
+    ("reverse on a location error", "refuse", {"y": "EC0Y = { value = 1e-5, reverse = 2e-5 }"}, []),
+    ("a section for an axis not in the chain", "refuse", {"rest": "[axes.B]\nrange = [0.0, 10.0]"}, []),
+    ("a location error given as a poly", "refuse", {"y": "EC0Y = { poly = [1e-5, 1e-8] }"}, []),
+    ("a location error's per_kelvin given as a poly", "refuse",
+     {"top": THERMAL, "y": "EC0Y = { value = 1e-5, per_kelvin = { t = { poly = [1e-6] } } }"}, []),
+    ("quadratic table with an even node count", "refuse",
+     {"x": 'EXX = { table = [[0, 0.0], [100, 0.001], [200, 0.002], [500, 0.0]], interp = "quadratic" }'}, []),
+    ("periodic quadratic table closing to an even count", "refuse",
+     {"rest": ""}, ["ROTARY:ECC = { table = [[0, 0.0], [120, 1e-5], [240, 0.0]], interp = \"quadratic\", periodic = true }"]),
+    ("per_kelvin form with its own per_kelvin", "refuse",
+     {"top": THERMAL, "x": "EXX = { value = 0.0, per_kelvin = { t = { poly = [0.0, 1e-6], per_kelvin = { t = 1.0 } } } }"}, []),
+    ("per_kelvin form with a reverse", "refuse",
+     {"top": THERMAL, "x": "EXX = { value = 0.0, per_kelvin = { t = { poly = [0.0, 1e-6], reverse = { poly = [1.0] } } } }"}, []),
+    ("reverse on a spindle error", "refuse", {"rest": "[spindle]\nEXS = { value = 0.001, reverse = 0.002 }"}, []),
+    ("reverse form with a reverse of its own", "refuse",
+     {"x": "EXX = { value = 0.0, reverse = { poly = [0.001], reverse = { poly = [0.002] } } }"}, []),
+    ("table2d with a short row", "refuse",
+     {"x": 'EBX = { table2d = { of = ["X", "Y"], x = [0.0, 500.0], y = [0.0, 400.0], values = [[1e-6, 2e-6], [1e-6]] } }'}, []),
+    ("table2d positions not increasing", "refuse",
+     {"x": 'EBX = { table2d = { of = ["X", "Y"], x = [500.0, 0.0], y = [0.0, 400.0], values = [[1e-6, 2e-6], [1e-6, 0.0]] } }'}, []),
+    ("table positions not increasing", "refuse",
+     {"x": 'EXX = { table = [[0, 0.0], [300, 0.001], [200, 0.002]], interp = "linear" }'}, []),
+    ("spindle key ECS (S has no roll)", "refuse", {"rest": "[spindle]\nECS = 1e-5"}, []),
+    ("an axis without range", "refuse", {"z": "", "rest": ""}, ["NORANGE"]),
+    ("sum inside sum, numbers in a sum", "accept",
+     {"x": 'EXX = { sum = [0.001, { sum = [{ poly = [0.0, 1e-6] }, 0.0005] }, { table = [[0, 0.0], [500, 0.002]], interp = "linear" }] }'}, []),
+    ("general form with a table2d value and a sum reverse", "accept",
+     {"x": 'EYX = { value = { table2d = { of = ["X", "Z"], x = [0.0, 500.0], y = [0.0, 300.0], values = [[0.0, 0.002], [0.001, 0.003]] } }, reverse = { sum = [0.001, { poly = [0.0, 1e-6], of = "Y" }] } }'},
+     ["--approach", "X=-"]),
+    ("ISO 10791 code for FYXFZ", "accept", {"chain": "w X' Y' b Z t",
+                                             "x": "EXX = { poly = [0.0, 1e-5] }\nEC0X = 2e-5"}, []),
+    ("periodic table ending at q0 + 360", "accept", {}, [
+        "ROTARY:ECC = { table = [[0, 0.0], [90, 1e-5], [180, -5e-6], [270, 3e-6], [360, 0.0]], interp = \"cubic\", periodic = true }"]),
+    ("interp left out", "open", {"x": "EXX = { table = [[0, 0.0], [100, 0.003], [300, 0.001], [500, 0.004]] }"}, []),
+    ("[thermal] without reference_C", "open",
+     {"top": '[thermal]\ninputs = ["t"]', "x": "EXX = { value = 0.0, per_kelvin = { t = { poly = [0.0, 1e-5] } } }"},
+     ["--temperatures", "t=30"]),
+    ("reverse on an error with of: X=- selects it?", "open",
+     {"x": 'EXX = { poly = [0.0], of = "Z", reverse = { poly = [0.001], of = "Z" } }'}, ["--approach", "X=-"]),
+    ("reverse on an error with of: Z=- selects it?", "open",
+     {"x": 'EXX = { poly = [0.0], of = "Z", reverse = { poly = [0.001], of = "Z" } }'}, ["--approach", "Z=-"]),
+    ("of in lower case", "open", {"x": 'EXX = { poly = [0.0, 1e-6], of = "z" }'}, []),
+    ("spindle error as a poly of an axis", "open", {"rest": '[spindle]\nEZS = { poly = [0.0, 1e-6], of = "Z" }'}, []),
+    ("periodic on a linear axis's table", "open",
+     {"x": 'EXX = { table = [[0, 0.0], [100, 0.001]], interp = "linear", periodic = true }'}, []),
+    ("a table of one node", "open", {"x": 'EXX = { table = [[100, 0.002]], interp = "linear" }'}, []),
+    ("[tool] left out", "open", {"notool": True, "x": "EBX = 1e-4"}, []),
+]
+
+
+def probe_text(parts, flags):
+    top = parts.get("top", "")
+    text = BASE.format(top=top, x=parts.get("x", ""), y=parts.get("y", ""), z=parts.get("z", ""),
+                       rest=parts.get("rest", ""))
+    if "chain" in parts:
+        text = text.replace('chain = "FYXFZ"', f'chain = "{parts["chain"]}"')
+    if parts.get("notool"):
+        text = text.replace("[tool]\noffset = [0.0, 0.0, -100.0]\n", "")
+    rest_flags = []
+    for f in flags:
+        if f.startswith("ROTARY:"):
+            text = text.replace('chain = "FYXFZ"', 'chain = "FYXCFZ"')
+            text += "[axes.C]\nrange = [-360.0, 360.0]\n" + f[len("ROTARY:"):] + "\n"
+        elif f == "NORANGE":
+            text = text.replace("[axes.Z]\nrange = [0.0, 300.0]\n", "[axes.Z]\nEZZ = 0.001\n")
+        else:
+            rest_flags.append(f)
+    return text, rest_flags
+
+
+def probes(binary, base):
+    folder = os.path.join(base, "probes")
+    os.makedirs(folder, exist_ok=True)
+    rows, bad = [], []
+    for i, (what, verdict, parts, flags) in enumerate(PROBES):
+        text, flags = probe_text(parts, flags)
+        mpath = os.path.join(folder, f"p{i:02d}.toml")
+        with open(mpath, "w") as f:
+            f.write(text)
+        ppath = os.path.join(folder, f"p{i:02d}.csv")
+        with open(ppath, "w") as f:
+            f.write("X,Y,Z" + (",C" if "axes.C" in text else "") + "\n" + "420,150,200" +
+                    (",-100" if "axes.C" in text else "") + "\n")
+        rc1, out1, err1 = run([binary, "sample", "--exact", "--machine", mpath, "--points", ppath,
+                               "--device", "cpu"] + flags)
+        rc2, out2, err2 = run([sys.executable, MODEL, mpath, ppath] + flags)
+        v1 = out1.strip().splitlines()[-1].split(",")[-6:] if rc1 == 0 else err1.strip().splitlines()[0][:160]
+        v2 = out2.strip().splitlines()[-1].split(",")[-6:] if rc2 == 0 else err2.strip().splitlines()[0][:160]
+        agree = (rc1 == rc2) and (rc1 != 0 or max(abs(float(a) - float(b)) for a, b in zip(v1, v2)) < 1e-12)
+        ok = {"refuse": rc1 == 2, "accept": rc1 == 0 and agree, "open": True}[verdict]
+        rows.append((i, what, verdict, rc1, rc2, agree, v1, v2))
+        if not ok:
+            bad.append((i, what))
+    print("\nMachine-file rules (p##.toml in", folder + ")")
+    for i, what, verdict, rc1, rc2, agree, v1, v2 in rows:
+        mark = "" if (verdict == "open" or (i, what) not in bad) else "  <-- against MODEL.md"
+        print(f"p{i:02d} [{verdict}] {what}: volmap rc={rc1} model rc={rc2}{' (same)' if agree else ' (DIFFER)'}{mark}")
+        if verdict == "open" or not agree or mark:
+            print(f"     volmap: {v1}\n     model:  {v2}")
+    return bad
 
 
 if __name__ == "__main__":

@@ -46,6 +46,7 @@ AMBIGUITIES = """\
 - spindle errors: a number or { value = number, per_kelvin = { input = number } } as location errors
   (the specification calls S constant); other forms refused.
 - CSV tables: the column is matched letter case aside; the first column is the position.
+- `of` names an axis by its upper-case letter only (as volmap does).
 - points CSV: a CSV column for a rotary axis wins over --pose for that axis.
 - the commanded linear positions X Y Z of an axis the machine lacks are ignored.
 - range is inclusive at both ends.
@@ -251,9 +252,9 @@ class Reader:
         self.csv_cache = {}
 
     def axis_of(self, name, where):
-        if not isinstance(name, str) or name.upper() not in self.chain_axes:
+        if not isinstance(name, str) or name not in self.chain_axes:
             raise ModelError(f"{where}: of = {name!r} is not an axis of the chain")
-        return name.upper()
+        return name
 
     def read_csv(self, name, column, where):
         path = os.path.join(self.folder, name)
@@ -489,7 +490,11 @@ class Machine:
                 if sec["direction"] not in (1, -1):
                     raise ModelError(f"{where}.direction must be 1 or -1")
                 ax.sign = float(sec["direction"])
+            if "range" not in sec or not isinstance(sec["range"], list) or len(sec["range"]) != 2:
+                raise ModelError(f"{where}.range: missing, or not [low, high]")
             lo, hi = (number(v, where + ".range") for v in sec["range"])
+            if not lo < hi:
+                raise ModelError(f"{where}.range: low must be below high")
             ax.range = (lo, hi)
             ax.offset = [number(v, where + ".offset") for v in sec.get("offset", [0.0, 0.0, 0.0])]
             zero = ErrorValue(lambda pos: 0.0, None, {}, None)
@@ -541,7 +546,7 @@ class Machine:
 def fmt(x):
     """Shortest round-trip decimal, as volmap writes it: plain decimals, exponent below 1e-5."""
     if x == 0:
-        return "0" if math.copysign(1, x) > 0 else "-0"
+        return "0.0" if math.copysign(1, x) > 0 else "-0.0"
     if not math.isfinite(x):
         return "NaN" if math.isnan(x) else ("inf" if x > 0 else "-inf")
     r = repr(x)
@@ -559,7 +564,7 @@ def fmt(x):
     if point <= 0:
         return sign + "0." + "0" * (-point) + digits
     if point >= len(digits):
-        return sign + digits + "0" * (point - len(digits))
+        return sign + digits + "0" * (point - len(digits)) + ".0"
     return sign + digits[:point] + "." + digits[point:]
 
 
