@@ -35,6 +35,7 @@ mod identifiability;
 mod inputs;
 mod machine_file;
 mod mesh;
+mod model_check;
 mod nc;
 mod nc_arcs;
 mod nc_inputs;

@@ -417,7 +417,7 @@ range = [0.0, 300.0]
 """
 THERMAL = '[thermal]\nreference_C = 20.0\ninputs = ["t"]'
 
-# (what, MODEL.md's verdict: "refuse" | "accept" | "open", machine parts, evaluation flags)
+# (what, docs/model.md's verdict: "refuse" | "accept" | "open", machine parts, evaluation flags)
 PROBES = [
     ("unknown key in an axis section", "refuse", {"x": "FOO = 1.0"}, []),
     ("unknown key in an error value", "refuse", {"x": "EXX = { poly = [0.0, 1e-6], foo = 1 }"}, []),
@@ -520,7 +520,7 @@ def probes(binary, base):
             bad.append((i, what))
     print("\nMachine-file rules (p##.toml in", folder + ")")
     for i, what, verdict, rc1, rc2, agree, v1, v2 in rows:
-        mark = "" if (verdict == "open" or (i, what) not in bad) else "  <-- against MODEL.md"
+        mark = "" if (verdict == "open" or (i, what) not in bad) else "  <-- against docs/model.md"
         print(f"p{i:02d} [{verdict}] {what}: volmap rc={rc1} model rc={rc2}{' (same)' if agree else ' (DIFFER)'}{mark}")
         if verdict == "open" or not agree or mark:
             print(f"     volmap: {v1}\n     model:  {v2}")
