@@ -160,27 +160,44 @@ impl ToolLengths {
     /// One length for every tool, `120`, or lengths per tool, `T1=80,T2=120.5` (mm, along the spindle axis).
     pub fn parse(text: &str) -> Result<ToolLengths, NcError> {
         let mut lengths = ToolLengths::default();
-        let bad = || NcError::Option {
+        let bad = |message: &str| NcError::Option {
             option: NcOption::ToolLengths,
             value: crate::error::excerpt(text).into_owned(),
-            message: "a length in mm, or T1=80,T2=120 per tool".into(),
+            message: format!("{message}: a length in mm, or T1=80,T2=120 per tool"),
         };
+        if text.trim().is_empty() {
+            return Ok(lengths);
+        }
+        let most = crate::io::machine_file::MAX_PLAUSIBLE_LENGTH_MM;
         let length = |value: &str| {
             value
                 .trim()
                 .parse::<f64>()
                 .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(bad)
+                .filter(|v| v.abs() <= most)
+                .ok_or_else(|| {
+                    bad(&format!(
+                        "`{}` is not a length of at most {most} mm",
+                        crate::error::excerpt(value.trim())
+                    ))
+                })
         };
-        for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+        for part in &parts {
             match part.split_once('=') {
+                None if part.is_empty() => return Err(bad("an empty item")),
+                None if parts.len() > 1 => {
+                    return Err(bad("one length for every tool stands alone"))
+                }
                 None => lengths.all = Some(length(part)?),
                 Some((tool, value)) => {
-                    let tool = tool.trim().trim_start_matches(['T', 't']);
-                    lengths
-                        .per_tool
-                        .insert(tool.parse().map_err(|_| bad())?, length(value)?);
+                    let number = tool.trim().trim_start_matches(['T', 't']);
+                    let number = number.parse().map_err(|_| {
+                        bad(&format!("`{}` is not a tool", crate::error::excerpt(tool)))
+                    })?;
+                    if lengths.per_tool.insert(number, length(value)?).is_some() {
+                        return Err(bad(&format!("T{number} is given twice")));
+                    }
                 }
             }
         }

@@ -268,3 +268,40 @@ fn an_output_that_is_a_device_stays_a_device() {
         .file_type()
         .is_char_device());
 }
+
+/// Tool lengths of 1e12 mm gave deviations of 2e7 mm; two bare lengths, a bare one beside
+/// per-tool ones, an empty item or a tool twice were taken silently.
+#[test]
+fn tool_lengths_are_bounded_and_unambiguous() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("p.nc"), "G90 G0 X0 Y0 Z10\nG1 X50 F500\nM30\n").unwrap();
+    let trace = |lengths: &str| -> Vec<String> {
+        [
+            "trace",
+            "--machine",
+            "vmc-li2015",
+            "--program",
+            "p.nc",
+            "--work-offset",
+            "G54=100,100,100",
+            "--tool-length",
+            lengths,
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    for (lengths, says) in [
+        ("1e12", "is not a length of at most 1000000 mm"),
+        ("1,500", "one length for every tool stands alone"),
+        ("500,T1=1", "one length for every tool stands alone"),
+        (",500", "an empty item"),
+        ("T1=5,T1=6", "T1 is given twice"),
+    ] {
+        let args = trace(lengths);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        refused(&args, d, &["--tool-length", says]);
+    }
+    let args = trace("120");
+    volmap().args(&args).current_dir(d).assert().success();
+}
