@@ -20,7 +20,7 @@ use super::args::{
 };
 use super::budget_report::{self, axis_positions};
 use super::failure::{Failure, FlagContext};
-use super::output::{check_plot_paths, progress, write_file, write_json};
+use super::output::{check_distinct_outputs, check_plot_paths, progress, write_file, write_json};
 
 #[derive(clap::Args)]
 pub struct BudgetArgs {
@@ -76,6 +76,12 @@ pub struct BudgetArgs {
 }
 
 pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
+    check_distinct_outputs(&[
+        ("--out", args.out.as_deref()),
+        ("--per-sample", args.per_sample.as_deref()),
+        ("--plot", args.plot.as_deref()),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     let loaded = args.machine.load()?;
     let file = ToleranceFile::load(&args.tolerances, &loaded).flag("--tolerances")?;
     // Machines are drawn around the machine at the evaluation inputs.

@@ -7,7 +7,7 @@ use volmap::nc::{self, NcError, NcOption, Options, ToolLengths};
 
 use super::args::{InputsArg, JsonArg, MachineArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{progress, write_file, write_json};
+use super::output::{check_distinct_outputs, progress, write_file, write_json};
 
 #[derive(clap::Args)]
 pub struct CompensateArgs {
@@ -76,15 +76,30 @@ impl SetupArgs {
                 options.work_offsets.insert(n, offset);
             }
         }
+        let from_file = options.work_offsets.len();
         for text in &self.work_offsets {
             let (n, offset) = nc::parse_work_offset(text).map_err(option_failure)?;
-            options.work_offsets.insert(n, offset);
+            if options.work_offsets.insert(n, offset).is_some() {
+                // Which one the user meant is not for volmap to guess.
+                return Err(Failure::input(format!(
+                    "--work-offset: G{n} is given twice{}",
+                    if from_file > 0 && self.work_offset_file.is_some() {
+                        " (here or in --work-offset-file)"
+                    } else {
+                        ""
+                    }
+                )));
+            }
         }
         Ok(options)
     }
 }
 
 pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
+    check_distinct_outputs(&[
+        ("--out", Some(&args.out)),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     let machine = args.machine.load()?;
     let inputs = args.inputs.on(&machine)?;
     let options = Options {

@@ -9,7 +9,9 @@ use volmap::plot::{self, Color, Marker, Series};
 
 use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{check_plot_paths, progress, write_json, write_plot, written_by};
+use super::output::{
+    check_distinct_outputs, check_plot_paths, progress, write_json, write_plot, written_by,
+};
 
 const UM_PER_MM: f64 = 1000.0;
 /// Below this the structure's remainder is the arithmetic's, mm.
@@ -59,6 +61,11 @@ pub struct ExportArgs {
 }
 
 pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
+    check_distinct_outputs(&[
+        ("--out", args.out.as_deref()),
+        ("--plot", args.plot.as_deref()),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     if let Some(path) = &args.plot {
         check_plot_paths(&[path], "--plot")?;
     }

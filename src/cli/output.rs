@@ -2,7 +2,7 @@
 //! JSON, plots, progress bars on standard error.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use volmap::io::atomic::write_atomically;
@@ -133,4 +133,29 @@ pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), 
         }
         other => other.map(|_| ()).map_err(Failure::from),
     }
+}
+
+/// Every output of one run at a path of its own: two flags naming one file would leave the one
+/// written last, and the run would report both.
+pub fn check_distinct_outputs(outputs: &[(&str, Option<&Path>)]) -> Result<(), Failure> {
+    let given: Vec<(&str, PathBuf)> = outputs
+        .iter()
+        .filter_map(|(flag, path)| {
+            path.map(|p| {
+                (
+                    *flag,
+                    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()),
+                )
+            })
+        })
+        .collect();
+    for (i, (flag, path)) in given.iter().enumerate() {
+        if let Some((first, _)) = given[..i].iter().find(|(_, p)| p == path) {
+            return Err(Failure::input(format!(
+                "{flag}: {} is also the output of {first}: each output needs a file of its own",
+                volmap::io::shown_path(path)
+            )));
+        }
+    }
+    Ok(())
 }

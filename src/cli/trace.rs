@@ -11,7 +11,7 @@ use volmap::plot::{self, Color, Marker, Series};
 use super::args::{InputsArg, JsonArg, MachineArg};
 use super::compensate::{option_failure, SetupArgs};
 use super::failure::{Failure, FlagContext};
-use super::output::{check_plot_paths, write_file, write_json, write_plot};
+use super::output::{check_distinct_outputs, check_plot_paths, write_file, write_json, write_plot};
 
 #[derive(clap::Args)]
 pub struct TraceArgs {
@@ -73,6 +73,11 @@ fn summary(program: &'static str, samples: &[TraceSample]) -> Summary {
 }
 
 pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
+    check_distinct_outputs(&[
+        ("--out", args.out.as_deref()),
+        ("--plot", args.plot.as_deref()),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     if let Some(path) = &args.plot {
         check_plot_paths(&[path], "--plot")?;
     }

@@ -305,3 +305,55 @@ fn tool_lengths_are_bounded_and_unambiguous() {
     let args = trace("120");
     volmap().args(&args).current_dir(d).assert().success();
 }
+
+/// One work offset given twice, or two outputs of one run on one file, were taken silently (the
+/// last won).
+#[test]
+fn a_work_offset_twice_and_two_outputs_on_one_file_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("p.nc"), "G90 G0 X0 Y0 Z10\nG1 X50 F500\nM30\n").unwrap();
+    let base = [
+        "compensate",
+        "--machine",
+        "vmc-li2015",
+        "--program",
+        "p.nc",
+        "--out",
+        "c.nc",
+    ];
+    let with =
+        |more: &[&'static str]| -> Vec<&'static str> { base.iter().chain(more).copied().collect() };
+    refused(
+        &with(&[
+            "--work-offset",
+            "G54=100,100,100",
+            "--work-offset",
+            "G54=0,0,0",
+        ]),
+        d,
+        &["--work-offset: G54 is given twice"],
+    );
+    std::fs::write(d.join("o.toml"), "G54 = [100.0, 100.0, 100.0]\n").unwrap();
+    refused(
+        &with(&["--work-offset-file", "o.toml", "--work-offset", "G54=0,0,0"]),
+        d,
+        &["G54 is given twice (here or in --work-offset-file)"],
+    );
+    refused(
+        &with(&["--work-offset", "G54=100,100,100", "--json", "c.nc"]),
+        d,
+        &["--json", "is also the output of --out"],
+    );
+    assert!(!d.join("c.nc").exists());
+    volmap()
+        .args(with(&[
+            "--work-offset",
+            "G54=100,100,100",
+            "--json",
+            "c.json",
+        ]))
+        .current_dir(d)
+        .assert()
+        .success();
+}
