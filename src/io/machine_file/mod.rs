@@ -129,6 +129,9 @@ struct RawThermal {
 }
 
 /// The temperature of the geometric model where `[thermal]` does not say, °C (ISO 1).
+/// The longest machine name, in characters.
+pub const MAX_NAME_CHARS: usize = 200;
+
 fn default_reference_c() -> f64 {
     20.0
 }
@@ -251,6 +254,15 @@ impl Machine {
 
         plausible::check_lengths(file, &axes, &tool_offset_mm)?;
         plausible::check_values(file, &reader.values, &axes)?;
+        // The name is printed in every summary and written into every output's header.
+        if raw.name.chars().any(char::is_control) || raw.name.chars().count() > MAX_NAME_CHARS {
+            return Err(reader.key_error(
+                "name",
+                format!(
+                    "a machine's name is one line of at most {MAX_NAME_CHARS} characters, without control characters"
+                ),
+            ));
+        }
 
         Ok(Machine {
             name: raw.name,

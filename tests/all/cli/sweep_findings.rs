@@ -357,3 +357,40 @@ fn a_work_offset_twice_and_two_outputs_on_one_file_are_refused() {
         .assert()
         .success();
 }
+
+/// A machine's name with terminal escapes or a NUL was printed whole in every summary.
+#[test]
+fn a_machine_name_with_control_characters_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("q.csv"), "X,Y,Z\n1,1,1\n").unwrap();
+    let machine = "chain = \"FFXYZ\"\n[axes.X]\nrange = [0.0, 10.0]\n[axes.Y]\nrange = [0.0, 10.0]\n[axes.Z]\nrange = [0.0, 10.0]\n";
+    for name in ["\\u001b[31mred", "a\\u0000b", &"n".repeat(201)] {
+        std::fs::write(d.join("m.toml"), format!("name = \"{name}\"\n{machine}")).unwrap();
+        refused(
+            &[
+                "sample",
+                "--exact",
+                "--machine",
+                "m.toml",
+                "--points",
+                "q.csv",
+            ],
+            d,
+            &["m.toml", "name", "without control characters"],
+        );
+    }
+    std::fs::write(d.join("m.toml"), format!("name = \"plain\"\n{machine}")).unwrap();
+    volmap()
+        .args([
+            "sample",
+            "--exact",
+            "--machine",
+            "m.toml",
+            "--points",
+            "q.csv",
+        ])
+        .current_dir(d)
+        .assert()
+        .success();
+}
