@@ -424,8 +424,10 @@ impl Block<'_> {
                     self.path,
                     self.line,
                     format!(
-                        "{what}: {}={value:.4} (machine) lies outside the travel of {} ({lo} to {hi})",
-                        axis.letter, axis.letter
+                        "{what}: {}={} (machine) lies outside the travel of {} ({lo} to {hi})",
+                        axis.letter,
+                        crate::limits::number_words(value),
+                        axis.letter
                     ),
                 ));
             }

@@ -109,6 +109,24 @@ pub fn trace_path(
             let t = k as f64 / n as f64;
             let p = intended.at(t);
             let command: Command = std::array::from_fn(|d| p[d] + offset[d]);
+            // Where the machine cannot go, the model says nothing (as compensate and sample).
+            if let Some(axis) = machine.axes.iter().find(|a| {
+                let q = command[a.letter.index()];
+                !(q >= a.range[0] - 1e-6 && q <= a.range[1] + 1e-6)
+            }) {
+                return Err(NcError::Line {
+                    path: path.to_string(),
+                    line: line.number,
+                    message: format!(
+                        "the move reaches {}={} (machine), outside the travel of {} ({} to {}): check the work offsets and tool lengths",
+                        axis.letter,
+                        number_words(command[axis.letter.index()]),
+                        axis.letter,
+                        number_words(axis.range[0]),
+                        number_words(axis.range[1])
+                    ),
+                });
+            }
             let directions = segment_at(&segments, t).directions;
             let (ideal, real) = (
                 kin.ideal_tip(&command),

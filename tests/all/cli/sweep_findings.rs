@@ -394,3 +394,28 @@ fn a_machine_name_with_control_characters_is_refused() {
         .assert()
         .success();
 }
+
+/// `trace` evaluated moves beyond the travels with exit 0, where `compensate` and `sample`
+/// refuse them.
+#[test]
+fn trace_refuses_a_move_beyond_the_travel() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("p.nc"), "G90 G0 X0 Y0 Z10\nG1 X5000 F500\nM30\n").unwrap();
+    refused(
+        &[
+            "trace",
+            "--machine",
+            "vmc-li2015",
+            "--program",
+            "p.nc",
+            "--work-offset",
+            "G54=100,100,100",
+        ],
+        d,
+        &[
+            "p.nc: line 2: the move reaches X=",
+            "outside the travel of X",
+        ],
+    );
+}
