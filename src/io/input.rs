@@ -90,11 +90,21 @@ pub fn read_bytes(path: &Path, kind: InputKind) -> Result<Vec<u8>, FileError> {
     {
         return Err(FileError::too_large(path, kind));
     }
+    read_rest(file, path, kind, Vec::new())
+}
+
+/// The rest of `file` after `bytes` (read from it already), within the limit of `kind`.
+pub fn read_rest(
+    file: File,
+    path: &Path,
+    kind: InputKind,
+    mut bytes: Vec<u8>,
+) -> Result<Vec<u8>, FileError> {
+    let limit = kind.limit_bytes();
     // Read in pieces and stop before the limit is passed: `read_to_end` of `limit + 1` bytes
     // doubles its buffer to twice the limit at the last byte (a device that never ends, such
     // as /dev/zero, made a mesh's 512 MiB limit a 1 GiB allocation).
     let mut file = file;
-    let mut bytes = Vec::new();
     let mut piece = vec![0u8; 1 << 16];
     loop {
         let n = match file.read(&mut piece) {

@@ -89,10 +89,44 @@ impl Mesh {
 
     /// Reads an STL file, binary or ASCII (told apart by the binary layout's exact size).
     pub fn read_stl(path: &Path) -> Result<Mesh, MeshError> {
-        Mesh::parse_stl(
-            &read_bytes(path, InputKind::Mesh)?,
-            &path.display().to_string(),
-        )
+        let shown = path.display().to_string();
+        if !std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+            return Mesh::parse_stl(&read_bytes(path, InputKind::Mesh)?, &shown);
+        }
+        // A device or a pipe has no size to check ahead; a binary header says how much
+        // follows, so an endless one (/dev/zero) is read no further than that.
+        use std::io::Read;
+        let file = super::input::open_stream(path)?;
+        let mut head = Vec::with_capacity(84);
+        (&file)
+            .take(84)
+            .read_to_end(&mut head)
+            .map_err(|e| FileError::read(path, e))?;
+        let text = super::input::without_byte_order_mark(&head);
+        if head.len() < 84 || text.trim_ascii_start().starts_with(b"solid") {
+            let bytes = super::input::read_rest(file, path, InputKind::Mesh, head)?;
+            return Mesh::parse_stl(&bytes, &shown);
+        }
+        let count = u32::from_le_bytes([head[80], head[81], head[82], head[83]]) as u64;
+        let expected = 84 + 50 * count;
+        if expected > InputKind::Mesh.limit_bytes() {
+            return Err(FileError::too_large(path, InputKind::Mesh).into());
+        }
+        let mut bytes = head;
+        bytes.reserve_exact((expected - 84 + 1) as usize);
+        (&file)
+            .take(expected - 84 + 1)
+            .read_to_end(&mut bytes)
+            .map_err(|e| FileError::read(path, e))?;
+        if bytes.len() as u64 > expected {
+            return Err(MeshError::Binary {
+                path: shown,
+                message: format!(
+                    "the header announces {count} triangles ({expected} bytes) but more follow"
+                ),
+            });
+        }
+        Mesh::parse_stl(&bytes, &shown)
     }
 
     pub fn parse_stl(bytes: &[u8], path: &str) -> Result<Mesh, MeshError> {

@@ -103,8 +103,9 @@ fn every_input_given_an_endless_device_is_refused_at_its_size_limit() {
             text,
         ),
         (
+            // A binary STL's header says how much follows: no further is read.
             vec!["features", "--part", "part.toml"],
-            "larger than 512 MiB, the most an STL mesh may hold",
+            "the header announces 0 triangles (84 bytes) but more follow",
         ),
         (
             vec!["fit", "--measurements", "fit.toml", "--allow-outside-paths"],
