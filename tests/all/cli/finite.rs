@@ -129,7 +129,8 @@ fn machine_values_beyond_any_machine_are_refused_naming_the_key_on_every_command
 fn inputs_that_leave_no_number_are_refused_and_nothing_is_written() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("f.exr");
-    // A temperature no thermal term survives: the map names the point and the inputs.
+    // A temperature no thermal term survives, refused before anything is computed (more than
+    // 200 K from the reference).
     assert_refused(
         volmap()
             .args([
@@ -142,7 +143,7 @@ fn inputs_that_leave_no_number_are_refused_and_nothing_is_written() {
                 "cpu",
             ])
             .args(["--temperatures", "x_scale=1e308", "--out", s(&out)]),
-        &["not a finite number", "x_scale=1e308"],
+        &["--temperatures", "x_scale=1e308", "more than 200 K"],
     );
     assert!(!out.exists());
     assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
@@ -157,7 +158,7 @@ fn inputs_that_leave_no_number_are_refused_and_nothing_is_written() {
                 "gantry-2m",
             ])
             .args(["--temperatures", "x_scale=1e308"]),
-        &["not a finite number"],
+        &["--temperatures", "more than 200 K"],
     );
     assert_refused(
         volmap()
@@ -197,7 +198,11 @@ fn inputs_that_leave_no_number_are_refused_and_nothing_is_written() {
         volmap()
             .args(["trace", "--machine", "vmc-li2015", "--program", s(&program)])
             .args(["--work-offset", "G54=1e308,0,0"]),
-        &["p.nc", "line 1", "not a finite number"],
+        &[
+            "p.nc",
+            "line 1",
+            "X=1e308 (machine), outside the travel of X",
+        ],
     );
     let part = dir.path().join("part.toml");
     std::fs::write(
