@@ -20,7 +20,9 @@ use super::subprograms::{expand_subprograms, Room};
 use super::toolpath::{arc_path, Toolpath};
 use super::walk::Walk;
 use super::write::{as_written, write_block};
-use super::{NcError, NcOption, Options, PassedBlock, Report, ReportInputs};
+use super::{
+    NcError, NcOption, Options, PassedBlock, Report, ReportInputs, MAX_CHORD_TOLERANCE_MM,
+};
 use crate::limits::MAX_DECIMALS;
 use crate::model::inputs::Approach;
 use crate::model::{Command, Machine};
@@ -101,9 +103,6 @@ pub(super) fn begin<'a>(
         holes,
     ))
 }
-
-/// The largest chord tolerance, mm: a kilometre, the largest length a machine file holds.
-pub const MAX_CHORD_TOLERANCE_MM: f64 = 1e6;
 
 /// A compensated program.
 #[derive(Debug, Clone, PartialEq)]

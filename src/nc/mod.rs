@@ -227,6 +227,9 @@ pub struct Options {
     pub orientation_tolerance_rad: Option<f64>,
 }
 
+/// The largest chord tolerance, mm: a kilometre, the largest length a machine file holds.
+pub const MAX_CHORD_TOLERANCE_MM: f64 = 1e6;
+
 /// The default angular tolerance of the orientation compensation, rad.
 pub const DEFAULT_ANGULAR_TOLERANCE_RAD: f64 = 1e-5;
 
