@@ -414,24 +414,21 @@ impl Block<'_> {
 
     /// Every axis of the command of `p` within its travel.
     fn check_travel(&self, p: &[f64; 6], what: &str) -> Result<(), NcError> {
-        let q = self.command(p);
-        for axis in &self.kin.machine().axes {
-            let value = q[axis.letter.index()];
-            let [lo, hi] = axis.range;
-            if value < lo - 1e-6 || value > hi + 1e-6 {
-                return Err(NcError::line(
-                    self.path,
-                    self.line,
-                    format!(
-                        "{what}: {}={} (machine) lies outside the travel of {} ({lo} to {hi})",
-                        axis.letter,
-                        crate::limits::number_words(value),
-                        axis.letter
-                    ),
-                ));
-            }
+        match super::kinematics::beyond_travel(self.kin.machine(), &self.command(p)) {
+            Some((axis, value)) => Err(NcError::line(
+                self.path,
+                self.line,
+                format!(
+                    "{what}: {}={} (machine) lies outside the travel of {} ({} to {})",
+                    axis.letter,
+                    crate::limits::number_words(value),
+                    axis.letter,
+                    axis.range[0],
+                    axis.range[1]
+                ),
+            )),
+            None => Ok(()),
         }
-        Ok(())
     }
 
     /// The program point whose real tool tip, approaching in `directions`, lands on the ideal

@@ -10,7 +10,7 @@ use super::approach::{key, reversing_axes, Directions};
 use super::program::State;
 use super::{NcError, NcOption, Options};
 use crate::model::inputs::Inputs;
-use crate::model::{Command, Machine};
+use crate::model::{Axis, Command, Machine};
 use crate::reference::Twin;
 
 /// The machine as one tool sees it: the machine file's machine with that tool, at the program's
@@ -175,4 +175,18 @@ impl<'a> Compensator<'a> {
         }
         Ok(&self.tools[&tool])
     }
+}
+
+/// The first axis of `machine` whose position in `command` lies outside its travel (by more
+/// than a micrometre's rounding: 1e-6 mm or degrees), with that position; a position that is
+/// not a number lies outside.
+pub(super) fn beyond_travel<'m>(
+    machine: &'m Machine,
+    command: &Command,
+) -> Option<(&'m Axis, f64)> {
+    machine.axes.iter().find_map(|axis| {
+        let value = command[axis.letter.index()];
+        let [lo, hi] = axis.range;
+        (!(lo - 1e-6..=hi + 1e-6).contains(&value)).then_some((axis, value))
+    })
 }

@@ -110,17 +110,14 @@ pub fn trace_path(
             let p = intended.at(t);
             let command: Command = std::array::from_fn(|d| p[d] + offset[d]);
             // Where the machine cannot go, the model says nothing (as compensate and sample).
-            if let Some(axis) = machine.axes.iter().find(|a| {
-                let q = command[a.letter.index()];
-                !(q >= a.range[0] - 1e-6 && q <= a.range[1] + 1e-6)
-            }) {
+            if let Some((axis, value)) = super::kinematics::beyond_travel(machine, &command) {
                 return Err(NcError::Line {
                     path: path.to_string(),
                     line: line.number,
                     message: format!(
                         "the move reaches {}={} (machine), outside the travel of {} ({} to {}): check the work offsets and tool lengths",
                         axis.letter,
-                        number_words(command[axis.letter.index()]),
+                        number_words(value),
                         axis.letter,
                         number_words(axis.range[0]),
                         number_words(axis.range[1])
