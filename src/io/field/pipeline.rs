@@ -328,11 +328,16 @@ fn compress_loop(
         let start = Instant::now();
         let lines_per_block = codec.lines_per_block() as usize;
         let per_line = codec.values_per_line();
-        let blocks: Result<Vec<Vec<u8>>, (usize, EncodeError)> = piece
+        let encoded: Vec<Result<Vec<u8>, EncodeError>> = piece
             .values
             .par_chunks(lines_per_block * per_line)
+            .map(|values| codec.encode(values))
+            .collect();
+        // The first block that fails, in file order, whatever thread met it first.
+        let blocks: Result<Vec<Vec<u8>>, (usize, EncodeError)> = encoded
+            .into_iter()
             .enumerate()
-            .map(|(n, values)| codec.encode(values).map_err(|e| (n, e)))
+            .map(|(n, block)| block.map_err(|e| (n, e)))
             .collect();
         busy += start.elapsed().as_secs_f64();
         let blocks = match blocks {
