@@ -17,6 +17,7 @@ use std::path::Path;
 use toml_edit::{Array, DocumentMut, InlineTable, Item, TableLike, Value};
 
 use super::{toml_number, CalibrateError};
+use crate::error::excerpt;
 use crate::io::csv::Csv;
 use crate::io::input::Reach;
 use crate::io::read_text;
@@ -318,21 +319,30 @@ pub fn choose_interp(
 
 /// Interpolations asked for per component: `EXX=linear,EZZ=quadratic`.
 pub fn parse_interp_choices(text: &str) -> Result<Vec<(String, Interp)>, CalibrateError> {
-    text.split(',')
-        .map(str::trim)
-        .filter(|p| !p.is_empty())
-        .map(|pair| {
-            let (key, value) = pair.split_once('=').ok_or_else(|| {
-                CalibrateError::Parameter(format!(
-                    "`{pair}`: expected COMPONENT=linear|quadratic|cubic"
-                ))
-            })?;
-            let interp = Interp::parse(value.trim()).ok_or_else(|| {
-                CalibrateError::Parameter(format!("`{value}`: linear, quadratic or cubic"))
-            })?;
-            Ok((key.trim().to_string(), interp))
-        })
-        .collect()
+    if text.trim().is_empty() {
+        return Ok(Vec::new());
+    }
+    let mut choices: Vec<(String, Interp)> = Vec::new();
+    for pair in text.split(',').map(str::trim) {
+        let (key, value) = pair.split_once('=').ok_or_else(|| {
+            CalibrateError::Parameter(format!(
+                "`{}`: expected COMPONENT=linear|quadratic|cubic",
+                excerpt(pair)
+            ))
+        })?;
+        let interp = Interp::parse(value.trim()).ok_or_else(|| {
+            CalibrateError::Parameter(format!("`{}`: linear, quadratic or cubic", excerpt(value)))
+        })?;
+        let key = key.trim().to_string();
+        if choices.iter().any(|(k, _)| *k == key) {
+            return Err(CalibrateError::Parameter(format!(
+                "{} is given twice",
+                excerpt(&key)
+            )));
+        }
+        choices.push((key, interp));
+    }
+    Ok(choices)
 }
 
 /// A measured component as the machine file holds it: `{ interp = "…", table = [ [q, v], … ] }`,
@@ -377,6 +387,49 @@ fn set_component(section: &mut dyn TableLike, name: &str, entry: InlineTable) {
     }
 }
 
+/// Checks that the measured axes are axes of `base`, each once (`axes`: each with the file of
+/// its measurements).
+pub fn check_measured_axes(
+    base: &Machine,
+    axes: &[(AxisLetter, &Path)],
+) -> Result<(), CalibrateError> {
+    for (n, &(axis, path)) in axes.iter().enumerate() {
+        if base.axis(axis).is_none() {
+            return Err(CalibrateError::Parameter(format!(
+                "{}: the base machine (chain {}) has no {axis} axis",
+                path.display(),
+                base.chain.hwang_notation()
+            )));
+        }
+        if axes[..n].iter().any(|&(a, _)| a == axis) {
+            return Err(CalibrateError::Parameter(format!(
+                "{}: {axis} is given twice: one file holds an axis's measurements",
+                path.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that every interpolation asked for names a component of a measured axis.
+pub fn check_interp_choices(
+    axes: &[AxisLetter],
+    asked: &[(String, Interp)],
+) -> Result<(), CalibrateError> {
+    for (key, _) in asked {
+        let known = axes
+            .iter()
+            .any(|a| (0..6).any(|i| format!("E{}{}", COMPONENT_NAMES[i], a) == *key));
+        if !known {
+            return Err(CalibrateError::Parameter(format!(
+                "interpolation asked for {}: not a component of a measured axis",
+                excerpt(key)
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Builds the components of each measured axis and writes them into the base machine's file:
 /// returns the new file's text (the base file with its comments and order, each measured
 /// component set) and what was chosen.
@@ -389,24 +442,10 @@ pub fn build(
         CalibrateError::Parameter(format!("the base machine's file does not parse again: {e}"))
     })?;
     let mut built = Vec::new();
-    for (key, _) in asked {
-        let known = axes
-            .iter()
-            .any(|(a, _)| (0..6).any(|i| format!("E{}{}", COMPONENT_NAMES[i], a) == *key));
-        if !known {
-            return Err(CalibrateError::Parameter(format!(
-                "interpolation asked for {key}: not a component of a measured axis"
-            )));
-        }
-    }
+    check_measured_axes(base, axes)?;
+    let letters: Vec<AxisLetter> = axes.iter().map(|&(a, _)| a).collect();
+    check_interp_choices(&letters, asked)?;
     for &(axis, path) in axes {
-        if base.axis(axis).is_none() {
-            return Err(CalibrateError::Parameter(format!(
-                "{}: the base machine (chain {}) has no {axis} axis",
-                path.display(),
-                base.chain.hwang_notation()
-            )));
-        }
         let section = document
             .get_mut("axes")
             .and_then(|a| a.get_mut(axis.to_string().as_str()))

@@ -9,6 +9,7 @@ use serde_json::{json, Value};
 use volmap::design::allocate::{allocate, Allocation, Target};
 use volmap::design::budget::{budget, Budget};
 use volmap::design::monte_carlo::{check_confidence, check_samples, check_spec, MonteCarlo, Study};
+use volmap::error::excerpt;
 use volmap::io::tolerance_file::ToleranceFile;
 use volmap::model::grid::Grid;
 use volmap::model::perturbation::{Distribution, Tolerance};
@@ -141,11 +142,13 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         let inputs = machine.inputs.describe(&machine);
         budget_report::print_monte_carlo(&monte_carlo, engine.name(), &inputs);
         json["monte_carlo"] = budget_report::monte_carlo_json(&monte_carlo);
-        if let Some(path) = &args.per_sample {
-            let text = budget_report::per_sample_csv(&machine, &study, &stats);
-            write_file(path, |out| out.write_all(text.as_bytes())).flag("--per-sample")?;
-            errln!("per-sample: {}", path.display());
-        }
+        // Written once the whole run has succeeded: a failed allocation leaves no file.
+        let per_sample = args.per_sample.as_ref().map(|path| {
+            (
+                path,
+                budget_report::per_sample_csv(&machine, &study, &stats),
+            )
+        });
         histogram = Some((stats.iter().map(|s| s.max_ve_mm).collect::<Vec<_>>(), spec));
         if args.allocate {
             let target = Target {
@@ -154,7 +157,7 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
                 spec_mm: spec.unwrap_or(0.0),
                 confidence,
             };
-            let allocation = run_allocation(&engine, &study, &target)?;
+            let allocation = run_allocation(&engine, &study, &target).flag("--allocate")?;
             json["allocation"] = allocation_json(&file, &chosen, &target, &allocation, &args);
             if let Some(out) = &args.out {
                 let text = format!(
@@ -171,6 +174,10 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
                 write_file(out, |w| w.write_all(text.as_bytes())).flag("--out")?;
                 outln!("  scaled tolerances written to {}", out.display());
             }
+        }
+        if let Some((path, text)) = per_sample {
+            write_file(path, |out| out.write_all(text.as_bytes())).flag("--per-sample")?;
+            errln!("per-sample: {}", path.display());
         }
     }
     if let Some(path) = &args.plot {
@@ -206,6 +213,12 @@ fn chosen_terms(tolerances: &[Tolerance], names: &[String]) -> Result<Vec<bool>,
             return Err(Failure::input(format!(
                 "--allocate-terms: `{name}` is not a term of the tolerance file (its terms: {})",
                 keys.join(", ")
+            )));
+        }
+        if hits.iter().any(|&n| chosen[n]) {
+            return Err(Failure::input(format!(
+                "--allocate-terms: `{}` names a term already named",
+                excerpt(name)
             )));
         }
         for n in hits {

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use volmap::calibrate::{self, build};
+use volmap::error::excerpt;
 use volmap::model::AxisLetter;
 
 use super::args::{load_machine_flag, ReachArg};
@@ -45,14 +46,36 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
             })
             .ok_or_else(|| {
                 Failure::input(format!(
-                    "--axis {pair}: expected AXIS=FILE.csv, e.g. X=x.csv"
+                    "--axis {}: expected AXIS=FILE.csv, e.g. X=x.csv",
+                    excerpt(pair)
                 ))
             })?;
-        axes.push((letter, PathBuf::from(path.trim())));
+        let path = path.trim();
+        if path.is_empty() {
+            return Err(Failure::input(format!(
+                "--axis {}: no file named after `=`",
+                excerpt(pair)
+            )));
+        }
+        if path.split(',').skip(1).any(|item| {
+            item.split_once('=').is_some_and(|(l, _)| {
+                l.trim().len() == 1 && l.trim().chars().all(|c| AxisLetter::from_char(c).is_some())
+            })
+        }) {
+            return Err(Failure::input(format!(
+                "--axis {}: one AXIS=FILE.csv each; repeat --axis for another axis",
+                excerpt(pair)
+            )));
+        }
+        axes.push((letter, PathBuf::from(path)));
     }
-    let asked = build::parse_interp_choices(&args.interp).flag("--interp")?;
     let axes_ref: Vec<_> = axes.iter().map(|(l, p)| (*l, p.as_path())).collect();
-    let (text, built) = build::build(&base, &axes_ref, &asked)?;
+    build::check_measured_axes(&base, &axes_ref).flag("--axis")?;
+    let letters: Vec<AxisLetter> = axes.iter().map(|&(l, _)| l).collect();
+    let asked = build::parse_interp_choices(&args.interp).flag("--interp")?;
+    build::check_interp_choices(&letters, &asked).flag("--interp")?;
+    // What remains to go wrong is in the measurements the --axis files hold.
+    let (text, built) = build::build(&base, &axes_ref, &asked).flag("--axis")?;
     let measured: Vec<String> = axes
         .iter()
         .map(|(letter, path)| format!("{letter}={}", path.display()))

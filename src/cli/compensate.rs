@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use volmap::model::AxisLetter;
 use volmap::nc::{self, NcError, NcOption, Options, ToolLengths};
 
 use super::args::{InputsArg, JsonArg, MachineArg};
@@ -65,7 +66,11 @@ pub struct SetupArgs {
 
 impl SetupArgs {
     /// The options of a compensation with these work offsets and tool lengths at `inputs`.
-    pub fn options(&self, inputs: volmap::model::inputs::Inputs) -> Result<Options, Failure> {
+    pub fn options(
+        &self,
+        machine: &volmap::model::Machine,
+        inputs: volmap::model::inputs::Inputs,
+    ) -> Result<Options, Failure> {
         let mut options = Options {
             tool_lengths: ToolLengths::parse(&self.tool_length).map_err(option_failure)?,
             inputs,
@@ -77,6 +82,7 @@ impl SetupArgs {
             }
         }
         let from_file = options.work_offsets.len();
+        let in_file: Vec<u32> = options.work_offsets.keys().copied().collect();
         for text in &self.work_offsets {
             let (n, offset) = nc::parse_work_offset(text).map_err(option_failure)?;
             if options.work_offsets.insert(n, offset).is_some() {
@@ -89,6 +95,27 @@ impl SetupArgs {
                         ""
                     }
                 )));
+            }
+        }
+        // A rotation of an axis the machine lacks would be dropped unseen: refused.
+        let mut numbers: Vec<u32> = options.work_offsets.keys().copied().collect();
+        numbers.sort_unstable();
+        for n in numbers {
+            let offset = options.work_offsets[&n];
+            for letter in AxisLetter::ALL.into_iter().filter(|l| !l.is_linear()) {
+                let turn = offset[letter.index()];
+                if turn != 0.0 && machine.axis(letter).is_none() {
+                    let flag = if in_file.contains(&n) {
+                        "--work-offset-file"
+                    } else {
+                        "--work-offset"
+                    };
+                    return Err(Failure::input(format!(
+                        "{flag}: G{n} turns {letter} by {}°, but the machine (chain {}) has no {letter} axis",
+                        volmap::error::shown(turn),
+                        machine.chain.hwang_notation()
+                    )));
+                }
             }
         }
         Ok(options)
@@ -107,7 +134,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         decimals: args.decimals,
         pass_unknown: args.pass_unknown,
         orientation_tolerance_rad: args.orientation.then_some(args.angular_tolerance),
-        ..args.setup.options(inputs)?
+        ..args.setup.options(&machine, inputs)?
     };
     let program =
         volmap::io::read_bytes(&args.program, volmap::io::InputKind::Program).flag("--program")?;

@@ -228,7 +228,7 @@ pub fn print_summary(info: &FieldInfo, stats: &FieldStats) {
         .chars()
         .map(|a| {
             let index = "ABC".find(a).unwrap_or(0);
-            format!("{a}={}°", info.pose_deg[index])
+            format!("{a}={}°", volmap::error::shown(info.pose_deg[index]))
         })
         .collect();
     outln!(

@@ -150,7 +150,8 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
         } => {
             if Quantity::parse(&quantity).is_none() {
                 return Err(Failure::input(format!(
-                    "--quantity {quantity}: {}",
+                    "--quantity: `{}` is not a quantity: expected {}",
+                    volmap::error::excerpt(&quantity),
                     Quantity::choices()
                 )));
             }
@@ -210,7 +211,7 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
             let grid = full_travel(&machine, &grid, &pose)?;
             let deformed = query::deformed_grid(&machine, &grid, scale).map_err(|e| {
                 let flag = match &e {
-                    QueryError::DrawnPoints { .. } => "--grid",
+                    QueryError::DrawnPoints { .. } | QueryError::NoGridLine(_) => "--grid",
                     QueryError::Scale(_) => "--scale",
                     _ => "--machine",
                 };

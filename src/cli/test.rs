@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use volmap::error::excerpt;
 use volmap::standards::{self, Setup, TestResult};
 
 use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
@@ -17,8 +18,17 @@ fn parse_xyz(text: &str) -> Result<[f64; 3], String> {
         .split(',')
         .map(|v| v.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|_| format!("`{text}`: expected three numbers X,Y,Z (mm)"))?;
-    <[f64; 3]>::try_from(values).map_err(|_| format!("`{text}`: expected three numbers X,Y,Z (mm)"))
+        .map_err(|_| format!("`{}`: expected three numbers X,Y,Z (mm)", excerpt(text)))?;
+    let xyz = <[f64; 3]>::try_from(values)
+        .map_err(|_| format!("`{}`: expected three numbers X,Y,Z (mm)", excerpt(text)))?;
+    match xyz.iter().position(|v| !v.is_finite()) {
+        Some(n) => Err(format!(
+            "`{}`: {} is not a finite number",
+            excerpt(text),
+            ["X", "Y", "Z"][n]
+        )),
+        None => Ok(xyz),
+    }
 }
 
 #[derive(clap::Args)]
@@ -74,7 +84,7 @@ enum TestKind {
         #[arg(long, default_value_t = 5)]
         runs: usize,
         /// Where the other linear axes stand, `X,Y,Z` mm (default: mid-travel).
-        #[arg(long, value_parser = parse_xyz)]
+        #[arg(long, value_parser = parse_xyz, allow_hyphen_values = true)]
         at: Option<[f64; 3]>,
         #[command(flatten)]
         common: Common,
@@ -87,10 +97,10 @@ enum TestKind {
         #[arg(long)]
         diagonal: Option<String>,
         /// Start, `X,Y,Z` mm.
-        #[arg(long, value_parser = parse_xyz, requires = "to")]
+        #[arg(long, value_parser = parse_xyz, requires = "to", allow_hyphen_values = true)]
         from: Option<[f64; 3]>,
         /// End, `X,Y,Z` mm.
-        #[arg(long, value_parser = parse_xyz, requires = "from")]
+        #[arg(long, value_parser = parse_xyz, requires = "from", allow_hyphen_values = true)]
         to: Option<[f64; 3]>,
         /// Points along the diagonal, ends included.
         #[arg(long, default_value_t = 21)]
@@ -105,7 +115,7 @@ enum TestKind {
         #[arg(long)]
         plane: String,
         /// Centre, `X,Y,Z` mm (default: mid-travel).
-        #[arg(long, value_parser = parse_xyz)]
+        #[arg(long, value_parser = parse_xyz, allow_hyphen_values = true)]
         centre: Option<[f64; 3]>,
         /// Radius, mm (default 100, less where the travel is shorter).
         #[arg(long)]
@@ -135,7 +145,7 @@ enum TestKind {
         axis: String,
         /// The sphere's centre in the workpiece frame, `X,Y,Z` mm (default: the tool tip at
         /// mid-travel).
-        #[arg(long, value_parser = parse_xyz)]
+        #[arg(long, value_parser = parse_xyz, allow_hyphen_values = true)]
         sphere: Option<[f64; 3]>,
         /// First angle, degrees (default: the start of the travel).
         #[arg(long, allow_hyphen_values = true)]

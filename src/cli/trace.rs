@@ -92,7 +92,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
     let options = Options {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
-        ..args.setup.options(inputs)?
+        ..args.setup.options(&machine, inputs)?
     };
     let program =
         volmap::io::read_bytes(&args.program, volmap::io::InputKind::Program).flag("--program")?;

@@ -54,6 +54,21 @@ impl AtomicFile {
                 });
             }
         }
+        // A folder that is not there is a mistyped name more often than one to make: refused
+        // before anything is written, as bad input.
+        let folder = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        if !folder.is_dir() {
+            return Err(FileError::write(
+                path,
+                std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    format!("its folder `{}` does not exist", super::shown_path(folder)),
+                ),
+            ));
+        }
         let name = path
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())

@@ -110,7 +110,8 @@ fn read_as(path: &str, input: &str) -> String {
 
 impl Classify for FileError {
     /// A file that cannot be read is the input's fault; one that cannot be written, the work's,
-    /// unless no file can have its name (a NUL byte in it, a folder's name).
+    /// unless no file can have its name (a NUL byte in it, a folder's name, a folder that does not
+    /// exist).
     fn kind(&self) -> ErrorKind {
         match self {
             FileError::Read { .. }

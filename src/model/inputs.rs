@@ -89,11 +89,13 @@ pub enum InputsError {
 
 crate::error::input_errors!(InputsError);
 
-/// `NAME=VALUE` pairs, trimmed.
+/// `NAME=VALUE` pairs, trimmed; an empty item (`x_scale=20,`) is refused, an empty list has none.
 fn pairs(text: &str) -> Result<Vec<(&str, &str)>, InputsError> {
+    if text.trim().is_empty() {
+        return Ok(Vec::new());
+    }
     text.split(',')
         .map(str::trim)
-        .filter(|p| !p.is_empty())
         .map(|p| {
             p.split_once('=')
                 .map(|(n, v)| (n.trim(), v.trim()))

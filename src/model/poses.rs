@@ -57,15 +57,18 @@ pub fn parse_sweep(text: &str, machine: &Machine) -> Result<Vec<Command>, GridEr
     Ok(poses)
 }
 
-/// The `NAME=VALUE` pairs of a comma-separated list, each trimmed; `syntax` is the error for a
-/// pair without `=`.
+/// The `NAME=VALUE` pairs of a comma-separated list, each trimmed; `syntax` is the error for an
+/// item without `=` (an empty item among them). An empty list has no pairs.
 pub(super) fn named_values(
     text: &str,
     syntax: impl Fn() -> GridError,
 ) -> Result<Vec<(&str, &str)>, GridError> {
+    if text.trim().is_empty() {
+        return Ok(Vec::new());
+    }
+    // An empty item (`B=30,`, `,,`) is a comma too many or a value left out: refused.
     text.split(',')
         .map(str::trim)
-        .filter(|p| !p.is_empty())
         .map(|pair| {
             let (name, value) = pair.split_once('=').ok_or_else(&syntax)?;
             Ok((name.trim(), value.trim()))
@@ -182,7 +185,7 @@ pub fn name_of(degrees: [f64; 3], axes: &[AxisLetter]) -> String {
     letters.dedup();
     letters
         .iter()
-        .map(|l| format!("{l}={}", degrees[l.index() - 3]))
+        .map(|l| format!("{l}={}", crate::error::shown(degrees[l.index() - 3])))
         .collect::<Vec<_>>()
         .join(",")
 }

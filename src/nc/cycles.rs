@@ -16,7 +16,7 @@
 //! cycles in another plane are refused.
 
 use super::parse::{parse_line, Line};
-use super::subprograms::{Room, MAX_EXPANDED_WORDS};
+use super::subprograms::{Room, BLOCK_WORDS, MAX_EXPANDED_WORDS};
 use super::NcError;
 use crate::error::shown;
 
@@ -302,8 +302,8 @@ fn expand_hole(
             ));
         }
     }
-    // The hole's blocks may not pass what calls and cycles may add (each block counts one, and
-    // one more for each of its words once read).
+    // The hole's blocks may not pass what calls and cycles may add (each block counts
+    // BLOCK_WORDS, and one more for each of its words once read).
     let too_many = || {
         NcError::line(
             path,
@@ -332,7 +332,7 @@ fn expand_hole(
                     // A peck too small to change a number this large goes to the depth.
                     let next = if next < reached { next } else { cycle.depth };
                     feed_to(&mut texts, next);
-                    if texts.len() > room_for_blocks {
+                    if texts.len() * BLOCK_WORDS > room_for_blocks {
                         return Err(too_many());
                     }
                     reached = next;
@@ -361,7 +361,7 @@ fn expand_hole(
             texts.push(format!("G0 Z{}", number(clear)));
         }
         z = clear;
-        if texts.len() > room_for_blocks {
+        if texts.len() * BLOCK_WORDS > room_for_blocks {
             return Err(too_many());
         }
     }

@@ -4,6 +4,7 @@
 use super::approach::{line_directions, Directions};
 use super::parse::Line;
 use super::{NcError, Options, ToolLengths};
+use crate::error::excerpt;
 use crate::model::{AxisLetter, Machine};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -117,6 +118,7 @@ pub(super) fn starting_position(
     options: &Options,
 ) -> Result<([f64; 6], [bool; 6]), NcError> {
     let mut start: [Option<f64>; 6] = [None; 6];
+    let mut unknown_at: [Option<(usize, String)>; 6] = Default::default();
     let mut absolute = true;
     let mut inch = false;
     // Where the first Z comes under G43, the axes stand higher by the tool's length than the
@@ -133,8 +135,18 @@ pub(super) fn starting_position(
                 _ => {}
             }
         }
-        if is_dwell(line) || is_reference_return(line) || !is_understood(line, options.pass_unknown)
-        {
+        if !is_understood(line, options.pass_unknown) {
+            // Named beside a code volmap does not know: said so if nothing else sets it.
+            for w in &line.words {
+                if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {
+                    if start[d].is_none() && unknown_at[d].is_none() {
+                        unknown_at[d] = Some((line.number, unknown_code(line).unwrap_or_default()));
+                    }
+                }
+            }
+            continue;
+        }
+        if is_dwell(line) || is_reference_return(line) {
             continue;
         }
         for w in &line.words {
@@ -167,14 +179,26 @@ pub(super) fn starting_position(
             None if d >= 3 => 0.0,
             None if machine.axis(AxisLetter::ALL[d]).is_none() => 0.0,
             None => {
-                return Err(NcError::line(
-                    path,
-                    1,
-                    format!(
-                        "the program never sets {}: its height is not known",
-                        AXIS_LETTERS[d]
+                return Err(match &unknown_at[d] {
+                    Some((line, code)) => NcError::line(
+                        path,
+                        *line,
+                        format!(
+                            "{} is set only beside `{}`, a code volmap does not know: where {} starts is not known",
+                            AXIS_LETTERS[d],
+                            excerpt(code),
+                            AXIS_LETTERS[d]
+                        ),
                     ),
-                ))
+                    None => NcError::line(
+                        path,
+                        1,
+                        format!(
+                            "the program never sets {}: where it starts is not known",
+                            AXIS_LETTERS[d]
+                        ),
+                    ),
+                })
             }
         };
     }

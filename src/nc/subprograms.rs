@@ -15,11 +15,17 @@ use super::NcError;
 const MAX_DEPTH: usize = 8;
 
 /// The most that subprogram calls and canned cycles together may add to a program, counted in
-/// words, each block one more (and a long block one more for every 32 characters): nested calls repeated up to 1000 times each, or pecks far
-/// smaller than their holes, would otherwise expand a few lines past any memory and any time.
-/// Two million (400,000 blocks of four words) are read in about 0.3 s and 200 MB; compensating
-/// them is the work of a program that long.
-pub const MAX_EXPANDED_WORDS: usize = 2_000_000;
+/// words, each block [`BLOCK_WORDS`] more (and a long block one more for every 32 characters):
+/// nested calls repeated up to 1000 times each, or pecks far smaller than their holes, would
+/// otherwise expand a few lines past any memory and any time. Four million (about 330,000
+/// blocks of four words, or 500,000 blocks of none) are read in about 0.3 s and 200 MB;
+/// compensating them is the work of a program that long.
+pub const MAX_EXPANDED_WORDS: usize = 4_000_000;
+
+/// What a block costs of [`MAX_EXPANDED_WORDS`] besides its words: a block held in memory takes
+/// about as much as eight words (a thousand thousand calls of a body of two comments took
+/// 600 MB when a block counted one).
+pub const BLOCK_WORDS: usize = 8;
 
 /// What the expansion of calls and cycles may still add (see [`MAX_EXPANDED_WORDS`]).
 pub(super) struct Room {
@@ -33,10 +39,10 @@ impl Room {
         }
     }
 
-    /// Takes what `line` adds (one more for every 32 characters of a long block); false where
-    /// that is more than is left.
+    /// Takes what `line` adds ([`BLOCK_WORDS`] and its words, one more for every 32 characters
+    /// of a long block); false where that is more than is left.
     pub(super) fn take(&mut self, line: &Line) -> bool {
-        self.take_blocks(1 + line.words.len() + line.text.len() / 32)
+        self.take_blocks(BLOCK_WORDS + line.words.len() + line.text.len() / 32)
     }
 
     /// Takes `n` (blocks and words); false where that is more than is left.
@@ -192,7 +198,14 @@ fn expand_line(
     } else {
         line.ending.as_str()
     };
-    out.push(parse_line(&comment, ending, line.number, path)?);
+    let comment = parse_line(&comment, ending, line.number, path)?;
+    // A call inside a body is a block the calls add, as its body's blocks are.
+    if depth > 0 && !room.take(&comment) {
+        return Err(error(format!(
+            "the calls add more than {MAX_EXPANDED_WORDS} words and blocks to the program"
+        )));
+    }
+    out.push(comment);
     for _ in 0..repeats as usize {
         for body_line in &lines[start..end] {
             expand_line(lines, body_line, bodies, path, depth + 1, room, out).map_err(|e| {

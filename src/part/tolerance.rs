@@ -183,11 +183,16 @@ fn chebyshev_all(
         .map(|_| problem.add_var(0.0, (f64::NEG_INFINITY, f64::INFINITY)))
         .collect();
     let w = problem.add_var(1.0, (0.0, f64::INFINITY));
-    // Values at the rounding level of order-one rows are zeros: the solver rejects rows whose
-    // coefficients span more than about 1e6.
+    // Values at the rounding level of order-one targets are zeros, and so are coefficients below
+    // 1e-7 of the largest of their row (w's 1 among them): the solver rejects rows whose
+    // coefficients span more than about 1e6, and a term that small moves no row beyond rounding.
     let clean = |v: f64| if v.abs() < 1e-12 { 0.0 } else { v };
     for (coefficients, target) in rows {
-        let coefficients: Vec<f64> = coefficients.iter().map(|&c| clean(c)).collect();
+        let largest = coefficients.iter().fold(1.0f64, |m, c| m.max(c.abs()));
+        let coefficients: Vec<f64> = coefficients
+            .iter()
+            .map(|&c| if c.abs() < 1e-7 * largest { 0.0 } else { c })
+            .collect();
         let target = &clean(*target);
         let terms: Vec<_> = x
             .iter()
@@ -317,6 +322,32 @@ fn cylinder_zone(
     }
 }
 
+/// The least-squares line through `points` along `direction` (unit): in the frame of the
+/// direction at `centroid`, the offsets across it regressed on the height along it. Returns the
+/// line's point at the centroid's height and its unit direction.
+fn fitted_axis(
+    points: &[Vector3<f64>],
+    centroid: &Vector3<f64>,
+    direction: &Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let (e1, e2) = frame(direction);
+    let (mut zz, mut uz, mut vz) = (0.0, 0.0, 0.0);
+    for p in points {
+        let d = p - centroid;
+        let z = direction.dot(&d);
+        zz += z * z;
+        uz += e1.dot(&d) * z;
+        vz += e2.dot(&d) * z;
+    }
+    // Points at one height tilt nothing.
+    let (a, b) = if zz > 0.0 {
+        (uz / zz, vz / zz)
+    } else {
+        (0.0, 0.0)
+    };
+    (*centroid, (direction + a * e1 + b * e2).normalize())
+}
+
 /// Cylindricity by the minimum zone, starting from the nominal axis (a point and a direction).
 pub fn cylindricity_min_zone(
     points: &[Vector3<f64>],
@@ -325,10 +356,22 @@ pub fn cylindricity_min_zone(
 ) -> Result<CylinderZone, ToleranceError> {
     const FEATURE: &str = "cylindricity";
     let mut direction = check(FEATURE, points, 6, axis_direction)?;
-    // Start on the axis level with the points' centroid, where z is centred.
+    // Start on the nominal axis level with the points' centroid (z centred), or on the line
+    // fitted through the points where that holds them in a narrower zone: for points evenly
+    // around the circle at each height that line is the displaced and tilted axis itself, where
+    // the nominal one may lie farther from it than the radius (a hole of 0.1 mm moved by
+    // 0.05 mm) and radii linearised about it say nothing of the wall.
     let centroid = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
-    let mut point = axis_point + direction * direction.dot(&(centroid - axis_point));
-    let mut zone = cylinder_zone(points, point, direction);
+    let nominal = axis_point + direction * direction.dot(&(centroid - axis_point));
+    let nominal_zone = cylinder_zone(points, nominal, direction);
+    let (fitted_point, fitted_direction) = fitted_axis(points, &centroid, &direction);
+    let fitted_zone = cylinder_zone(points, fitted_point, fitted_direction);
+    let (mut point, mut zone) = if fitted_zone.width_mm < nominal_zone.width_mm {
+        direction = fitted_direction;
+        (fitted_point, fitted_zone)
+    } else {
+        (nominal, nominal_zone)
+    };
     for _ in 0..20 {
         let (e1, e2) = frame(&direction);
         let local: Vec<(f64, f64, f64, f64)> = points

@@ -47,6 +47,12 @@ pub fn deformed_grid(
             points,
         }
     })?;
+    if grid.dims.iter().all(|&n| n < 2) {
+        return Err(QueryError::NoGridLine(format!(
+            "{}x{}x{}",
+            grid.dims[0], grid.dims[1], grid.dims[2]
+        )));
+    }
     if let Some(s) = scale.filter(|s| !(s.is_finite() && *s > 0.0)) {
         return Err(QueryError::Scale(s));
     }

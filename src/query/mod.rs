@@ -101,6 +101,8 @@ pub enum QueryError {
         grid: String,
         points: crate::limits::TooMany,
     },
+    #[error("a grid of {0} points has no line to draw: it needs two points or more along an axis")]
+    NoGridLine(String),
     #[error("a magnification of {0}: it must be a finite number above zero, and the error it magnifies must stay a finite number")]
     Scale(f64),
     /// The machine's error at a position is not a finite number.

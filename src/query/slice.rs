@@ -39,9 +39,10 @@ pub enum Quantity {
 }
 
 impl Quantity {
-    /// `VE`, `OE` or a channel name.
+    /// `VE`, `OE` or a channel name, in either case (as the axis of a slice is).
     pub fn parse(text: &str) -> Option<Quantity> {
-        match text.trim() {
+        let text = text.trim().to_ascii_uppercase();
+        match text.as_str() {
             "VE" => Some(Quantity::VolumetricMagnitude),
             "OE" => Some(Quantity::OrientationMagnitude),
             other => CHANNELS

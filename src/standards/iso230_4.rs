@@ -206,7 +206,8 @@ pub(crate) fn circular_with(
         .unwrap_or_else(|| 100f64.min(0.4 * (hi[u] - lo[u]).min(hi[v] - lo[v])));
     if !(radius > 0.0 && radius.is_finite()) {
         return Err(parameter(format!(
-            "radius {radius} mm: it must be a positive number"
+            "radius {} mm: it must be a positive number",
+            crate::error::shown(radius)
         )));
     }
     if !spec.start_deg.is_finite() {
@@ -295,9 +296,10 @@ pub(crate) fn circular_with(
     Ok(TestResult {
         unit: super::ErrorUnit::Mm,
         title: format!(
-            "ISO 230-4 circular test in {plane}, {}: centre ({:.1}, {:.1}, {:.1}) mm, radius {radius} mm",
+            "ISO 230-4 circular test in {plane}, {}: centre ({:.1}, {:.1}, {:.1}) mm, radius {} mm",
             if sense > 0.0 { "counter-clockwise" } else { "clockwise" },
-            centre.x, centre.y, centre.z
+            centre.x, centre.y, centre.z,
+            crate::error::shown(radius)
         ),
         position_label: "angle (deg)".into(),
         positions: angles,

@@ -127,6 +127,15 @@ pub(crate) fn read_diagonal(spec: &DiagonalSpec) -> Result<Option<Measured>, Sta
         .transpose()
 }
 
+/// What a diagonal is called in titles and messages: `diagonal PPP`, or `the diagonal` for one
+/// given by its ends alone.
+fn called(label: &str) -> String {
+    match label {
+        "" => "the diagonal".into(),
+        name => format!("diagonal {name}"),
+    }
+}
+
 /// [`diagonal`] with the measured results already read (a fit runs the test many times).
 pub(crate) fn diagonal_with(
     setup: &Setup,
@@ -138,7 +147,7 @@ pub(crate) fn diagonal_with(
         (name, Some(a), Some(b)) => (
             Vector3::from(a),
             Vector3::from(b),
-            name.clone().unwrap_or_else(|| "diagonal".into()),
+            name.clone().unwrap_or_default(),
         ),
         (Some(name), None, None) => {
             let (a, b) = diagonal_ends(name, lo, hi)?;
@@ -158,7 +167,7 @@ pub(crate) fn diagonal_with(
     for (end, what) in [(from, "start"), (to, "end")] {
         setup.check_travel(
             &setup.command(end),
-            &format!("diagonal {label}, its {what}"),
+            &format!("{}, its {what}", called(&label)),
         )?;
     }
     let positions: Vec<f64> = match measured {
@@ -217,10 +226,16 @@ pub(crate) fn diagonal_with(
         ballbar: None,
         unit: super::ErrorUnit::Mm,
         title: format!(
-            "ISO 230-6 diagonal {label}: ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) mm, {length:.1} mm",
-            from.x, from.y, from.z, to.x, to.y, to.z
+            "ISO 230-6 {}: ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) mm, {length:.1} mm",
+            called(&label).trim_start_matches("the "),
+            from.x,
+            from.y,
+            from.z,
+            to.x,
+            to.y,
+            to.z
         ),
-        position_label: format!("position along {label} (mm)"),
+        position_label: format!("position along {} (mm)", called(&label)),
         positions,
         curve_names: vec!["displacement error".into()],
         measured_2s: None,

@@ -101,6 +101,30 @@ fn a_true_cylinder_off_the_nominal_axis_has_no_form_error() {
     assert!((zone.axis_direction - tilt * Vector3::z()).norm() < 1e-9);
 }
 
+/// A hole narrower than its axis is displaced (a 1 µm hole moved by 50 µm, far from the origin,
+/// its axis tilted): the zone is its lobes' and nothing of the displacement.
+#[test]
+fn a_hole_narrower_than_its_displacement_has_its_own_form_error() {
+    for radius in [0.05, 5e-4, 5e-7] {
+        let e = radius * 1e-3;
+        let tilt = Rotation3::from_axis_angle(&Vector3::y_axis(), 1e-5);
+        let points = cylinder_points(
+            |theta, _| radius + e * (2.0 * theta).cos(),
+            Vector3::new(250.05, 249.97, 280.0),
+            tilt,
+        );
+        let zone =
+            cylindricity_min_zone(&points, &Vector3::new(250.0, 250.0, 280.0), &Vector3::z())
+                .unwrap();
+        assert!(
+            (zone.width_mm - 2.0 * e).abs() < 1e-3 * e + 1e-12,
+            "radius {radius}: {} against {}",
+            zone.width_mm,
+            2.0 * e
+        );
+    }
+}
+
 #[test]
 fn a_three_lobed_hole_has_twice_its_lobe_height() {
     let e = 0.002;

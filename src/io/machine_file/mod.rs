@@ -128,10 +128,13 @@ struct RawThermal {
     inputs: Vec<String>,
 }
 
-/// The temperature of the geometric model where `[thermal]` does not say, °C (ISO 1).
 /// The longest machine name, in characters.
 pub const MAX_NAME_CHARS: usize = 200;
 
+/// The shortest travel an axis may have, mm (degrees for a rotary axis): a micrometre.
+pub const MIN_TRAVEL: f64 = 1e-3;
+
+/// The temperature of the geometric model where `[thermal]` does not say, °C (ISO 1).
 fn default_reference_c() -> f64 {
     20.0
 }
@@ -411,6 +414,16 @@ impl Reader {
                         return Err(self.key_error(
                             &path,
                             format!("range [{lo}, {hi}] is inverted or empty: the first value must be below the second"),
+                        ));
+                    }
+                    if hi - lo < MIN_TRAVEL {
+                        return Err(self.key_error(
+                            &path,
+                            format!(
+                                "range [{}, {}] is a travel of less than {MIN_TRAVEL} mm (or degrees): no axis moves so little",
+                                crate::error::shown(lo),
+                                crate::error::shown(hi)
+                            ),
                         ));
                     }
                     range = Some([lo, hi]);

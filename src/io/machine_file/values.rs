@@ -271,6 +271,15 @@ impl Reader {
             self.axis_of(&format!("{path}.of"), &of[0])?,
             self.axis_of(&format!("{path}.of"), &of[1])?,
         ];
+        if axes[0] == axes[1] {
+            return Err(self.key_error(
+                &format!("{path}.of"),
+                format!(
+                    "names {} twice: a table of two axes names two (a table of one is `table`, with `of`)",
+                    axes[0]
+                ),
+            ));
+        }
         let list = |name: &str, v: &toml::Value| -> Result<Vec<f64>, MachineError> {
             let at = format!("{path}.{name}");
             v.as_array()

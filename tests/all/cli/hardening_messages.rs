@@ -297,7 +297,7 @@ fn nesting_limits_name_the_file_and_the_line() {
             "--out",
             "o.nc",
         ],
-        "M98: the calls add more than 2000000 words and blocks to the program",
+        "M98: the calls add more than 4000000 words and blocks to the program",
     );
 }
 

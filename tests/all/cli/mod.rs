@@ -26,6 +26,7 @@ mod standards;
 mod standards_frames;
 mod sweep;
 mod sweep_findings;
+mod sweep_messages;
 mod sweep_readers;
 mod trace;
 

@@ -59,5 +59,7 @@ fn plot_commands_write_svg_and_png() {
         .arg(&svg)
         .assert()
         .code(2)
-        .stderr(predicate::str::contains("--quantity speed"));
+        .stderr(predicate::str::contains(
+            "--quantity: `speed` is not a quantity",
+        ));
 }
