@@ -137,20 +137,15 @@ pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), 
 
 /// Every output of one run at a path of its own: two flags naming one file would leave the one
 /// written last, and the run would report both.
+/// Two names are one file when they resolve to one path (links followed, in the file's name or
+/// its folder's) or, for files that exist, to one inode (a hard link).
 pub fn check_distinct_outputs(outputs: &[(&str, Option<&Path>)]) -> Result<(), Failure> {
-    let given: Vec<(&str, PathBuf)> = outputs
+    let given: Vec<(&str, &Path, OutputIdentity)> = outputs
         .iter()
-        .filter_map(|(flag, path)| {
-            path.map(|p| {
-                (
-                    *flag,
-                    std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf()),
-                )
-            })
-        })
+        .filter_map(|(flag, path)| path.map(|p| (*flag, p, OutputIdentity::of(p))))
         .collect();
-    for (i, (flag, path)) in given.iter().enumerate() {
-        if let Some((first, _)) = given[..i].iter().find(|(_, p)| p == path) {
+    for (i, (flag, path, identity)) in given.iter().enumerate() {
+        if let Some((first, _, _)) = given[..i].iter().find(|(_, _, other)| other.is(identity)) {
             return Err(Failure::input(format!(
                 "{flag}: {} is also the output of {first}: each output needs a file of its own",
                 volmap::io::shown_path(path)
@@ -158,4 +153,34 @@ pub fn check_distinct_outputs(outputs: &[(&str, Option<&Path>)]) -> Result<(), F
         }
     }
     Ok(())
+}
+
+/// What an output path names: its path with links resolved, and the file's inode where it
+/// exists.
+struct OutputIdentity {
+    resolved: PathBuf,
+    inode: Option<(u64, u64)>,
+}
+
+impl OutputIdentity {
+    fn of(path: &Path) -> OutputIdentity {
+        let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        let resolved = std::fs::canonicalize(&absolute).unwrap_or_else(|_| {
+            // Not there yet: its folder resolved, its name as given.
+            match (absolute.parent(), absolute.file_name()) {
+                (Some(folder), Some(name)) => std::fs::canonicalize(folder)
+                    .map(|f| f.join(name))
+                    .unwrap_or_else(|_| absolute.clone()),
+                _ => absolute.clone(),
+            }
+        });
+        OutputIdentity {
+            resolved,
+            inode: volmap::io::input::inode(path),
+        }
+    }
+
+    fn is(&self, other: &OutputIdentity) -> bool {
+        self.resolved == other.resolved || (self.inode.is_some() && self.inode == other.inode)
+    }
 }

@@ -187,14 +187,16 @@ impl Identity {
     }
 }
 
+/// The device and inode of the file at `path` (a hard link shares them); `None` where it does not
+/// exist, or off Unix.
 #[cfg(unix)]
-fn inode(path: &Path) -> Option<(u64, u64)> {
+pub fn inode(path: &Path) -> Option<(u64, u64)> {
     use std::os::unix::fs::MetadataExt;
     std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
 }
 
 #[cfg(not(unix))]
-fn inode(_path: &Path) -> Option<(u64, u64)> {
+pub fn inode(_path: &Path) -> Option<(u64, u64)> {
     None
 }
 

@@ -27,8 +27,10 @@ pub fn parse_sweep(text: &str, machine: &Machine) -> Result<Vec<Command>, GridEr
         let values = sweep_values(values.trim()).map_err(axis_err)?;
         if let Some(v) = values.iter().find(|v| **v < range[0] || **v > range[1]) {
             return Err(axis_err(format!(
-                "{v}°, outside its range [{}, {}]",
-                range[0], range[1]
+                "{}°, outside its range [{}, {}]",
+                crate::error::shown(*v),
+                range[0],
+                range[1]
             )));
         }
         axes.push((letter, values));
@@ -148,7 +150,10 @@ fn sweep_values(text: &str) -> Result<Vec<f64>, String> {
             // A stop that the steps reach up to rounding is included.
             let steps = ((stop - start) / step + 1e-9).floor() as usize;
             if steps >= MAX_POSES {
-                return Err(format!("`{text}` has more than {MAX_POSES} values"));
+                return Err(format!(
+                    "a sweep of more than {MAX_POSES} values (`{}`)",
+                    crate::error::excerpt(text)
+                ));
             }
             Ok((0..=steps)
                 .map(|i| round_degrees(start + i as f64 * step))
@@ -162,6 +167,10 @@ fn sweep_values(text: &str) -> Result<Vec<f64>, String> {
 
 /// Degrees rounded to 1e-9° so that a sweep's steps print as they were written (and −0 is 0).
 fn round_degrees(v: f64) -> f64 {
+    // Beyond 1e299° the scaled value overflows: such a value is kept (and refused by its range).
+    if !(v * 1e9).is_finite() {
+        return v;
+    }
     let r = (v * 1e9).round() / 1e9;
     if r == 0.0 {
         0.0

@@ -354,6 +354,32 @@ fn numbers_of_many_digits_are_shown_in_exponent_form() {
     );
     assert!(out.contains("radius 1e-300 mm"), "{out}");
     assert!(!out.contains("0000000000"), "{out}");
+    // Sweeps: too many values, and values far beyond the travel, said in words and digits.
+    let sweep = |poses: &'static str| {
+        [
+            "map",
+            "--machine",
+            "5axis-hwang2014",
+            "--poses",
+            poses,
+            "--grid",
+            "2x2x2",
+            "--device",
+            "cpu",
+            "--out",
+            "s.exr",
+        ]
+    };
+    refused(
+        &sweep("C=0:360:0.001"),
+        d,
+        &["--poses: C is a sweep of more than 65536 values (`0:360:0.001`)"],
+    );
+    refused(
+        &sweep("B=0:1e308:1e307"),
+        d,
+        &["--poses: B is 1e307°, outside its range"],
+    );
 }
 
 #[test]
@@ -523,4 +549,44 @@ fn an_output_in_a_folder_that_does_not_exist_is_refused_by_every_writer() {
         refused(args, d, &["nodir", "does not exist"]);
         assert!(!d.join("nodir").exists(), "{args:?}");
     }
+}
+
+/// Two outputs of one run through a link to one file: one file, refused as two flags naming it.
+#[cfg(unix)]
+#[test]
+fn two_outputs_through_a_link_are_one_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("real")).unwrap();
+    std::os::unix::fs::symlink(d.join("real"), d.join("alias")).unwrap();
+    std::fs::write(d.join("p.nc"), "G90 G0 X100 Y100 Z100\nG1 X200 F100\nM30\n").unwrap();
+    let compensate = |out: &'static str, json: &'static str| {
+        [
+            "compensate",
+            "--machine",
+            "vmc-li2015",
+            "--program",
+            "p.nc",
+            "--out",
+            out,
+            "--json",
+            json,
+        ]
+    };
+    // The folder through a link, the file not there yet.
+    refused(
+        &compensate("real/c.nc", "alias/c.nc"),
+        d,
+        &["--json", "is also the output of --out"],
+    );
+    // A hard link to a file that is there.
+    std::fs::write(d.join("real/old.nc"), "old").unwrap();
+    std::fs::hard_link(d.join("real/old.nc"), d.join("hard.nc")).unwrap();
+    refused(
+        &compensate("real/old.nc", "hard.nc"),
+        d,
+        &["--json", "is also the output of --out"],
+    );
+    assert_eq!(std::fs::read_to_string(d.join("hard.nc")).unwrap(), "old");
+    succeeds(&compensate("real/c.nc", "alias/c.json"), d);
 }
