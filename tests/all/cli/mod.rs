@@ -37,6 +37,18 @@ pub fn volmap() -> Command {
     Command::cargo_bin("volmap").unwrap()
 }
 
+/// Runs volmap with `args` in `dir`: exit code 2 with every one of `says` on stderr, which it
+/// returns.
+pub fn refused(args: &[&str], dir: &std::path::Path, says: &[&str]) -> String {
+    let output = volmap().args(args).current_dir(dir).output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+    for s in says {
+        assert!(stderr.contains(s), "{args:?}: `{s}` not in: {stderr}");
+    }
+    stderr
+}
+
 #[test]
 fn machines_lists_the_embedded_machines() {
     volmap().arg("machines").assert().success().stdout(

@@ -1,16 +1,7 @@
 //! What a sweep of the command line with bad values found (README "Inputs, outputs and their
 //! limits"), each now refused with exit code 2 naming the flag or key, or done right.
 
-use super::volmap;
-
-fn refused(args: &[&str], dir: &std::path::Path, says: &[&str]) {
-    let output = volmap().args(args).current_dir(dir).output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
-    for s in says {
-        assert!(stderr.contains(s), "{args:?}: {stderr}");
-    }
-}
+use super::{refused, volmap};
 
 /// Counts and values that made an abort, an endless loop or output that is not a number.
 #[test]

@@ -5,18 +5,7 @@
 
 use std::path::Path;
 
-use super::volmap;
-
-/// Runs volmap in `dir`; exit code 2 with every one of `says` on stderr.
-fn refused(args: &[&str], dir: &Path, says: &[&str]) -> String {
-    let output = volmap().args(args).current_dir(dir).output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
-    assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
-    for s in says {
-        assert!(stderr.contains(s), "{args:?}: `{s}` not in: {stderr}");
-    }
-    stderr
-}
+use super::{refused, volmap};
 
 /// Runs volmap in `dir`; success, its stdout.
 fn succeeds(args: &[&str], dir: &Path) -> String {
