@@ -210,7 +210,7 @@ fn located_message(what: &str, span: Option<std::ops::Range<usize>>, text: &str)
 /// `text` with each span between double quotes cut to [`excerpt`]: the parsers' messages quote
 /// a string of the input so (`invalid type: string "…", expected a sequence`), and it may be a
 /// megabyte long.
-fn double_quotes_cut(text: &str) -> String {
+pub fn double_quotes_cut(text: &str) -> String {
     let mut out = String::with_capacity(text.len().min(4096));
     for (n, part) in text.split('"').enumerate() {
         if n > 0 {

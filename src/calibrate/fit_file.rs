@@ -144,9 +144,17 @@ fn entries<S: Spec>(
                 None => Vec::new(),
                 Some(value) => temperatures(file, &key, value)?,
             };
-            let mut spec: S = toml::Value::Table(table)
-                .try_into()
-                .map_err(|e: toml::de::Error| key_error(file, key.clone(), e.message().into()))?;
+            let mut spec: S =
+                toml::Value::Table(table)
+                    .try_into()
+                    .map_err(|e: toml::de::Error| {
+                        // The parser quotes a string of the input whole (a megabyte, or lines).
+                        key_error(
+                            file,
+                            key.clone(),
+                            crate::error::double_quotes_cut(e.message()),
+                        )
+                    })?;
             if let Some(p) = spec.csv() {
                 *p = confined(folder, p, reach).map_err(|source| CalibrateError::NamedFile {
                     file: file.to_string(),

@@ -161,6 +161,30 @@ fn estimates_no_machine_can_have_are_refused() {
     );
 }
 
+/// A test's value written as a string of 4 kB over several lines (`to_deg = """a…"""`) was
+/// quoted whole in the message saying it is not a number.
+#[test]
+fn a_long_string_where_a_number_belongs_is_quoted_in_part() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_files(dir.path(), "fit.toml", &regression("fit-long-string.toml"));
+    let error = match volmap::calibrate::fit::FitFile::read(&path) {
+        Ok(_) => panic!("a string where degrees belong was read"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        error.starts_with(&format!(
+            "{}: [[rtest]] number 1: invalid type: string",
+            path.display()
+        )),
+        "{error}"
+    );
+    assert!(
+        error.contains('…') && error.len() < 400,
+        "{} bytes: {error}",
+        error.len()
+    );
+}
+
 /// What the tests cannot tell apart was said without the file it is about.
 #[test]
 fn errors_of_the_estimation_name_the_fit_file() {
