@@ -167,7 +167,10 @@ fn expand_line(
         .word('P')
         .ok_or_else(|| error("the call needs the subprogram's number P".into()))?;
     if p.value.fract() != 0.0 || p.value < 0.0 {
-        return Err(error(format!("P{}: not a program number", p.text)));
+        return Err(error(format!(
+            "`P{}`: not a program number",
+            crate::error::excerpt(&p.text)
+        )));
     }
     let mut number = p.value as u64;
     let mut repeats = line.word('L').or(line.word('K')).map_or(1.0, |w| w.value);

@@ -212,3 +212,18 @@ fn a_measured_target_beyond_the_travel_names_its_file_and_line() {
     );
     assert!(error.starts_with(&prefix), "{error}");
 }
+
+/// A program number of 343 digits (`G65 P0.000…1`) was written out whole in the message saying it
+/// is not one.
+#[test]
+fn a_program_number_of_many_digits_is_quoted_in_part() {
+    let program = regression("gcode-long-program-number.nc");
+    let (line, message) = line_error(nc::blocks_as_run(&program, "p.nc", false));
+    assert_eq!(line, 9);
+    assert!(message.starts_with("G65: `P0.000"), "{message}");
+    assert!(
+        message.ends_with("`: not a program number") && message.contains('…'),
+        "{message}"
+    );
+    assert!(message.len() < 200, "{} bytes: {message}", message.len());
+}
