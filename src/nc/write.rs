@@ -78,12 +78,19 @@ impl Style {
     /// A value of axis `d` as written, rounded, so that increments add up to exactly what was
     /// written.
     fn rounded(&self, v: f64, d: usize) -> f64 {
-        if d < 3 {
+        let r = if d < 3 {
             let scale = 10f64.powi(self.decimals as i32);
             (v / self.unit * scale).round() / scale * self.unit
         } else {
             let scale = 10f64.powi(self.rotary_decimals as i32);
             (v * scale).round() / scale
+        };
+        // A value so large that scaling it overflows (A-1e306 on an axis volmap passes by) has
+        // no decimals to round: it stays as it is, a number.
+        if r.is_finite() {
+            r
+        } else {
+            v
         }
     }
 

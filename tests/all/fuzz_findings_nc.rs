@@ -227,3 +227,28 @@ fn a_program_number_of_many_digits_is_quoted_in_part() {
     );
     assert!(message.len() < 200, "{} bytes: {message}", message.len());
 }
+
+/// A word of an axis the machine lacks (A on `FYXCFZB`), 307 digits long, is passed by, but the
+/// compensation rounded it to six decimals of a degree, which overflowed: it wrote `A-inf`, which
+/// no reader takes. A value too large to round stays as written.
+#[test]
+fn a_huge_word_passed_by_is_written_as_a_number() {
+    let program = regression("gcode-huge-passed-word.nc");
+    let machine = embedded("5axis-hwang2014");
+    let options = Options {
+        orientation_tolerance_rad: Some(nc::DEFAULT_ANGULAR_TOLERANCE_RAD),
+        work_offsets: (54..=59)
+            .map(|n| (n, [200.0, 200.0, 300.0, 0.0, 0.0, 0.0]))
+            .collect(),
+        ..options()
+    };
+    let out = nc::compensate(&machine, &program, "in.nc", &options).unwrap();
+    let line = out
+        .text
+        .lines()
+        .find(|l| l.starts_with("G55"))
+        .expect("the G55 block");
+    assert!(line.starts_with("G55 A-1000000000"), "{line}");
+    assert!(!line.contains("inf"), "{line}");
+    nc::trace(&machine, out.text.as_bytes(), "out.nc", &options).unwrap();
+}
