@@ -18,10 +18,7 @@ fn fails(dir: &Path, args: &[&str], says: &str) {
 
 /// Runs volmap in `dir` and requires success.
 fn runs(dir: &Path, args: &[&str]) -> String {
-    let output = volmap().current_dir(dir).args(args).output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{args:?}: {stderr}");
-    String::from_utf8_lossy(&output.stdout).into_owned()
+    super::succeeds(args, dir)
 }
 
 /// A measured circle of 8 points.

@@ -49,6 +49,15 @@ pub fn refused(args: &[&str], dir: &std::path::Path, says: &[&str]) -> String {
     stderr
 }
 
+/// Runs volmap with `args` in `dir`: success with no error on stderr; its stdout.
+pub fn succeeds(args: &[&str], dir: &std::path::Path) -> String {
+    let output = volmap().args(args).current_dir(dir).output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{args:?}: {stderr}");
+    assert!(!stderr.contains("error"), "{args:?}: {stderr}");
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
 #[test]
 fn machines_lists_the_embedded_machines() {
     volmap().arg("machines").assert().success().stdout(

@@ -3,18 +3,7 @@
 //! flag nor the cause, numbers of hundreds of digits, empty list items, values for axes a
 //! machine lacks, a travel of nothing, and writers that disagreed on a missing folder.
 
-use std::path::Path;
-
-use super::{refused, volmap};
-
-/// Runs volmap in `dir`; success, its stdout.
-fn succeeds(args: &[&str], dir: &Path) -> String {
-    let output = volmap().args(args).current_dir(dir).output().unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{args:?}: {stderr}");
-    assert!(!stderr.contains("error"), "{args:?}: {stderr}");
-    String::from_utf8_lossy(&output.stdout).into_owned()
-}
+use super::{refused, succeeds};
 
 /// `base` then `extra`.
 fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
