@@ -147,6 +147,14 @@ pub fn open_stream(path: &Path) -> Result<File, FileError> {
 
 /// Opens `path` for reading and notes it as an input.
 fn open(path: &Path) -> Result<File, FileError> {
+    let file = open_file(path)?;
+    note_input(path);
+    Ok(file)
+}
+
+/// Opens `path` for reading, a folder refused as one, without noting it as an input (field
+/// files, which their readers note where a run writes beside them).
+pub fn open_file(path: &Path) -> Result<File, FileError> {
     let file = File::open(path).map_err(|e| FileError::read(path, e))?;
     if file.metadata().is_ok_and(|m| m.is_dir()) {
         return Err(FileError::read(
@@ -154,7 +162,6 @@ fn open(path: &Path) -> Result<File, FileError> {
             std::io::Error::new(std::io::ErrorKind::InvalidInput, "a folder, not a file"),
         ));
     }
-    note_input(path);
     Ok(file)
 }
 

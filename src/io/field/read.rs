@@ -46,14 +46,7 @@ pub struct FieldFile {
 impl FieldFile {
     pub fn open(path: &Path) -> Result<FieldFile, FieldError> {
         let display = path.display().to_string();
-        let file = File::open(path).map_err(|e| FileError::read(path, e))?;
-        if file.metadata().is_ok_and(|m| m.is_dir()) {
-            return Err(FileError::read(
-                path,
-                std::io::Error::new(std::io::ErrorKind::InvalidInput, "a folder, not a file"),
-            )
-            .into());
-        }
+        let file = crate::io::input::open_file(path)?;
         let mut reader = BufReader::with_capacity(1 << 20, file);
         let mut c = Cursor {
             path: &display,
