@@ -3,7 +3,6 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use volmap::model::AxisLetter;
 use volmap::nc::{self, NcError, NcOption, Options, ToolLengths};
 
 use super::args::{InputsArg, JsonArg, MachineArg};
@@ -97,27 +96,16 @@ impl SetupArgs {
                 )));
             }
         }
-        // A rotation of an axis the machine lacks would be dropped unseen: refused.
-        let mut numbers: Vec<u32> = options.work_offsets.keys().copied().collect();
-        numbers.sort_unstable();
-        for n in numbers {
-            let offset = options.work_offsets[&n];
-            for letter in AxisLetter::ALL.into_iter().filter(|l| !l.is_linear()) {
-                let turn = offset[letter.index()];
-                if turn != 0.0 && machine.axis(letter).is_none() {
-                    let flag = if in_file.contains(&n) {
-                        "--work-offset-file"
-                    } else {
-                        "--work-offset"
-                    };
-                    return Err(Failure::input(format!(
-                        "{flag}: G{n} turns {letter} by {}°, but the machine (chain {}) has no {letter} axis",
-                        volmap::error::shown(turn),
-                        machine.chain.hwang_notation()
-                    )));
+        // The library refuses it too; here the message names the flag that gave the offset.
+        nc::check_work_offsets(machine, &options.work_offsets).map_err(|e| {
+            let flag = match e {
+                NcError::WorkOffsetAxis { number, .. } if in_file.contains(&number) => {
+                    "--work-offset-file"
                 }
-            }
-        }
+                _ => "--work-offset",
+            };
+            Failure::from(e).context(flag)
+        })?;
         Ok(options)
     }
 }

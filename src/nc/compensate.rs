@@ -57,6 +57,7 @@ pub(super) fn begin<'a>(
     path: &'a str,
     options: &'a Options,
 ) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
+    super::check_work_offsets(machine, &options.work_offsets)?;
     let (lines, holes) = as_run(program, path, options.pass_unknown)?;
     let (start, named) = starting_position(&lines, machine, path, options)?;
     if options.orientation_tolerance_rad.is_some() {

@@ -128,6 +128,17 @@ pub enum NcError {
     /// A work offset file that does not hold work offsets.
     #[error("{path}: {message}")]
     OffsetFile { path: String, message: String },
+    /// A work offset turns a rotary axis the machine lacks: the turn would be dropped unseen.
+    #[error(
+        "G{number} turns {axis} by {turn}°, but the machine (chain {chain}) has no {axis} axis"
+    )]
+    WorkOffsetAxis {
+        number: u32,
+        axis: crate::model::AxisLetter,
+        /// The turn as shown (degrees).
+        turn: String,
+        chain: String,
+    },
     /// An option's value is wrong.
     #[error("{option} `{value}`: {message}")]
     Option {
@@ -245,6 +256,34 @@ impl Default for Options {
             orientation_tolerance_rad: None,
         }
     }
+}
+
+/// Refuses a work offset that turns A, B or C on a machine without that axis (zeros are taken),
+/// lowest offset number first.
+pub fn check_work_offsets(
+    machine: &Machine,
+    work_offsets: &HashMap<u32, [f64; 6]>,
+) -> Result<(), NcError> {
+    let mut numbers: Vec<u32> = work_offsets.keys().copied().collect();
+    numbers.sort_unstable();
+    for number in numbers {
+        let offset = work_offsets[&number];
+        for axis in crate::model::AxisLetter::ALL
+            .into_iter()
+            .filter(|l| !l.is_linear())
+        {
+            let turn = offset[axis.index()];
+            if turn != 0.0 && machine.axis(axis).is_none() {
+                return Err(NcError::WorkOffsetAxis {
+                    number,
+                    axis,
+                    turn: crate::error::shown(turn),
+                    chain: machine.chain.hwang_notation(),
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `G54=100,50,-200` (X, Y, Z mm, then optionally A, B, C degrees).

@@ -376,6 +376,37 @@ fn bad_programs_name_the_line() {
 }
 
 #[test]
+fn a_work_offset_turning_an_axis_the_machine_lacks_is_refused_by_the_library() {
+    let machine = embedded::load("vmc-li2015").unwrap();
+    let program = b"G0 X10 Y10 Z10\nG1 X20\n";
+    let mut turned = options(4);
+    turned
+        .work_offsets
+        .insert(56, [0.0, 0.0, 0.0, 0.0, 0.0, 12.5]);
+    turned
+        .work_offsets
+        .insert(55, [0.0, 0.0, 0.0, 0.0, -3.0, 0.0]);
+    // Lowest offset number first, whichever path of the library is taken.
+    for error in [
+        error_of(program, &turned),
+        nc::trace(&machine, program, "bad.nc", &turned)
+            .unwrap_err()
+            .to_string(),
+    ] {
+        assert_eq!(
+            error,
+            "G55 turns B by -3°, but the machine (chain FFXYZ) has no B axis"
+        );
+    }
+    // Zeros for a missing axis are taken.
+    let mut zeros = options(4);
+    zeros
+        .work_offsets
+        .insert(54, [5.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    nc::compensate(&machine, program, "ok.nc", &zeros).unwrap();
+}
+
+#[test]
 fn reference_returns_and_unreadable_blocks() {
     let machine = embedded::load("vmc-li2015").unwrap();
     // The way Fanuc posts begin and end: G91 G28 Z0 (home Z through the current position).
