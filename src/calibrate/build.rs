@@ -389,10 +389,7 @@ fn set_component(section: &mut dyn TableLike, name: &str, entry: InlineTable) {
 
 /// Checks that the measured axes are axes of `base`, each once (`axes`: each with the file of
 /// its measurements).
-pub fn check_measured_axes(
-    base: &Machine,
-    axes: &[(AxisLetter, &Path)],
-) -> Result<(), CalibrateError> {
+fn check_measured_axes(base: &Machine, axes: &[(AxisLetter, &Path)]) -> Result<(), CalibrateError> {
     for (n, &(axis, path)) in axes.iter().enumerate() {
         if base.axis(axis).is_none() {
             return Err(CalibrateError::Parameter(format!(
@@ -412,7 +409,7 @@ pub fn check_measured_axes(
 }
 
 /// Checks that every interpolation asked for names a component of a measured axis.
-pub fn check_interp_choices(
+fn check_interp_choices(
     axes: &[AxisLetter],
     asked: &[(String, Interp)],
 ) -> Result<(), CalibrateError> {
@@ -421,7 +418,7 @@ pub fn check_interp_choices(
             .iter()
             .any(|a| (0..6).any(|i| format!("E{}{}", COMPONENT_NAMES[i], a) == *key));
         if !known {
-            return Err(CalibrateError::Parameter(format!(
+            return Err(CalibrateError::InterpChoice(format!(
                 "interpolation asked for {}: not a component of a measured axis",
                 excerpt(key)
             )));

@@ -29,6 +29,9 @@ pub enum CalibrateError {
     Test(#[from] StandardsError),
     #[error("{0}")]
     Parameter(String),
+    /// An interpolation asked of `build` for what is not a component of a measured axis.
+    #[error("{0}")]
+    InterpChoice(String),
     /// A test of the fit file (`[[circular]] number 2`) that could not be read or run.
     #[error("{file}: {key}: {source}")]
     Entry {

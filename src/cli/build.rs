@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use volmap::calibrate::{self, build};
+use volmap::calibrate::{self, build, CalibrateError};
 use volmap::error::excerpt;
 use volmap::model::AxisLetter;
 
@@ -70,12 +70,13 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
         axes.push((letter, PathBuf::from(path)));
     }
     let axes_ref: Vec<_> = axes.iter().map(|(l, p)| (*l, p.as_path())).collect();
-    build::check_measured_axes(&base, &axes_ref).flag("--axis")?;
-    let letters: Vec<AxisLetter> = axes.iter().map(|&(l, _)| l).collect();
     let asked = build::parse_interp_choices(&args.interp).flag("--interp")?;
-    build::check_interp_choices(&letters, &asked).flag("--interp")?;
-    // What remains to go wrong is in the measurements the --axis files hold.
-    let (text, built) = build::build(&base, &axes_ref, &asked).flag("--axis")?;
+    // Apart from an interpolation for a component not measured, what goes wrong is in the
+    // --axis files: an axis the base lacks or given twice, or the measurements they hold.
+    let (text, built) = match build::build(&base, &axes_ref, &asked) {
+        Err(e @ CalibrateError::InterpChoice(_)) => Err(e).flag("--interp"),
+        result => result.flag("--axis"),
+    }?;
     let measured: Vec<String> = axes
         .iter()
         .map(|(letter, path)| format!("{letter}={}", path.display()))

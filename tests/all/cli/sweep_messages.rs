@@ -209,6 +209,14 @@ fn messages_name_the_flag_and_the_cause() {
     let mut interp = build("X=x.csv");
     interp.extend(["--interp".into(), "EQQ=linear".into()]);
     refused(&strs(&interp), d, &["--interp", "EQQ"]);
+    // A component of an axis that is not measured: the library's check, named by the flag.
+    let mut unmeasured = build("X=x.csv");
+    unmeasured.extend(["--interp".into(), "EXY=cubic".into()]);
+    refused(
+        &strs(&unmeasured),
+        d,
+        &["--interp", "EXY: not a component of a measured axis"],
+    );
 
     // A folder given as a field is said to be one.
     std::fs::create_dir(d.join("folder")).unwrap();
