@@ -2,10 +2,11 @@
 //! JSON, plots, progress bars on standard error.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use volmap::io::atomic::write_atomically;
+use volmap::io::input::Identity;
 use volmap::plot::Drawing;
 
 use super::failure::{Failure, FlagContext};
@@ -140,9 +141,9 @@ pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), 
 /// Two names are one file when they resolve to one path (links followed, in the file's name or
 /// its folder's) or, for files that exist, to one inode (a hard link).
 pub fn check_distinct_outputs(outputs: &[(&str, Option<&Path>)]) -> Result<(), Failure> {
-    let given: Vec<(&str, &Path, OutputIdentity)> = outputs
+    let given: Vec<(&str, &Path, Identity)> = outputs
         .iter()
-        .filter_map(|(flag, path)| path.map(|p| (*flag, p, OutputIdentity::of(p))))
+        .filter_map(|(flag, path)| path.map(|p| (*flag, p, Identity::of_named(p))))
         .collect();
     for (i, (flag, path, identity)) in given.iter().enumerate() {
         if let Some((first, _, _)) = given[..i].iter().find(|(_, _, other)| other.is(identity)) {
@@ -153,34 +154,4 @@ pub fn check_distinct_outputs(outputs: &[(&str, Option<&Path>)]) -> Result<(), F
         }
     }
     Ok(())
-}
-
-/// What an output path names: its path with links resolved, and the file's inode where it
-/// exists.
-struct OutputIdentity {
-    resolved: PathBuf,
-    inode: Option<(u64, u64)>,
-}
-
-impl OutputIdentity {
-    fn of(path: &Path) -> OutputIdentity {
-        let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-        let resolved = std::fs::canonicalize(&absolute).unwrap_or_else(|_| {
-            // Not there yet: its folder resolved, its name as given.
-            match (absolute.parent(), absolute.file_name()) {
-                (Some(folder), Some(name)) => std::fs::canonicalize(folder)
-                    .map(|f| f.join(name))
-                    .unwrap_or_else(|_| absolute.clone()),
-                _ => absolute.clone(),
-            }
-        });
-        OutputIdentity {
-            resolved,
-            inode: volmap::io::input::inode(path),
-        }
-    }
-
-    fn is(&self, other: &OutputIdentity) -> bool {
-        self.resolved == other.resolved || (self.inode.is_some() && self.inode == other.inode)
-    }
 }

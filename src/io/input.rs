@@ -168,14 +168,14 @@ pub fn open_file(path: &Path) -> Result<File, FileError> {
 /// What identifies a file whatever path names it: its canonical path, and on Unix its device
 /// and inode (a hard link has another path but the same inode).
 #[derive(Debug, Clone, PartialEq, Eq)]
-struct Identity {
+pub struct Identity {
     canonical: PathBuf,
     inode: Option<(u64, u64)>,
 }
 
 impl Identity {
     /// The identity of an existing file, `None` for a path that names nothing.
-    fn of(path: &Path) -> Option<Identity> {
+    pub fn of(path: &Path) -> Option<Identity> {
         let canonical = std::fs::canonicalize(path).ok()?;
         Some(Identity {
             inode: inode(&canonical),
@@ -183,7 +183,26 @@ impl Identity {
         })
     }
 
-    fn is(&self, other: &Identity) -> bool {
+    /// The identity of a file that may not exist yet (an output): where it does not, its
+    /// folder's canonical path joined to its name, without an inode.
+    pub fn of_named(path: &Path) -> Identity {
+        Identity::of(path).unwrap_or_else(|| {
+            let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+            let canonical = match (absolute.parent(), absolute.file_name()) {
+                (Some(folder), Some(name)) => std::fs::canonicalize(folder)
+                    .map(|f| f.join(name))
+                    .unwrap_or_else(|_| absolute.clone()),
+                _ => absolute.clone(),
+            };
+            Identity {
+                canonical,
+                inode: None,
+            }
+        })
+    }
+
+    /// Whether both name one file: one canonical path, or one inode.
+    pub fn is(&self, other: &Identity) -> bool {
         self.canonical == other.canonical || (self.inode.is_some() && self.inode == other.inode)
     }
 
@@ -197,13 +216,13 @@ impl Identity {
 /// The device and inode of the file at `path` (a hard link shares them); `None` where it does not
 /// exist, or off Unix.
 #[cfg(unix)]
-pub fn inode(path: &Path) -> Option<(u64, u64)> {
+fn inode(path: &Path) -> Option<(u64, u64)> {
     use std::os::unix::fs::MetadataExt;
     std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
 }
 
 #[cfg(not(unix))]
-pub fn inode(_path: &Path) -> Option<(u64, u64)> {
+fn inode(_path: &Path) -> Option<(u64, u64)> {
     None
 }
 
