@@ -21,7 +21,7 @@
 
 use super::fitting::{breakpoints, Fitting};
 use super::format::{Control, Format, Layout, Limits, Nodes, Structure, WrittenFile};
-use super::nodes::{candidates, free_nodes_multi};
+use super::nodes::{candidates, free_nodes};
 use super::ExportError;
 use nalgebra::Vector3;
 
@@ -365,7 +365,8 @@ fn tabulate(
                             .collect()
                     })
                     .collect();
-                free_nodes_multi(&q, &curves, n)
+                let refs: Vec<&[f64]> = curves.iter().map(Vec::as_slice).collect();
+                free_nodes(&q, &refs, n, 0.0, 0.0)
                     .into_iter()
                     .map(|k| q[k])
                     .collect()

@@ -19,7 +19,7 @@
 
 use super::fitting::{breakpoints, others, uniform, Fitting, AVERAGING_POINTS, LINEAR};
 use super::format::{Control, Format, Layout, Limits, Nodes, Structure, Term, WrittenFile};
-use super::nodes::{candidates, free_nodes_multi};
+use super::nodes::{candidates, free_nodes};
 use super::ExportError;
 use crate::model::inputs::Approach;
 
@@ -164,7 +164,8 @@ fn fit_lists(
             let m = (4 * (n - 1) + 1).clamp(101, 401);
             let q = candidates(lo, hi, m, &breakpoints(fitting.machine, LINEAR[axis]));
             let curves = vec![own(&forward, q.clone())?, own(&backward, q.clone())?];
-            free_nodes_multi(&q, &curves, n)
+            let refs: Vec<&[f64]> = curves.iter().map(Vec::as_slice).collect();
+            free_nodes(&q, &refs, n, 0.0, 0.0)
                 .into_iter()
                 .map(|k| q[k])
                 .collect()

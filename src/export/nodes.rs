@@ -88,7 +88,8 @@ fn chord_error(q: &[f64], f: &[&[f64]], i: usize, j: usize) -> f64 {
 /// first and the last candidate always among them, no two closer than `min_spacing`, so that
 /// the largest distance of any curve from its chords between consecutive nodes is the smallest
 /// possible. Of the choices within `tolerance` of that smallest error, the one with the fewest
-/// nodes. Returns the indices of the nodes in `q`, in order; with `n` at least the number of
+/// nodes. A deviation below 1e-12 of the largest value of the curves is none (rounding, not
+/// shape). Returns the indices of the nodes in `q`, in order; with `n` at least the number of
 /// candidates, every candidate.
 pub fn free_nodes(
     q: &[f64],
@@ -103,6 +104,12 @@ pub fn free_nodes(
         return (0..m).collect();
     }
     let n = n.clamp(2, m);
+    // Deviations at the rounding of the values are none: a straight piece takes no node.
+    let scale = f
+        .iter()
+        .flat_map(|c| c.iter())
+        .fold(0.0_f64, |a, v| a.max(v.abs()));
+    let negligible = 1e-12 * scale;
     // cost[i][j]: the chord error of a segment from candidate i to candidate j.
     let allowed = |i: usize, j: usize| q[j] - q[i] >= min_spacing * (1.0 - 1e-12);
     let cost: Vec<Vec<f64>> = (0..m)
@@ -111,7 +118,9 @@ pub fn free_nodes(
             (0..m)
                 .map(|j| {
                     if j > i && allowed(i, j) {
-                        chord_error(q, f, i, j)
+                        Some(chord_error(q, f, i, j))
+                            .filter(|&e| e > negligible)
+                            .unwrap_or(0.0)
                     } else {
                         f64::INFINITY
                     }
@@ -168,68 +177,6 @@ pub fn candidates(lo: f64, hi: f64, n: usize, extra: &[f64]) -> Vec<f64> {
     }
     q.sort_by(f64::total_cmp);
     q
-}
-
-/// [`free_nodes`] for several curves at once, as the ISG lists take them: `n` of the candidates `q` (both
-/// ends among them) whose chords leave the smallest largest deviation over every curve. Returns
-/// the indices of the nodes; every candidate where `n` is at least their number.
-pub fn free_nodes_multi(q: &[f64], curves: &[Vec<f64>], n: usize) -> Vec<usize> {
-    let m = q.len();
-    if n >= m || m <= 2 {
-        return (0..m).collect();
-    }
-    let n = n.max(2);
-    // Deviations at the rounding of the values are none: a straight piece takes no node.
-    let scale = curves.iter().flatten().fold(0.0_f64, |a, v| a.max(v.abs()));
-    let negligible = 1e-12 * scale;
-    let chord = |i: usize, j: usize| -> f64 {
-        let mut worst: f64 = 0.0;
-        for f in curves {
-            let slope = (f[j] - f[i]) / (q[j] - q[i]);
-            for k in (i + 1)..j {
-                worst = worst.max((f[k] - (f[i] + slope * (q[k] - q[i]))).abs());
-            }
-        }
-        if worst <= negligible {
-            0.0
-        } else {
-            worst
-        }
-    };
-    let cost: Vec<Vec<f64>> = (0..m)
-        .map(|i| {
-            (0..m)
-                .map(|j| if j > i { chord(i, j) } else { f64::INFINITY })
-                .collect()
-        })
-        .collect();
-    let mut best = vec![vec![f64::INFINITY; m]; n];
-    let mut from = vec![vec![usize::MAX; m]; n];
-    best[0][0] = 0.0;
-    for s in 1..n {
-        for j in s..m {
-            let (mut b, mut at) = (f64::INFINITY, usize::MAX);
-            for i in (s - 1)..j {
-                let e = best[s - 1][i].max(cost[i][j]);
-                if e < b {
-                    b = e;
-                    at = i;
-                }
-            }
-            best[s][j] = b;
-            from[s][j] = at;
-        }
-    }
-    let target = best[n - 1][m - 1];
-    let segments = (1..n).find(|&s| best[s][m - 1] <= target).unwrap_or(n - 1);
-    let mut nodes = vec![m - 1];
-    let mut j = m - 1;
-    for s in (1..=segments).rev() {
-        j = from[s][j];
-        nodes.push(j);
-    }
-    nodes.reverse();
-    nodes
 }
 
 #[cfg(test)]
