@@ -163,7 +163,7 @@ fn fit_lists(
             let n = points[axis].max(2);
             let m = (4 * (n - 1) + 1).clamp(101, 401);
             let q = candidates(lo, hi, m, &breakpoints(fitting.machine, LINEAR[axis]));
-            let curves = vec![own(&forward, q.clone())?, own(&backward, q.clone())?];
+            let curves = [own(&forward, q.clone())?, own(&backward, q.clone())?];
             let refs: Vec<&[f64]> = curves.iter().map(Vec::as_slice).collect();
             free_nodes(&q, &refs, n, 0.0, 0.0)
                 .into_iter()
