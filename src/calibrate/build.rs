@@ -410,13 +410,13 @@ fn check_measured_axes(base: &Machine, axes: &[(AxisLetter, &Path)]) -> Result<(
 
 /// Checks that every interpolation asked for names a component of a measured axis.
 fn check_interp_choices(
-    axes: &[AxisLetter],
+    axes: &[(AxisLetter, &Path)],
     asked: &[(String, Interp)],
 ) -> Result<(), CalibrateError> {
     for (key, _) in asked {
         let known = axes
             .iter()
-            .any(|a| (0..6).any(|i| format!("E{}{}", COMPONENT_NAMES[i], a) == *key));
+            .any(|(a, _)| (0..6).any(|i| format!("E{}{}", COMPONENT_NAMES[i], a) == *key));
         if !known {
             return Err(CalibrateError::InterpChoice(format!(
                 "interpolation asked for {}: not a component of a measured axis",
@@ -440,8 +440,7 @@ pub fn build(
     })?;
     let mut built = Vec::new();
     check_measured_axes(base, axes)?;
-    let letters: Vec<AxisLetter> = axes.iter().map(|&(a, _)| a).collect();
-    check_interp_choices(&letters, asked)?;
+    check_interp_choices(axes, asked)?;
     for &(axis, path) in axes {
         let section = document
             .get_mut("axes")

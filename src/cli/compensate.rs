@@ -80,7 +80,6 @@ impl SetupArgs {
                 options.work_offsets.insert(n, offset);
             }
         }
-        let from_file = options.work_offsets.len();
         let in_file: Vec<u32> = options.work_offsets.keys().copied().collect();
         for text in &self.work_offsets {
             let (n, offset) = nc::parse_work_offset(text).map_err(option_failure)?;
@@ -88,7 +87,7 @@ impl SetupArgs {
                 // Which one the user meant is not for volmap to guess.
                 return Err(Failure::input(format!(
                     "--work-offset: G{n} is given twice{}",
-                    if from_file > 0 && self.work_offset_file.is_some() {
+                    if !in_file.is_empty() {
                         " (here or in --work-offset-file)"
                     } else {
                         ""

@@ -138,6 +138,7 @@ pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), 
 
 /// Every output of one run at a path of its own: two flags naming one file would leave the one
 /// written last, and the run would report both.
+///
 /// Two names are one file when they resolve to one path (links followed, in the file's name or
 /// its folder's) or, for files that exist, to one inode (a hard link).
 pub fn check_distinct_outputs(outputs: &[(&str, Option<&Path>)]) -> Result<(), Failure> {

@@ -77,10 +77,7 @@ impl Grid {
         }
         // An EXR data window is addressed with i32: ny·nz lines at most 2^31 − 1.
         if dims[0] > MAX_LINE_POINTS || (dims[1] as u64) * (dims[2] as u64) > i32::MAX as u64 {
-            return Err(GridError::TooLarge(format!(
-                "{}x{}x{}",
-                dims[0], dims[1], dims[2]
-            )));
+            return Err(GridError::TooLarge(dims_text(dims)));
         }
         Ok(Grid {
             dims,
@@ -143,6 +140,11 @@ impl Grid {
         }
         c
     }
+}
+
+/// Grid dimensions as [`parse_dims`] reads them, `NXxNYxNZ`.
+pub fn dims_text(dims: [usize; 3]) -> String {
+    format!("{}x{}x{}", dims[0], dims[1], dims[2])
 }
 
 /// Parses `NXxNYxNZ`.

@@ -2,7 +2,7 @@
 
 use super::QueryError;
 use crate::limits::{self, MAX_DRAWN_POINTS};
-use crate::model::grid::Grid;
+use crate::model::grid::{dims_text, Grid};
 use crate::model::Machine;
 use crate::reference::Twin;
 
@@ -43,15 +43,12 @@ pub fn deformed_grid(
 ) -> Result<DeformedGrid, QueryError> {
     limits::within(drawn_points(grid), MAX_DRAWN_POINTS).map_err(|points| {
         QueryError::DrawnPoints {
-            grid: format!("{}x{}x{}", grid.dims[0], grid.dims[1], grid.dims[2]),
+            grid: dims_text(grid.dims),
             points,
         }
     })?;
     if grid.dims.iter().all(|&n| n < 2) {
-        return Err(QueryError::NoGridLine(format!(
-            "{}x{}x{}",
-            grid.dims[0], grid.dims[1], grid.dims[2]
-        )));
+        return Err(QueryError::NoGridLine(dims_text(grid.dims)));
     }
     if let Some(s) = scale.filter(|s| !(s.is_finite() && *s > 0.0)) {
         return Err(QueryError::Scale(s));
