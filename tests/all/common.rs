@@ -167,3 +167,17 @@ pub fn all_five_axis_chains(letters: [AxisLetter; 5]) -> Vec<String> {
     }
     chains
 }
+
+/// Runs LinuxCNC's interpreter, `rs274 -g PROGRAM CANON`. rs274 truncates and maps
+/// `$HOME/.tool.mmap` at start, so two runs in one home break each other (a bus error, as the
+/// tests run side by side): each run gets the program's folder as its home.
+pub fn rs274(program: &std::path::Path, canon: &std::path::Path) -> std::process::Output {
+    let home = program.parent().expect("a program in a folder");
+    std::process::Command::new("rs274")
+        .env("HOME", home)
+        .arg("-g")
+        .arg(program)
+        .arg(canon)
+        .output()
+        .expect("rs274 starts")
+}

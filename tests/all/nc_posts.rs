@@ -363,12 +363,7 @@ fn linuxcnc_runs_the_compensated_post_programs() {
         let file = dir.path().join(name);
         std::fs::write(&file, &out.text).unwrap();
         let canon = dir.path().join("canon.txt");
-        let run = std::process::Command::new("rs274")
-            .arg("-g")
-            .arg(&file)
-            .arg(&canon)
-            .output()
-            .unwrap();
+        let run = crate::common::rs274(&file, &canon);
         assert!(
             run.status.success(),
             "rs274 on {name}: {}\n{}",

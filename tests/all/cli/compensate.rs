@@ -216,12 +216,7 @@ fn linuxcnc_runs_the_compensated_programs_without_an_error() {
             .assert()
             .success();
         let canon = dir.path().join("canon.txt");
-        let run = std::process::Command::new("rs274")
-            .arg("-g")
-            .arg(&out)
-            .arg(&canon)
-            .output()
-            .unwrap();
+        let run = crate::common::rs274(&out, &canon);
         let text = std::fs::read_to_string(&out).unwrap();
         assert!(
             run.status.success(),

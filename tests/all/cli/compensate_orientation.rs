@@ -135,12 +135,7 @@ fn linuxcnc_runs_the_orientation_compensated_program() {
         .arg(&out)
         .assert()
         .success();
-    let run = std::process::Command::new("rs274")
-        .arg("-g")
-        .arg(&out)
-        .arg(&canon)
-        .output()
-        .unwrap();
+    let run = crate::common::rs274(&out, &canon);
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(
         run.status.success(),
