@@ -19,8 +19,8 @@ use toml_edit::{Array, DocumentMut, InlineTable, Item, TableLike, Value};
 use super::{toml_number, CalibrateError};
 use crate::error::excerpt;
 use crate::io::csv::Csv;
-use crate::io::input::Reach;
 use crate::io::read_text;
+use crate::io::source::Reach;
 use crate::model::{AxisLetter, Interp, Machine, Table, COMPONENT_NAMES};
 
 /// One measured component of one axis, with the interpolation chosen for it.

@@ -9,7 +9,7 @@ use volmap::engine::{DeviceChoice, Engine, EngineError};
 use volmap::gpu::GpuSampler;
 use volmap::io::embedded;
 use volmap::io::field::FieldFile;
-use volmap::io::input::Reach;
+use volmap::io::source::Reach;
 use volmap::model::grid::{self, Grid};
 use volmap::model::inputs::Inputs;
 use volmap::model::{Command, Machine};

@@ -124,9 +124,9 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         ..args.setup.options(&machine, inputs)?
     };
     let program =
-        volmap::io::read_bytes(&args.program, volmap::io::InputKind::Program).flag("--program")?;
+        volmap::io::read_bytes(&args.program, volmap::io::SourceKind::Program).flag("--program")?;
     // Refused before the work, as every writer would refuse it after.
-    volmap::io::input::check_not_input(&args.out).flag("--out")?;
+    volmap::io::source::check_not_source(&args.out).flag("--out")?;
     let bar = progress(None, "compensating", "lines");
     let compensated = nc::compensate_with_progress(
         &machine,

@@ -68,7 +68,7 @@ pub struct FeaturesArgs {
 /// found as `sample` finds a point's (within 1e-9°). The field must hold the inputs `inputs`
 /// asks for.
 fn open_field(path: &Path, part: &PartFile, inputs: &InputsArg) -> Result<LoadedField, Failure> {
-    volmap::io::input::note_input(path);
+    volmap::io::source::note_source(path);
     let file = FieldFile::open(path).flag("--field")?;
     inputs.check_field(&file)?;
     open_part(&file, part).flag("--field")

@@ -1,5 +1,23 @@
 //! The command line: one file per subcommand, the arguments they share ([`args`]), the one place
 //! errors become exit codes ([`failure`]) and the one place for output ([`output`]).
+//!
+//! Each command's work is done in the library; the file of a command here reads its arguments,
+//! calls that module and prints what it returns:
+//!
+//! | command | file | the library's module |
+//! |---|---|---|
+//! | `map` | [`map`] | `volmap::engine` (the GPU, the CPU engine), `volmap::io::field` |
+//! | `machines` | [`machines`] | `volmap::io::embedded` |
+//! | `info` | [`info`] | `volmap::io::field` |
+//! | `sample` | [`sample`] | `volmap::query` |
+//! | `features` | [`features`] | `volmap::part` (with `volmap::design` for `--tolerances`) |
+//! | `bench` | [`bench`] | `volmap::bench` |
+//! | `test` | [`test`] | `volmap::standards` |
+//! | `fit`, `build` | [`fit`], [`build`] | `volmap::calibrate` |
+//! | `budget` | [`budget`], [`budget_report`] | `volmap::design` |
+//! | `plot` | [`plot`] | `volmap::plot`, `volmap::query` |
+//! | `compensate`, `trace` | [`compensate`], [`trace`] | `volmap::nc` |
+//! | `export` | [`export`] | `volmap::export` |
 
 // Defined before the commands' modules, so every one of them has them in scope.
 

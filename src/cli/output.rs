@@ -6,7 +6,7 @@ use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use volmap::io::atomic::write_atomically;
-use volmap::io::input::Identity;
+use volmap::io::source::Identity;
 use volmap::plot::Drawing;
 
 use super::failure::{Failure, FlagContext};
@@ -121,7 +121,7 @@ pub fn check_plot_paths(paths: &[impl AsRef<Path>], flag: &str) -> Result<(), Fa
 /// another folder) are read to check them, with a note that reading the file will take
 /// `--allow-outside-paths`.
 pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), Failure> {
-    use volmap::io::input::Reach;
+    use volmap::io::source::Reach;
     use volmap::model::Machine;
     let name = path.display().to_string();
     match Machine::from_toml(text, &name, Some(folder)) {

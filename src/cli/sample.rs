@@ -111,7 +111,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         .field
         .as_deref()
         .map(|path| {
-            volmap::io::input::note_input(path);
+            volmap::io::source::note_source(path);
             FieldFile::open(path)
         })
         .transpose()

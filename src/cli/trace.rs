@@ -95,7 +95,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
         ..args.setup.options(&machine, inputs)?
     };
     let program =
-        volmap::io::read_bytes(&args.program, volmap::io::InputKind::Program).flag("--program")?;
+        volmap::io::read_bytes(&args.program, volmap::io::SourceKind::Program).flag("--program")?;
     let name = args.program.display().to_string();
     let mut traces = vec![(
         "as-programmed",

@@ -2,7 +2,7 @@
 //! folder (`.NAME.PID.N.part`, created new: no two runs, and no two writers of one run, share
 //! one) and is renamed into place only when it is complete and on disk, so the file a run
 //! reports is the whole file it wrote. An output that is one of the run's inputs is refused
-//! before anything is written ([`super::input::check_not_input`]). Until then dropping it removes the temporary file, so a failed or
+//! before anything is written ([`super::source::check_not_source`]). Until then dropping it removes the temporary file, so a failed or
 //! interrupted run never leaves half a file under the name asked for.
 //!
 //! Every temporary file alive is registered here, and every scratch folder ([`ScratchDir`]: a
@@ -31,7 +31,7 @@ pub struct AtomicFile {
 impl AtomicFile {
     /// Starts writing `path` (through a buffer of `buffer_bytes`).
     pub fn create(path: &Path, buffer_bytes: usize) -> Result<AtomicFile, FileError> {
-        super::input::check_not_input(path)?;
+        super::source::check_not_source(path)?;
         if let Ok(metadata) = std::fs::metadata(path) {
             if metadata.is_dir() {
                 return Err(FileError::write(
@@ -389,7 +389,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("in.csv");
         std::fs::write(&path, "X,Y,Z\n").unwrap();
-        super::super::input::read_text(&path).unwrap();
+        super::super::source::read_text(&path).unwrap();
         let error = AtomicFile::create(&dir.path().join(".").join("in.csv"), 16)
             .err()
             .unwrap();

@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use super::input::Reach;
 use super::machine_file::MachineError;
+use super::source::Reach;
 use crate::model::Machine;
 
 /// `(name, file text)` of every embedded machine; the first is the default.

@@ -8,7 +8,7 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use super::atomic::write_atomically;
-use super::{read_bytes, FileError, InputKind};
+use super::{read_bytes, FileError, SourceKind};
 use crate::error::excerpt;
 use crate::error::{Classify, ErrorKind};
 
@@ -91,26 +91,26 @@ impl Mesh {
     pub fn read_stl(path: &Path) -> Result<Mesh, MeshError> {
         let shown = path.display().to_string();
         if !std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
-            return Mesh::parse_stl(&read_bytes(path, InputKind::Mesh)?, &shown);
+            return Mesh::parse_stl(&read_bytes(path, SourceKind::Mesh)?, &shown);
         }
         // A device or a pipe has no size to check ahead; a binary header says how much
         // follows, so an endless one (/dev/zero) is read no further than that.
         use std::io::Read;
-        let file = super::input::open_stream(path)?;
+        let file = super::source::open_stream(path)?;
         let mut head = Vec::with_capacity(84);
         (&file)
             .take(84)
             .read_to_end(&mut head)
             .map_err(|e| FileError::read(path, e))?;
-        let text = super::input::without_byte_order_mark(&head);
+        let text = super::source::without_byte_order_mark(&head);
         if head.len() < 84 || text.trim_ascii_start().starts_with(b"solid") {
-            let bytes = super::input::read_rest(file, path, InputKind::Mesh, head)?;
+            let bytes = super::source::read_rest(file, path, SourceKind::Mesh, head)?;
             return Mesh::parse_stl(&bytes, &shown);
         }
         let count = u32::from_le_bytes([head[80], head[81], head[82], head[83]]) as u64;
         let expected = 84 + 50 * count;
-        if expected > InputKind::Mesh.limit_bytes() {
-            return Err(FileError::too_large(path, InputKind::Mesh).into());
+        if expected > SourceKind::Mesh.limit_bytes() {
+            return Err(FileError::too_large(path, SourceKind::Mesh).into());
         }
         let mut bytes = head;
         bytes.reserve_exact((expected - 84 + 1) as usize);
@@ -135,7 +135,7 @@ impl Mesh {
             .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
         let is_binary = binary_count.is_some_and(|n| bytes.len() == 84 + 50 * n);
         // ASCII STL saved by an editor may start with a UTF-8 byte-order mark.
-        let text = super::input::without_byte_order_mark(bytes);
+        let text = super::source::without_byte_order_mark(bytes);
         if is_binary || !text.trim_ascii_start().starts_with(b"solid") {
             return Mesh::parse_binary(bytes, path);
         }

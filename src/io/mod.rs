@@ -7,10 +7,10 @@ pub mod atomic;
 pub mod csv;
 pub mod embedded;
 pub mod field;
-pub mod input;
 pub mod machine_file;
 pub mod mesh;
 pub mod points;
+pub mod source;
 pub mod tolerance_file;
 pub mod vtk;
 
@@ -63,10 +63,10 @@ impl FileError {
         }
     }
 
-    pub fn too_large(path: &Path, kind: input::InputKind) -> FileError {
+    pub fn too_large(path: &Path, kind: source::SourceKind) -> FileError {
         FileError::TooLarge {
             path: shown_path(path),
-            limit: input::describe_bytes(kind.limit_bytes()),
+            limit: source::describe_bytes(kind.limit_bytes()),
             kind: kind.name(),
         }
     }
@@ -131,4 +131,4 @@ impl Classify for FileError {
     }
 }
 
-pub use input::{read_bytes, read_text, InputKind};
+pub use source::{read_bytes, read_text, SourceKind};

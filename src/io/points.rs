@@ -13,7 +13,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use super::csv::{is_skipped, CsvError, Header, Row};
-use super::input::{describe_bytes, LINE_LIMIT_BYTES};
+use super::source::{describe_bytes, LINE_LIMIT_BYTES};
 use super::FileError;
 use crate::error::{excerpt, input_errors};
 use crate::model::channels::{Sample, SAMPLE_COLUMNS};
@@ -118,7 +118,7 @@ pub struct PointReader<R> {
 impl PointReader<BufReader<File>> {
     /// Opens the file and reads its header.
     pub fn open(path: &Path) -> Result<Self, PointsError> {
-        let file = super::input::open_stream(path)?;
+        let file = super::source::open_stream(path)?;
         PointReader::new(
             BufReader::with_capacity(1 << 16, file),
             &path.display().to_string(),

@@ -50,7 +50,7 @@ impl Line {
 /// be read is one too, unless `pass_unread` keeps it, wordless, to be copied as it is.
 pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<Line>, NcError> {
     // A program saved by an editor may start with a UTF-8 byte-order mark.
-    let bytes = crate::io::input::without_byte_order_mark(bytes);
+    let bytes = crate::io::source::without_byte_order_mark(bytes);
     let text = match std::str::from_utf8(bytes) {
         Ok(t) => t,
         Err(e) => {

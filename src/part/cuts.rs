@@ -9,7 +9,7 @@ use std::sync::Mutex;
 use nalgebra::Vector3;
 
 use super::file::{PartFile, Wall};
-use super::tolerance::ToleranceError;
+use super::zone::ZoneError;
 use super::FeatureError;
 use crate::io::field::LoadedField;
 use crate::model::channels::Sample;
@@ -293,10 +293,7 @@ impl Evaluator<'_> {
         }
     }
 
-    pub(super) fn tolerance_error(
-        &self,
-        feature: &str,
-    ) -> impl Fn(ToleranceError) -> FeatureError + '_ {
+    pub(super) fn tolerance_error(&self, feature: &str) -> impl Fn(ZoneError) -> FeatureError + '_ {
         let feature = feature.to_string();
         move |source| FeatureError::Tolerance {
             file: self.file.to_string(),

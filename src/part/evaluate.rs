@@ -14,7 +14,7 @@ use super::datum_frame::SurfacePoint;
 use super::file::{FeatureSpec, PartFile, ProfileEvaluation};
 use super::geometry::{datum_shift, enclosing_diameter, median_line, worst};
 use super::profile::DatumSurfaces;
-use super::{tolerance, ErrorSource, Evaluation, FeatureError, FeatureResult, Verdict};
+use super::{zone, ErrorSource, Evaluation, FeatureError, FeatureResult, Verdict};
 use crate::io::mesh::Mesh;
 use crate::limits::number_words;
 use crate::model::channels::Sample;
@@ -313,7 +313,7 @@ impl Evaluator<'_> {
             None => {
                 let points: Vec<_> = cuts.iter().map(|c| c.actual).collect();
                 let top = self.part.commanded(centre);
-                tolerance::cylindricity_min_zone(&points, &top, &Vector3::z())
+                zone::cylindricity_min_zone(&points, &top, &Vector3::z())
                     .map_err(self.tolerance_error(name))?
                     .width_mm
             }
@@ -349,8 +349,7 @@ impl Evaluator<'_> {
         normal: &Vector3<f64>,
     ) -> Result<Evaluated, FeatureError> {
         let points: Vec<_> = cuts.iter().map(|c| c.actual).collect();
-        let zone =
-            tolerance::flatness_min_zone(&points, normal).map_err(self.tolerance_error(name))?;
+        let zone = zone::flatness_min_zone(&points, normal).map_err(self.tolerance_error(name))?;
         Ok((zone.width_mm, worst(&cuts.iter().collect::<Vec<_>>()), None))
     }
 
@@ -411,7 +410,7 @@ fn rib_position(cuts: &[Cut], moved: f64) -> Evaluated {
 /// the datum's axis that holds the hole's derived median line.
 fn parallelism(axis: &[Vector3<f64>], datum_axis: &[Vector3<f64>]) -> f64 {
     let direction = (datum_axis[datum_axis.len() - 1] - datum_axis[0]).normalize();
-    let (e1, e2) = tolerance::frame(&direction);
+    let (e1, e2) = zone::frame(&direction);
     let projected: Vec<Vector2<f64>> = axis
         .iter()
         .map(|p| Vector2::new(e1.dot(p), e2.dot(p)))

@@ -24,7 +24,7 @@
 //!   the datum reference frame its machined datum planes and holes establish, or by its own
 //!   least-squares best fit (`datum_frame`).
 //!
-//! Flatness and cylindricity are minimum zones ([`crate::part::tolerance`]); the height of a rib is the
+//! Flatness and cylindricity are minimum zones ([`crate::part::zone`]); the height of a rib is the
 //! largest deviation of its top from nominal; the parallelism of a hole to a datum hole is the
 //! diameter of the smallest cylinder parallel to the datum's axis that holds the hole's derived
 //! median line (the centres of its sections, least-squares circles). Positions are measured
@@ -47,7 +47,7 @@ mod evaluate;
 mod file;
 mod geometry;
 mod profile;
-pub mod tolerance;
+pub mod zone;
 
 pub use cuts::CutterPositions;
 pub use evaluate::{cutter_positions, evaluate, evaluate_at};
@@ -60,7 +60,7 @@ use crate::io::field::LoadedField;
 use crate::io::mesh::MeshError;
 use crate::io::FileError;
 use crate::model::Machine;
-use tolerance::ToleranceError;
+use zone::ZoneError;
 
 /// What is wrong with a part file, its features, or their evaluation.
 #[derive(Debug, thiserror::Error)]
@@ -87,7 +87,7 @@ pub enum FeatureError {
         file: String,
         feature: String,
         #[source]
-        source: ToleranceError,
+        source: ZoneError,
     },
 }
 

@@ -166,7 +166,7 @@ pub struct SampledField {
 
 impl SampledField {
     pub fn open(path: &Path) -> Result<SampledField, FieldError> {
-        crate::io::input::note_input(path);
+        crate::io::source::note_source(path);
         SampledField::of(FieldFile::open(path)?)
     }
 

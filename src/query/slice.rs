@@ -100,7 +100,7 @@ pub fn field_slice_at_pose(
     let parsed = Quantity::parse(quantity)
         .ok_or_else(|| QueryError::SliceQuantity(quantity.trim().to_string()))?;
     let (channels, magnitude, unit) = parsed.channels();
-    crate::io::input::note_input(path);
+    crate::io::source::note_source(path);
     let file = FieldFile::open(path)?;
     let part = match pose {
         Some((degrees, words)) => file.part_at(degrees, words)?,

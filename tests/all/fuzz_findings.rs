@@ -477,16 +477,16 @@ fn a_long_part_name_is_quoted_cut() {
 #[test]
 fn a_file_that_never_ends_is_read_within_its_limit() {
     use crate::fuzz::harness::watch;
-    use volmap::io::input::{read_bytes, InputKind};
+    use volmap::io::source::{read_bytes, SourceKind};
     watch::begin();
-    let result = read_bytes(std::path::Path::new("/dev/zero"), InputKind::Text);
+    let result = read_bytes(std::path::Path::new("/dev/zero"), SourceKind::Text);
     let usage = watch::end();
     let error = result.unwrap_err().to_string();
     assert!(
         error.starts_with("/dev/zero: larger than 64 MiB"),
         "{error}"
     );
-    let limit = InputKind::Text.limit_bytes();
+    let limit = SourceKind::Text.limit_bytes();
     assert!(usage.largest_request_bytes <= limit, "{usage:?}");
 }
 

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::csv::{Csv, CsvError};
-use super::input::Reach;
+use super::source::Reach;
 use super::{read_text, FileError};
 use crate::error::{excerpt, input_errors, toml_message};
 

@@ -4,8 +4,8 @@
 //! location and spindle errors with their `per_kelvin` terms.
 
 use super::{read_column, MachineError, Reader};
-use crate::io::input::confined;
 use crate::io::read_text;
+use crate::io::source::confined;
 use crate::model::errorfn::{ErrorFunction, Interp, Table};
 use crate::model::table2d::Table2d;
 use crate::model::AxisLetter;

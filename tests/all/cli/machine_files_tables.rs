@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use predicates::prelude::*;
-use volmap::io::input::Reach;
+use volmap::io::source::Reach;
 use volmap::model::Machine;
 use volmap::reference::deviation;
 

@@ -3,6 +3,7 @@
 mod compensate;
 mod compensate_orientation;
 mod design;
+mod evaluation_inputs;
 mod export;
 mod export_fanuc;
 mod field_files;
@@ -10,7 +11,6 @@ mod finite;
 mod hardening_inputs;
 mod hardening_messages;
 mod hardening_outputs;
-mod inputs;
 mod interrupt;
 mod limits;
 mod machine_files;

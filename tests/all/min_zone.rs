@@ -1,8 +1,8 @@
 //! Minimum-zone form tolerances on point sets with known answers.
 
 use nalgebra::{Rotation3, Vector3};
-use volmap::part::tolerance::{
-    cylindricity_min_zone, flatness_least_squares, flatness_min_zone, ToleranceError,
+use volmap::part::zone::{
+    cylindricity_min_zone, flatness_least_squares, flatness_min_zone, ZoneError,
 };
 
 use super::common::Rng;
@@ -198,7 +198,7 @@ fn no_other_axis_holds_an_irregular_hole_in_a_thinner_zone() {
 fn bad_point_sets_are_errors() {
     assert_eq!(
         flatness_min_zone(&[Vector3::zeros(), Vector3::x()], &Vector3::z()),
-        Err(ToleranceError::TooFewPoints {
+        Err(ZoneError::TooFewPoints {
             feature: "flatness",
             needed: 3,
             got: 2
@@ -211,14 +211,14 @@ fn bad_point_sets_are_errors() {
     ];
     assert_eq!(
         flatness_min_zone(&nan, &Vector3::z()),
-        Err(ToleranceError::NotFinite {
+        Err(ZoneError::NotFinite {
             feature: "flatness"
         })
     );
     let three = [Vector3::zeros(), Vector3::x(), Vector3::y()];
     assert_eq!(
         flatness_min_zone(&three, &Vector3::zeros()),
-        Err(ToleranceError::ZeroDirection {
+        Err(ZoneError::ZeroDirection {
             feature: "flatness"
         })
     );

@@ -1,13 +1,14 @@
-//! Reading inputs: every file volmap reads goes through here, whole with a size bound per kind
-//! ([`read_text`], [`read_bytes`]) or streamed a line at a time with a bound on each line
-//! ([`open_stream`]), so that no input (a device such as `/dev/zero`, a file of one endless line)
+//! The files a run reads, its sources (not a machine's evaluation inputs, which are
+//! [`crate::model::inputs`]): every file volmap reads goes through here, whole with a size bound
+//! per kind ([`read_text`], [`read_bytes`]) or streamed a line at a time with a bound on each line
+//! ([`open_stream`]), so that no source (a device such as `/dev/zero`, a file of one endless line)
 //! reads until memory runs out.
 //!
-//! Every file read is also noted as an input of the run: [`check_not_input`] (which every writer
-//! of `io::atomic` asks before it starts) refuses to write over any of them, so no output of a
-//! run replaces one of its own inputs.
+//! Every file read is also noted as a source of the run: [`check_not_source`] (which every
+//! writer of `io::atomic` asks before it starts) refuses to write over any of them, so no output
+//! of a run replaces one of its own sources.
 //!
-//! Files an input names (the CSV tables of a machine file or a fit file) are confined to the
+//! Files a source names (the CSV tables of a machine file or a fit file) are confined to the
 //! folder of the file that names them, and below it, unless the caller allows more
 //! ([`Reach`], [`confined`]).
 
@@ -33,7 +34,7 @@ pub const LINE_LIMIT_BYTES: usize = 64 << 10;
 
 /// The kind of a file read whole, which sets its size bound.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum InputKind {
+pub enum SourceKind {
     /// A text file: [`TEXT_LIMIT_BYTES`].
     Text,
     /// An NC program: [`PROGRAM_LIMIT_BYTES`].
@@ -42,22 +43,22 @@ pub enum InputKind {
     Mesh,
 }
 
-impl InputKind {
+impl SourceKind {
     /// The most bytes a file of this kind may hold.
     pub const fn limit_bytes(self) -> u64 {
         match self {
-            InputKind::Text => TEXT_LIMIT_BYTES,
-            InputKind::Program => PROGRAM_LIMIT_BYTES,
-            InputKind::Mesh => MESH_LIMIT_BYTES,
+            SourceKind::Text => TEXT_LIMIT_BYTES,
+            SourceKind::Program => PROGRAM_LIMIT_BYTES,
+            SourceKind::Mesh => MESH_LIMIT_BYTES,
         }
     }
 
     /// What the limit is for, in messages.
     pub const fn name(self) -> &'static str {
         match self {
-            InputKind::Text => "a text input",
-            InputKind::Program => "an NC program",
-            InputKind::Mesh => "an STL mesh",
+            SourceKind::Text => "a text input",
+            SourceKind::Program => "an NC program",
+            SourceKind::Mesh => "an STL mesh",
         }
     }
 }
@@ -81,7 +82,7 @@ pub fn without_byte_order_mark(bytes: &[u8]) -> &[u8] {
 
 /// Reads a whole file of `kind`, at most its limit; a leading byte-order mark is kept (binary
 /// files have none to drop; text readers drop it).
-pub fn read_bytes(path: &Path, kind: InputKind) -> Result<Vec<u8>, FileError> {
+pub fn read_bytes(path: &Path, kind: SourceKind) -> Result<Vec<u8>, FileError> {
     let file = open(path)?;
     let limit = kind.limit_bytes();
     if file
@@ -97,7 +98,7 @@ pub fn read_bytes(path: &Path, kind: InputKind) -> Result<Vec<u8>, FileError> {
 pub fn read_rest(
     file: File,
     path: &Path,
-    kind: InputKind,
+    kind: SourceKind,
     mut bytes: Vec<u8>,
 ) -> Result<Vec<u8>, FileError> {
     let limit = kind.limit_bytes();
@@ -121,9 +122,9 @@ pub fn read_rest(
     Ok(bytes)
 }
 
-/// Reads a whole text file ([`InputKind::Text`]) as UTF-8, without a leading byte-order mark.
+/// Reads a whole text file ([`SourceKind::Text`]) as UTF-8, without a leading byte-order mark.
 pub fn read_text(path: &Path) -> Result<String, FileError> {
-    let mut bytes = read_bytes(path, InputKind::Text)?;
+    let mut bytes = read_bytes(path, SourceKind::Text)?;
     if bytes.starts_with(BYTE_ORDER_MARK) {
         bytes.drain(..BYTE_ORDER_MARK.len());
     }
@@ -148,7 +149,7 @@ pub fn open_stream(path: &Path) -> Result<File, FileError> {
 /// Opens `path` for reading and notes it as an input.
 fn open(path: &Path) -> Result<File, FileError> {
     let file = open_file(path)?;
-    note_input(path);
+    note_source(path);
     Ok(file)
 }
 
@@ -233,7 +234,7 @@ fn inputs() -> std::sync::MutexGuard<'static, Vec<(PathBuf, Identity)>> {
 }
 
 /// Notes `path` as an input of this run (for readers outside this module, such as field files).
-pub fn note_input(path: &Path) {
+pub fn note_source(path: &Path) {
     if let Some(identity) = Identity::of(path) {
         let mut inputs = inputs();
         inputs.retain(|(_, i)| i.still_there());
@@ -245,7 +246,7 @@ pub fn note_input(path: &Path) {
 
 /// Refuses `path` as an output when it is a file this run has read: an output never replaces
 /// one of the run's inputs.
-pub fn check_not_input(path: &Path) -> Result<(), FileError> {
+pub fn check_not_source(path: &Path) -> Result<(), FileError> {
     let Some(identity) = Identity::of(path) else {
         return Ok(());
     };

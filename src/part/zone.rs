@@ -22,7 +22,7 @@ use microlp::{ComparisonOp, OptimizationDirection, Problem, SolveOutcome};
 use nalgebra::Vector3;
 
 #[derive(Debug, thiserror::Error, PartialEq)]
-pub enum ToleranceError {
+pub enum ZoneError {
     #[error("{feature}: needs at least {needed} points, got {got}")]
     TooFewPoints {
         feature: &'static str,
@@ -40,7 +40,7 @@ pub enum ToleranceError {
     },
 }
 
-crate::error::input_errors!(ToleranceError);
+crate::error::input_errors!(ZoneError);
 
 /// Two parallel planes holding every point.
 #[derive(Debug, Clone, PartialEq)]
@@ -86,20 +86,20 @@ fn check(
     points: &[Vector3<f64>],
     needed: usize,
     direction: &Vector3<f64>,
-) -> Result<Vector3<f64>, ToleranceError> {
+) -> Result<Vector3<f64>, ZoneError> {
     if points.len() < needed {
-        return Err(ToleranceError::TooFewPoints {
+        return Err(ZoneError::TooFewPoints {
             feature,
             needed,
             got: points.len(),
         });
     }
     if points.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
-        return Err(ToleranceError::NotFinite { feature });
+        return Err(ZoneError::NotFinite { feature });
     }
     let norm = direction.norm();
     if !(norm > 0.0 && norm.is_finite()) {
-        return Err(ToleranceError::ZeroDirection { feature });
+        return Err(ZoneError::ZeroDirection { feature });
     }
     Ok(direction / norm)
 }
@@ -124,7 +124,7 @@ fn chebyshev(
     feature: &'static str,
     rows: &[(Vec<f64>, f64)],
     unknowns: usize,
-) -> Result<(Vec<f64>, f64), ToleranceError> {
+) -> Result<(Vec<f64>, f64), ZoneError> {
     if rows.len() <= 2 * CHEBYSHEV_START_ROWS {
         return chebyshev_all(feature, rows, unknowns);
     }
@@ -177,7 +177,7 @@ fn chebyshev_all(
     feature: &'static str,
     rows: &[(Vec<f64>, f64)],
     unknowns: usize,
-) -> Result<(Vec<f64>, f64), ToleranceError> {
+) -> Result<(Vec<f64>, f64), ZoneError> {
     let mut problem = Problem::new(OptimizationDirection::Minimize);
     let x: Vec<_> = (0..unknowns)
         .map(|_| problem.add_var(0.0, (f64::NEG_INFINITY, f64::INFINITY)))
@@ -204,7 +204,7 @@ fn chebyshev_all(
         with_w.push((w, 1.0));
         problem.add_constraint(with_w.as_slice(), ComparisonOp::Ge, *target);
     }
-    let solver = |message: String| ToleranceError::Solver { feature, message };
+    let solver = |message: String| ZoneError::Solver { feature, message };
     match problem.solve().map_err(|e| solver(e.to_string()))? {
         SolveOutcome::Solution(solution) => {
             Ok((x.iter().map(|&v| solution[v]).collect(), solution[w]))
@@ -241,7 +241,7 @@ fn plane_zone(points: &[Vector3<f64>], normal: Vector3<f64>) -> PlaneZone {
 pub fn flatness_min_zone(
     points: &[Vector3<f64>],
     nominal_normal: &Vector3<f64>,
-) -> Result<PlaneZone, ToleranceError> {
+) -> Result<PlaneZone, ZoneError> {
     const FEATURE: &str = "flatness";
     let n = check(FEATURE, points, 3, nominal_normal)?;
     let (e1, e2) = frame(&n);
@@ -277,7 +277,7 @@ pub fn flatness_min_zone(
 pub fn flatness_least_squares(
     points: &[Vector3<f64>],
     nominal_normal: &Vector3<f64>,
-) -> Result<PlaneZone, ToleranceError> {
+) -> Result<PlaneZone, ZoneError> {
     let n = check("flatness", points, 3, nominal_normal)?;
     let centre = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
     let covariance = points.iter().fold(nalgebra::Matrix3::zeros(), |acc, p| {
@@ -353,7 +353,7 @@ pub fn cylindricity_min_zone(
     points: &[Vector3<f64>],
     axis_point: &Vector3<f64>,
     axis_direction: &Vector3<f64>,
-) -> Result<CylinderZone, ToleranceError> {
+) -> Result<CylinderZone, ZoneError> {
     const FEATURE: &str = "cylindricity";
     let mut direction = check(FEATURE, points, 6, axis_direction)?;
     // Start on the nominal axis level with the points' centroid (z centred), or on the line
