@@ -9,12 +9,13 @@
 
 use std::f64::consts::{FRAC_PI_2, PI};
 
-use super::approach::{key, segments, Directions, Segment};
-use super::compensate::{Block, Split, MAX_PIECES};
-use super::program::{Motion, Plane};
-use super::toolpath::{arc_through, lerp, Toolpath};
+use super::block::{Block, Split, MAX_PIECES};
+use super::program::approach::{key, segments, Segment};
+use super::program::modal::{Directions, Motion, Plane};
+use super::program::toolpath::{arc_through, lerp, radius_reaches, Toolpath};
+use super::report::Report;
 use super::walk::{Piece, Walk};
-use super::Report;
+use super::write::as_written;
 
 /// The largest sweep of an added arc piece: its R word (where the program uses R) stays positive
 /// and well conditioned.
@@ -54,7 +55,7 @@ pub(super) fn centre_from_radius(
     let chord = du.hypot(dv);
     // A radius that does not reach across the chord (a half circle whose written R rounded
     // below its written ends' distance) is an arc the reader refuses: none.
-    if chord < 1e-9 || !super::toolpath::radius_reaches(r, chord) {
+    if chord < 1e-9 || !radius_reaches(r, chord) {
         return None;
     }
     let h = (r * r - chord * chord / 4.0).max(0.0).sqrt();
@@ -79,7 +80,7 @@ fn sweep_of(path: &Toolpath) -> f64 {
 impl Block<'_> {
     /// A length in the plane as the output writes it (rounded to its decimals).
     fn written_length(&self, v: f64) -> f64 {
-        super::write::as_written(v, 0, self.inch, self.options)
+        as_written(v, 0, self.inch, self.options)
     }
 
     /// The arc the control runs for an arc from `from` to `to` about `centre`, as the output

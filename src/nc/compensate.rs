@@ -2,72 +2,40 @@
 //! that the real tool tip lands where the ideal one would, feed moves split until the real tip
 //! stays within the chord tolerance of the intended path, arcs kept where they can be.
 
-use std::cell::Cell;
-
-use nalgebra::Vector3;
-
-use super::approach::{line_directions, segment_at, segments, Directions, Segment};
 use super::arcs::ArcPieces;
-use super::cycles::expand_cycles;
-use super::kinematics::{Compensator, Kinematics};
-use super::parse::{parse_program, Line};
-use super::program::{
-    end_position, starting_position, take_line, unknown_code, AxisSet, Motion, State, Step,
-    AXIS_LETTERS, XY,
-};
-use super::rotation::apply_rotations;
-use super::subprograms::{expand_subprograms, Room};
-use super::toolpath::{arc_path, Toolpath};
+use super::block::{Block, Split};
+use super::error::{NcError, NcOption};
+use super::kinematics::Compensator;
+use super::options::{check_work_offsets, Options, MAX_CHORD_TOLERANCE_MM};
+use super::orientation::{check_options, rotary_axes};
+use super::program::approach::{line_directions, segment_at, segments, Segment};
+use super::program::as_run;
+use super::program::modal::{Directions, Motion, State, AXIS_LETTERS};
+use super::program::parse::Line;
+use super::program::reader::{end_position, first_state, take_line, unknown_code, Step};
+use super::program::toolpath::{arc_path, Toolpath};
+use super::report::{Compensated, PassedBlock, Report, ReportInputs};
 use super::walk::Walk;
-use super::write::{as_written, write_block};
-use super::{
-    NcError, NcOption, Options, PassedBlock, Report, ReportInputs, MAX_CHORD_TOLERANCE_MM,
-};
+use super::write::write_block;
 use crate::limits::MAX_DECIMALS;
-use crate::model::inputs::Approach;
-use crate::model::{Command, Machine};
+use crate::model::Machine;
 
-/// The most pieces one move is split into.
-pub(super) const MAX_PIECES: usize = 100_000;
-
-/// The program's lines, its state before the first, and the machine per tool.
-/// The program as the control runs it: its blocks read, subprogram calls and canned cycles
-/// expanded, coordinate rotations applied; and the number of cycle holes expanded.
-pub(super) fn as_run(
-    program: &[u8],
-    path: &str,
-    pass_unknown: bool,
-) -> Result<(Vec<Line>, usize), NcError> {
-    let read = parse_program(program, path, pass_unknown)?;
-    let own_blocks = read.len();
-    // What calls and cycles together may add, and what rotating the blocks they add takes.
-    let mut room = Room::new();
-    let (lines, holes) = expand_cycles(
-        expand_subprograms(read, path, pass_unknown, &mut room)?,
-        path,
-        pass_unknown,
-        &mut room,
-    )?;
-    Ok((apply_rotations(lines, path, own_blocks, &mut room)?, holes))
-}
-
+/// The program's lines as the control runs them, its state before the first, the machine per
+/// tool, and the number of cycle holes expanded.
 pub(super) fn begin<'a>(
     machine: &'a Machine,
     program: &[u8],
     path: &'a str,
     options: &'a Options,
 ) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
-    super::check_work_offsets(machine, &options.work_offsets)?;
+    check_work_offsets(machine, &options.work_offsets)?;
     let (lines, holes) = as_run(program, path, options.pass_unknown)?;
-    let (start, named) = starting_position(&lines, machine, path, options)?;
+    let (state, named) = first_state(&lines, machine, path, options)?;
     if options.orientation_tolerance_rad.is_some() {
         // The correction turns both rotary axes: from a position the program never sets it
         // would turn the axis from wherever it stands to the model's 0 (a table at C37 turned
         // by −37°), and in G91 its first word would be an increment from nowhere.
-        if let Some(&d) = super::orientation::rotary_axes(machine)
-            .iter()
-            .find(|&&d| !named[d])
-        {
+        if let Some(&d) = rotary_axes(machine).iter().find(|&&d| !named[d]) {
             return Err(NcError::line(
                 path,
                 1,
@@ -78,41 +46,12 @@ pub(super) fn begin<'a>(
             ));
         }
     }
-    let state = State {
-        motion: Motion::Rapid,
-        plane: XY,
-        absolute: true,
-        inch: false,
-        offset: 54,
-        tool: None,
-        tool_length_on: false,
-        tool_lengths: options.tool_lengths.clone(),
-        pending_tool: None,
-        position: start,
-        // An axis the program names is, for the reader of the output, where the output first
-        // names it: until then the output has not written it (no word is added for it).
-        written: std::array::from_fn(|d| if named[d] { f64::NAN } else { start[d] }),
-        written_motion: Motion::Rapid,
-        approach: options.inputs.approach,
-        programmed: options.inputs.approach,
-        set: [AxisSet::Never; 6],
-    };
     Ok((
         lines,
         state,
         Compensator::new(path, options, machine),
         holes,
     ))
-}
-
-/// A compensated program.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Compensated {
-    pub text: String,
-    pub report: Report,
-    /// For each line of `text`, the input line (1-based) it comes from: the line itself, or the
-    /// move it adds a piece to.
-    pub origins: Vec<usize>,
 }
 
 /// Compensates `program` (its bytes; `path` names it in errors) for `machine`.
@@ -148,7 +87,7 @@ pub fn compensate_with_progress(
             message: format!("at most {MAX_DECIMALS} decimals are written"),
         });
     }
-    super::orientation::check_options(machine, options)?;
+    check_options(machine, options)?;
     let (lines, mut state, mut compensator, holes) = begin(machine, program, path, options)?;
     let mut report = Report {
         cycle_holes_expanded: holes,
@@ -195,64 +134,6 @@ pub fn compensate_with_progress(
     })
 }
 
-/// Where a program puts the tool at the end of each move, as the control runs it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TracePoint {
-    /// The program's line (1-based).
-    pub line: usize,
-    /// The end point in program coordinates (mm, degrees).
-    pub program: [f64; 6],
-    /// The machine command there.
-    pub command: Command,
-    /// The direction every axis approaches it in (X Y Z A B C): that of the move's motion
-    /// arriving there (on an arc, at its end), or of the axis's last move.
-    pub approach: [Approach; 6],
-    /// The ideal and the real tool tip there (workpiece frame, mm), the real one approached in
-    /// `approach` at the options' temperatures.
-    pub ideal: Vector3<f64>,
-    pub real: Vector3<f64>,
-}
-
-/// Runs a program through the model: every move's end point with the ideal and the real tool
-/// tip, each axis approaching in the direction of its motion in this program (the check that a
-/// compensated program lands where the original one was meant to).
-pub fn trace(
-    machine: &Machine,
-    program: &[u8],
-    path: &str,
-    options: &Options,
-) -> Result<Vec<TracePoint>, NcError> {
-    let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
-    let mut points = Vec::new();
-    for (index, line) in lines.iter().enumerate() {
-        if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {
-            continue;
-        }
-        let end = end_position(line, &state);
-        let approach = if matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) {
-            let arc = arc_path(line, &state, state.position, end, path)?;
-            let segments = segments(&arc, &state.approach, &[true; 6]);
-            segments.last().expect("a move has a segment").directions
-        } else {
-            line_directions(&state.position, &end, &state.approach)
-        };
-        let offset = compensator.offset(&state, line.number)?;
-        let command: Command = std::array::from_fn(|d| end[d] + offset[d]);
-        let kin = compensator.kinematics(state.tool, line.number)?;
-        points.push(TracePoint {
-            line: line.number,
-            program: end,
-            command,
-            approach,
-            ideal: kin.ideal_tip(&command),
-            real: kin.twin(&approach).real_tip(&command),
-        });
-        state.position = end;
-        state.approach = approach;
-    }
-    Ok(points)
-}
-
 /// Handles one line; returns the number of output lines written for it (1 or more).
 fn process_line(
     lines: &[Line],
@@ -281,19 +162,15 @@ fn process_line(
             ),
         });
     }
-    let block = Block {
+    let block = Block::new(
         path,
-        line: line.number,
-        offset: comp.offset(state, line.number)?,
-        kin: comp.kinematics(state.tool, line.number)?,
-        tolerance: options.chord_tolerance_mm,
-        inch: state.inch,
-        radius_words: line.word('R').is_some(),
+        line.number,
+        comp.offset(state, line.number)?,
+        comp.kinematics(state.tool, line.number)?,
+        state.inch,
+        line.word('R').is_some(),
         options,
-        largest_correction: Cell::new(0.0),
-        take_ups: Cell::new(0),
-        against: Cell::new(0),
-    };
+    );
     if !*start_compensated {
         // The output starts where the compensated start of the program is, for the axes it
         // does not leave unwritten (see `begin`).
@@ -365,9 +242,7 @@ fn process_line(
     report.take_ups += block.take_ups.get();
     report.against_direction += block.against.get();
     report.points += pieces.len();
-    report.largest_correction_mm = report
-        .largest_correction_mm
-        .max(block.largest_correction.get());
+    report.largest_correction_mm = report.largest_correction_mm.max(block.largest_correction());
     state.position = end;
     write_block(line, state, &from, &pieces, &arcs, out, options)
 }
@@ -377,101 +252,7 @@ fn samples(length: f64) -> usize {
     ((length / 0.5).ceil() as usize).clamp(8, 256)
 }
 
-/// One block being compensated: the line its errors name, the active work offset, the machine
-/// of the active tool, how the output writes numbers, and the largest correction made so far.
-pub(super) struct Block<'a> {
-    pub(super) path: &'a str,
-    pub(super) line: usize,
-    offset: [f64; 6],
-    pub(super) kin: &'a Kinematics,
-    pub(super) tolerance: f64,
-    pub(super) inch: bool,
-    /// The block gives its arc's centre by R: added arc pieces do too.
-    pub(super) radius_words: bool,
-    pub(super) options: &'a Options,
-    largest_correction: Cell<f64>,
-    /// Take-ups added at reversals, and pieces whose compensated motion runs against the
-    /// directions they were compensated for.
-    pub(super) take_ups: Cell<usize>,
-    pub(super) against: Cell<usize>,
-}
-
-/// Why a move could not be split: too many pieces, or a point that does not compensate.
-pub(super) enum Split {
-    Pieces(String),
-    Point(NcError),
-}
-
 impl Block<'_> {
-    /// A point as the output writes it (rounded).
-    pub(super) fn written(&self, p: &[f64; 6]) -> [f64; 6] {
-        std::array::from_fn(|d| as_written(p[d], d, self.inch, self.options))
-    }
-
-    /// The machine command of a point in program coordinates.
-    pub(super) fn command(&self, p: &[f64; 6]) -> Command {
-        std::array::from_fn(|d| p[d] + self.offset[d])
-    }
-
-    /// Every axis of the command of `p` within its travel.
-    fn check_travel(&self, p: &[f64; 6], what: &str) -> Result<(), NcError> {
-        match super::kinematics::beyond_travel(self.kin.machine(), &self.command(p)) {
-            Some((axis, value)) => Err(NcError::line(
-                self.path,
-                self.line,
-                format!(
-                    "{what}: {}={} (machine) lies outside the travel of {} ({} to {})",
-                    axis.letter,
-                    crate::limits::number_words(value),
-                    axis.letter,
-                    axis.range[0],
-                    axis.range[1]
-                ),
-            )),
-            None => Ok(()),
-        }
-    }
-
-    /// The program point whose real tool tip, approaching in `directions`, lands on the ideal
-    /// tool tip of `p`.
-    pub(super) fn compensate_point(
-        &self,
-        p: &[f64; 6],
-        directions: &Directions,
-    ) -> Result<[f64; 6], NcError> {
-        self.check_travel(p, "the programmed point")?;
-        let c = if self.angular_tolerance().is_some() {
-            self.compensate_pose(&self.command(p), directions)?
-        } else {
-            self.kin
-                .compensate(&self.command(p), directions)
-                .ok_or_else(|| {
-                    NcError::line(
-                        self.path,
-                        self.line,
-                        "the compensation does not converge at this point".into(),
-                    )
-                })?
-        };
-        let solved = if self.angular_tolerance().is_some() {
-            6
-        } else {
-            3
-        };
-        let mut compensated = *p;
-        for d in 0..solved {
-            compensated[d] = c[d] - self.offset[d];
-        }
-        self.check_travel(&compensated, "the compensated point")?;
-        let correction = (0..3)
-            .map(|d| (compensated[d] - p[d]).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        self.largest_correction
-            .set(self.largest_correction.get().max(correction));
-        Ok(compensated)
-    }
-
     /// The largest distance of the real tool tip from the intended path along the move, as the
     /// program had it (each point approached in the direction of its segment).
     fn error_before(&self, intended: &Toolpath, segments: &[Segment]) -> f64 {
@@ -486,8 +267,8 @@ impl Block<'_> {
     }
 
     /// The pieces of a feed move along `intended`, segment by segment, starting where `walk`
-    /// is (see [`super::walk`]); an arc stays one arc where that fits (a move of one segment
-    /// that needs no take-up), and is split into arc pieces otherwise (see [`super::arcs`]).
+    /// is (see `walk`); an arc stays one arc where that fits (a move of one segment
+    /// that needs no take-up), and is split into arc pieces otherwise (see `arcs`).
     fn feed_move(
         &self,
         intended: &Toolpath,

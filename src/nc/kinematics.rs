@@ -6,9 +6,10 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::approach::{key, reversing_axes, Directions};
-use super::program::State;
-use super::{NcError, NcOption, Options};
+use super::error::{NcError, NcOption};
+use super::options::Options;
+use super::program::approach::{key, reversing_axes};
+use super::program::modal::{Directions, State};
 use crate::model::inputs::Inputs;
 use crate::model::{Axis, Command, Machine};
 use crate::reference::Twin;

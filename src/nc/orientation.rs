@@ -8,15 +8,15 @@
 //! the tip agrees to 1e-10 mm and the axis to 1e-10 rad. The tool axis is the spindle frame's z
 //! (docs/model.md: the tool lies along it). Where the two rotary axes cannot turn the tool axis
 //! in both directions across it (the tool axis along a rotary axis, or the rotary axes parallel)
-//! the pose is singular and the point cannot be compensated.
+//! the pose is singular and the point cannot be compensated. A block's points are solved so
+//! through `Block::compensate_pose` (`block`).
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector3};
 
-use super::approach::Directions;
-use super::compensate::Block;
+use super::error::{NcError, NcOption};
 use super::kinematics::Kinematics;
-use super::program::AXIS_LETTERS;
-use super::{NcError, NcOption, Options};
+use super::options::Options;
+use super::program::modal::{Directions, AXIS_LETTERS};
 use crate::model::{Command, Machine};
 use crate::reference::tool_pose;
 
@@ -179,94 +179,4 @@ fn check_singular(
         "singular pose at {r0}={:.4} {r1}={:.4} (machine): the tool axis lies along the {} axis (or the rotary axes are parallel), so no turn of {r0} and {r1} corrects its orientation (sensitivity {smallest:.1e} rad/rad)",
         q[rotary[0]], q[rotary[1]], AXIS_LETTERS[along]
     )))
-}
-
-impl Block<'_> {
-    /// The compensated command of a programmed command `q` with its rotary axes solved too.
-    pub(super) fn compensate_pose(
-        &self,
-        q: &Command,
-        directions: &Directions,
-    ) -> Result<Command, NcError> {
-        self.kin
-            .compensate_pose(q, directions)
-            .map_err(|failure| match failure {
-                PoseFailure::Singular(message) => NcError::line(self.path, self.line, message),
-                PoseFailure::NoConvergence => NcError::line(
-                    self.path,
-                    self.line,
-                    "the tool tip and axis cannot both be reached here: the orientation compensation does not converge".into(),
-                ),
-            })
-    }
-
-    /// The angular tolerance where the orientation is compensated.
-    pub(super) fn angular_tolerance(&self) -> Option<f64> {
-        self.options.orientation_tolerance_rad
-    }
-
-    /// The largest angle between the real tool axis along the straight piece from `a` to `b`
-    /// (the commands as written, rounded) and the intended axis at the same fraction of
-    /// `[ta, tb]` of `intended` (programmed points); 0 where the orientation is not compensated.
-    pub(super) fn chord_angle(
-        &self,
-        intended: &dyn Fn(f64) -> [f64; 6],
-        (ta, tb): (f64, f64),
-        (a, b): ([f64; 6], [f64; 6]),
-        directions: &Directions,
-    ) -> f64 {
-        let (a, b) = (self.written(&a), self.written(&b));
-        self.angle_along(
-            &|s| std::array::from_fn(|d| a[d] + (b[d] - a[d]) * s),
-            &|s| intended(ta + (tb - ta) * s),
-            (3..6).map(|d| (b[d] - a[d]).abs()).fold(0.0, f64::max),
-            directions,
-        )
-    }
-
-    /// The largest angle between the real tool axis along `commanded` and the intended one along
-    /// `intended` at the same fraction (program points), sampled every quarter degree of `turn`
-    /// (degrees, 8 to 64 samples); 0 where the orientation is not compensated.
-    pub(super) fn angle_along(
-        &self,
-        commanded: &dyn Fn(f64) -> [f64; 6],
-        intended: &dyn Fn(f64) -> [f64; 6],
-        turn: f64,
-        directions: &Directions,
-    ) -> f64 {
-        if self.angular_tolerance().is_none() {
-            return 0.0;
-        }
-        let n = ((turn / 0.25).ceil() as usize).clamp(8, 64);
-        (0..=n)
-            .map(|k| {
-                let s = k as f64 / n as f64;
-                self.kin.axis_miss(
-                    &self.command(&commanded(s)),
-                    &self.command(&intended(s)),
-                    directions,
-                )
-            })
-            .fold(0.0, f64::max)
-    }
-
-    /// The largest angle between the real and the intended tool axis along a move as the program
-    /// had it; 0 where the orientation is not compensated.
-    pub(super) fn angle_before(
-        &self,
-        intended: &dyn Fn(f64) -> [f64; 6],
-        directions: &dyn Fn(f64) -> Directions,
-    ) -> f64 {
-        if self.angular_tolerance().is_none() {
-            return 0.0;
-        }
-        let n = 32;
-        (0..=n)
-            .map(|k| {
-                let t = k as f64 / n as f64;
-                let q = self.command(&intended(t));
-                self.kin.axis_miss(&q, &q, &directions(t))
-            })
-            .fold(0.0, f64::max)
-    }
 }

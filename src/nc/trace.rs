@@ -1,19 +1,84 @@
-//! Predicting a program before it cuts: the real tool tip sampled along every move, as the model
-//! has it, against the ideal one. A program's own deviation is the distance of the real tip from
-//! the ideal tip of the same command; a compensated program is measured against the intended
-//! path of the program it was made from (its origins), so before and after read alike.
+//! Predicting a program before it cuts: the real tool tip at the end of every move, or sampled
+//! along every move, as the model has it, against the ideal one. A program's own deviation is
+//! the distance of the real tip from the ideal tip of the same command; a compensated program is
+//! measured against the intended path of the program it was made from (its origins), so before
+//! and after read alike.
 
 use std::collections::HashMap;
 
 use nalgebra::Vector3;
 
-use super::approach::{line_directions, segment_at, segments};
-use super::compensate::{begin, Compensated};
-use super::program::{end_position, take_line, Motion, Step};
-use super::toolpath::{arc_path, Toolpath};
-use super::{NcError, NcOption, Options};
+use super::compensate::begin;
+use super::error::{NcError, NcOption};
+use super::kinematics::beyond_travel;
+use super::options::Options;
+use super::program::approach::{line_directions, segment_at, segments, Segment};
+use super::program::modal::{Motion, State};
+use super::program::parse::Line;
+use super::program::reader::{end_position, take_line, Step};
+use super::program::toolpath::{arc_path, Toolpath};
+use super::report::Compensated;
 use crate::limits::{self, number_words, MAX_TRACE_SAMPLES};
+use crate::model::inputs::Approach;
 use crate::model::{Command, Machine};
+
+/// Where a program puts the tool at the end of each move, as the control runs it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TracePoint {
+    /// The program's line (1-based).
+    pub line: usize,
+    /// The end point in program coordinates (mm, degrees).
+    pub program: [f64; 6],
+    /// The machine command there.
+    pub command: Command,
+    /// The direction every axis approaches it in (X Y Z A B C): that of the move's motion
+    /// arriving there (on an arc, at its end), or of the axis's last move.
+    pub approach: [Approach; 6],
+    /// The ideal and the real tool tip there (workpiece frame, mm), the real one approached in
+    /// `approach` at the options' temperatures.
+    pub ideal: Vector3<f64>,
+    pub real: Vector3<f64>,
+}
+
+/// Runs a program through the model: every move's end point with the ideal and the real tool
+/// tip, each axis approaching in the direction of its motion in this program (the check that a
+/// compensated program lands where the original one was meant to).
+pub fn trace(
+    machine: &Machine,
+    program: &[u8],
+    path: &str,
+    options: &Options,
+) -> Result<Vec<TracePoint>, NcError> {
+    let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
+    let mut points = Vec::new();
+    for (index, line) in lines.iter().enumerate() {
+        if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {
+            continue;
+        }
+        let end = end_position(line, &state);
+        let approach = if matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) {
+            let arc = arc_path(line, &state, state.position, end, path)?;
+            let segments = segments(&arc, &state.approach, &[true; 6]);
+            segments.last().expect("a move has a segment").directions
+        } else {
+            line_directions(&state.position, &end, &state.approach)
+        };
+        let offset = compensator.offset(&state, line.number)?;
+        let command: Command = std::array::from_fn(|d| end[d] + offset[d]);
+        let kin = compensator.kinematics(state.tool, line.number)?;
+        points.push(TracePoint {
+            line: line.number,
+            program: end,
+            command,
+            approach,
+            ideal: kin.ideal_tip(&command),
+            real: kin.twin(&approach).real_tip(&command),
+        });
+        state.position = end;
+        state.approach = approach;
+    }
+    Ok(points)
+}
 
 /// One point of a move, sampled.
 #[derive(Debug, Clone, PartialEq)]
@@ -34,12 +99,7 @@ pub struct TraceSample {
 }
 
 /// The samples of one move: its path, from its start to its end.
-fn move_path(
-    line: &super::parse::Line,
-    state: &super::program::State,
-    end: [f64; 6],
-    path: &str,
-) -> Result<Toolpath, NcError> {
+fn move_path(line: &Line, state: &State, end: [f64; 6], path: &str) -> Result<Toolpath, NcError> {
     if matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) {
         arc_path(line, state, state.position, end, path)
     } else {
@@ -77,7 +137,7 @@ pub fn trace_path(
         let end = end_position(line, &state);
         let intended = move_path(line, &state, end, path)?;
         let segments = match state.motion {
-            Motion::Rapid => vec![super::approach::Segment {
+            Motion::Rapid => vec![Segment {
                 t: (0.0, 1.0),
                 directions: line_directions(&state.position, &end, &state.approach),
             }],
@@ -110,7 +170,7 @@ pub fn trace_path(
             let p = intended.at(t);
             let command: Command = std::array::from_fn(|d| p[d] + offset[d]);
             // Where the machine cannot go, the model says nothing (as compensate and sample).
-            if let Some((axis, value)) = super::kinematics::beyond_travel(machine, &command) {
+            if let Some((axis, value)) = beyond_travel(machine, &command) {
                 return Err(NcError::Line {
                     path: path.to_string(),
                     line: line.number,

@@ -12,10 +12,12 @@
 //! command from the point compensated for the old directions to the same point compensated for
 //! the new ones (the tip stays while the command crosses the reversal).
 
-use super::approach::{key, moving, Directions, Segment, MOVES};
-use super::compensate::{Block, Split, MAX_PIECES};
-use super::toolpath::{lerp, Toolpath};
-use super::{NcError, Report};
+use super::block::{Block, Split, MAX_PIECES};
+use super::error::NcError;
+use super::program::approach::{key, moving, Segment, MOVES};
+use super::program::modal::Directions;
+use super::program::toolpath::{lerp, Toolpath};
+use super::report::Report;
 use crate::model::inputs::Approach;
 
 /// Where the output has the tool: its last point and the directions it approached it in.

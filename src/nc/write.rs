@@ -1,9 +1,11 @@
 //! Writing the compensated blocks: numbers replaced where they stand, words added or removed only
-//! where the coordinates need it, pieces added after their block.
+//! where the coordinates need it, pieces added after their block; and the note at the head of a
+//! compensated program that says how it was made.
 
-use super::parse::{Line, Word};
-use super::program::{Motion, State, AXIS_LETTERS, MM_PER_INCH};
-use super::{NcError, Options};
+use super::error::NcError;
+use super::options::Options;
+use super::program::modal::{Motion, State, AXIS_LETTERS, MM_PER_INCH};
+use super::program::parse::{Line, Word};
 
 /// Formats a value in program units with `decimals`, trailing zeros trimmed to one.
 pub(super) fn format_value(value: f64, decimals: usize) -> String {
@@ -435,4 +437,30 @@ pub(super) fn removal(line: &Line, w: &Word) -> std::ops::Range<usize> {
         start -= 1;
     }
     start..w.number.end
+}
+
+/// `program` with `note` as a comment of its own line at its head (after a leading `%` line, the
+/// tape delimiter, where there is one): how the program was made. The note is made fit for a
+/// comment: parentheses become brackets, and characters outside printable ASCII are dropped.
+pub fn with_note(program: &str, note: &str) -> String {
+    let note: String = note
+        .chars()
+        .map(|c| match c {
+            '(' => '[',
+            ')' => ']',
+            c => c,
+        })
+        .filter(|c| c.is_ascii() && !c.is_ascii_control())
+        .collect();
+    let comment = format!("({})\n", note.trim());
+    let first_line_end = program.find('\n').map_or(program.len(), |e| e + 1);
+    if program[..first_line_end].trim() == "%" {
+        format!(
+            "{}{comment}{}",
+            &program[..first_line_end],
+            &program[first_line_end..]
+        )
+    } else {
+        format!("{comment}{program}")
+    }
 }

@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 
 use super::parse::{parse_line, Line};
-use super::NcError;
+use crate::nc::error::NcError;
 
 /// The deepest nesting of calls followed (Fanuc allows four levels).
 const MAX_DEPTH: usize = 8;

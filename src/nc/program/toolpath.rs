@@ -1,13 +1,13 @@
 //! The intended path of a move: straight, or an arc (helical where the third axis moves), as a
 //! function of the fraction of the move.
 
+use super::modal::{Motion, Plane, State, MM_PER_INCH};
 use super::parse::Line;
-use super::program::{Motion, Plane, State, MM_PER_INCH};
-use super::NcError;
+use crate::nc::error::NcError;
 
 /// The intended path of a move, `t` from 0 to 1, in program coordinates (mm, degrees).
 #[derive(Debug, Clone, Copy)]
-pub(super) enum Toolpath {
+pub(in crate::nc) enum Toolpath {
     Line {
         from: [f64; 6],
         to: [f64; 6],
@@ -23,12 +23,12 @@ pub(super) enum Toolpath {
     },
 }
 
-pub(super) fn lerp(a: f64, b: f64, t: f64) -> f64 {
+pub(in crate::nc) fn lerp(a: f64, b: f64, t: f64) -> f64 {
     a + (b - a) * t
 }
 
 impl Toolpath {
-    pub(super) fn at(&self, t: f64) -> [f64; 6] {
+    pub(in crate::nc) fn at(&self, t: f64) -> [f64; 6] {
         match *self {
             Toolpath::Line { from, to } => std::array::from_fn(|d| lerp(from[d], to[d], t)),
             Toolpath::Arc {
@@ -50,7 +50,7 @@ impl Toolpath {
         }
     }
 
-    pub(super) fn length(&self) -> f64 {
+    pub(in crate::nc) fn length(&self) -> f64 {
         match *self {
             Toolpath::Line { from, to } => (0..3)
                 .map(|d| (to[d] - from[d]).powi(2))
@@ -71,13 +71,13 @@ impl Toolpath {
     }
 }
 
-pub(super) fn angle_of(p: &[f64; 6], plane: Plane, centre: [f64; 2]) -> f64 {
+pub(in crate::nc) fn angle_of(p: &[f64; 6], plane: Plane, centre: [f64; 2]) -> f64 {
     (p[plane.v] - centre[1]).atan2(p[plane.u] - centre[0])
 }
 
 /// The arc from `from` to `to` about `centre` in `plane`, in the direction of `motion`; a full
 /// turn where the ends coincide. `None` where an end sits on the centre.
-pub(super) fn arc_through(
+pub(in crate::nc) fn arc_through(
     from: [f64; 6],
     to: [f64; 6],
     plane: Plane,
@@ -126,12 +126,12 @@ pub(super) fn arc_through(
 /// Whether an R arc of radius `r` (negative: more than 180°) reaches across `chord` as volmap
 /// reads it: R at least half the chord, short of it by no more than the rounding of written
 /// numbers allows (1e-6 of R² in R² − chord²/4).
-pub(super) fn radius_reaches(r: f64, chord: f64) -> bool {
+pub(in crate::nc) fn radius_reaches(r: f64, chord: f64) -> bool {
     let r = r.abs();
     r * r - chord * chord / 4.0 >= -1e-6 * r * r.max(1.0)
 }
 
-pub(super) fn arc_path(
+pub(in crate::nc) fn arc_path(
     line: &Line,
     state: &State,
     start: [f64; 6],

@@ -1,8 +1,8 @@
 //! Reading ISO 6983 / Fanuc-style blocks into words, keeping where each word's number sits in
 //! the line so the compensated program can change numbers and nothing else.
 
-use super::NcError;
 use crate::error::excerpt;
+use crate::nc::error::NcError;
 
 /// A word: its letter (upper case), value, and the byte range of its number in the line.
 #[derive(Debug, Clone, PartialEq)]

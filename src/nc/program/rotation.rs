@@ -9,7 +9,7 @@
 
 use super::parse::{parse_line, Line};
 use super::subprograms::{Room, MAX_EXPANDED_WORDS};
-use super::NcError;
+use crate::nc::error::NcError;
 
 /// What is known of the program while reading it.
 struct Scan {

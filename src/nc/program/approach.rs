@@ -10,19 +10,17 @@
 //! leaves it the new way). Segments whose directions differ only in axes without a reversal
 //! error are one segment: the model gives them the same errors.
 
+use super::modal::Directions;
 use super::toolpath::Toolpath;
 use crate::model::inputs::{Approach, Dependent};
 use crate::model::perturbation::ErrorTarget;
 
-/// The approach direction of every axis, by program axis (X Y Z A B C).
-pub(super) type Directions = [Approach; 6];
-
 /// A program axis moves on a piece where it changes by more than this (mm, degrees).
-pub(super) const MOVES: f64 = 1e-9;
+pub(in crate::nc) const MOVES: f64 = 1e-9;
 
 /// The axes that have a reversal error (`reverse`) in any of their component errors: only their
 /// directions change the model.
-pub(super) fn reversing_axes(dependent: &[Dependent]) -> [bool; 6] {
+pub(in crate::nc) fn reversing_axes(dependent: &[Dependent]) -> [bool; 6] {
     let mut reversing = [false; 6];
     for d in dependent {
         if let (ErrorTarget::Component { axis, .. }, Some(_)) = (d.target, &d.reverse) {
@@ -33,7 +31,7 @@ pub(super) fn reversing_axes(dependent: &[Dependent]) -> [bool; 6] {
 }
 
 /// The directions of `directions` the model sees: one bit per reversing axis approaching `−`.
-pub(super) fn key(directions: &Directions, reversing: &[bool; 6]) -> usize {
+pub(in crate::nc) fn key(directions: &Directions, reversing: &[bool; 6]) -> usize {
     (0..6)
         .filter(|&d| reversing[d] && directions[d] == Approach::Negative)
         .fold(0, |k, d| k | 1 << d)
@@ -51,17 +49,21 @@ fn direction_of(delta: f64, previous: Approach) -> Approach {
 }
 
 /// The directions of the straight motion from `from` to `to`.
-pub(super) fn line_directions(from: &[f64; 6], to: &[f64; 6], previous: &Directions) -> Directions {
+pub(in crate::nc) fn line_directions(
+    from: &[f64; 6],
+    to: &[f64; 6],
+    previous: &Directions,
+) -> Directions {
     std::array::from_fn(|d| direction_of(to[d] - from[d], previous[d]))
 }
 
 /// A piece of a move, `t` from `t.0` to `t.1`, along which every axis keeps its direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Segment {
-    pub(super) t: (f64, f64),
+pub(in crate::nc) struct Segment {
+    pub(in crate::nc) t: (f64, f64),
     /// The directions along it (those at its end where axes without a reversal error turn
     /// inside it).
-    pub(super) directions: Directions,
+    pub(in crate::nc) directions: Directions,
 }
 
 /// The fractions of an arc where an axis of its plane turns, strictly inside it (not within
@@ -122,7 +124,7 @@ fn directions_at(path: &Toolpath, t: f64, previous: &Directions) -> Directions {
 
 /// The segments of a move along `path` in which no reversing axis turns, with their
 /// directions; `previous` are the directions before the move.
-pub(super) fn segments(
+pub(in crate::nc) fn segments(
     path: &Toolpath,
     previous: &Directions,
     reversing: &[bool; 6],
@@ -156,7 +158,7 @@ pub(super) fn segments(
 
 /// The segment a fraction `t` of the move lies in: a turning point belongs to the segment that
 /// arrives at it.
-pub(super) fn segment_at(segments: &[Segment], t: f64) -> &Segment {
+pub(in crate::nc) fn segment_at(segments: &[Segment], t: f64) -> &Segment {
     segments
         .iter()
         .find(|s| t <= s.t.1)
@@ -164,6 +166,6 @@ pub(super) fn segment_at(segments: &[Segment], t: f64) -> &Segment {
 }
 
 /// The axes that move from `a` to `b`.
-pub(super) fn moving(a: &[f64; 6], b: &[f64; 6]) -> [bool; 6] {
+pub(in crate::nc) fn moving(a: &[f64; 6], b: &[f64; 6]) -> [bool; 6] {
     std::array::from_fn(|d| (b[d] - a[d]).abs() > MOVES)
 }

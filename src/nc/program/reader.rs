@@ -1,117 +1,53 @@
-//! Reading a program as the control does: modal state (motion, plane, distance, units, work
-//! offset, tool), which codes volmap follows, where each block ends.
+//! Reading a program as the control does: the state before its first block, each block's modal
+//! words taken into the state (motion, plane, distance, units, work offset, tool), which codes
+//! volmap follows, where each block ends.
 
-use super::approach::{line_directions, Directions};
+use super::approach::line_directions;
+use super::modal::{AxisSet, Motion, State, AXIS_LETTERS, MM_PER_INCH, XY, YZ, ZX};
 use super::parse::Line;
-use super::{NcError, Options, ToolLengths};
 use crate::error::excerpt;
 use crate::model::{AxisLetter, Machine};
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Motion {
-    Rapid,
-    Linear,
-    Clockwise,
-    CounterClockwise,
-}
-
-impl Motion {
-    pub(super) fn code(self) -> u32 {
-        match self {
-            Motion::Rapid => 0,
-            Motion::Linear => 1,
-            Motion::Clockwise => 2,
-            Motion::CounterClockwise => 3,
-        }
-    }
-}
-
-/// The arc plane: the program axes (indices into X Y Z) of its first and second coordinates and
-/// of the helix, and the letters of the centre offsets along the first and second.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) struct Plane {
-    pub(super) u: usize,
-    pub(super) v: usize,
-    pub(super) w: usize,
-    pub(super) centre: [char; 2],
-}
-
-pub(super) const XY: Plane = Plane {
-    u: 0,
-    v: 1,
-    w: 2,
-    centre: ['I', 'J'],
-};
-
-pub(super) const ZX: Plane = Plane {
-    u: 2,
-    v: 0,
-    w: 1,
-    centre: ['K', 'I'],
-};
-
-pub(super) const YZ: Plane = Plane {
-    u: 1,
-    v: 2,
-    w: 0,
-    centre: ['J', 'K'],
-};
-
-pub(super) const AXIS_LETTERS: [char; 6] = ['X', 'Y', 'Z', 'A', 'B', 'C'];
-
-pub(super) const MM_PER_INCH: f64 = 25.4;
+use crate::nc::error::NcError;
+use crate::nc::options::{Options, ToolLengths};
 
 /// G codes that change nothing volmap must follow: cutter compensation off, tool length
 /// compensation, cycle cancel, feed modes, exact stop and cutting modes, cycle return levels.
-pub(super) const PASSIVE_G: [u32; 9] = [40, 43, 49, 80, 94, 95, 61, 64, 98];
+const PASSIVE_G: [u32; 9] = [40, 43, 49, 80, 94, 95, 61, 64, 98];
 
-/// A program's modal state.
-#[derive(Debug, Clone)]
-pub(super) struct State {
-    pub(super) motion: Motion,
-    pub(super) plane: Plane,
-    pub(super) absolute: bool,
-    pub(super) inch: bool,
-    pub(super) offset: u32,
-    pub(super) tool: Option<u32>,
-    /// Tool length compensation (G43) in force, until G49: the control then stands the axes at
-    /// the program position plus the tool length along the spindle axis (Z).
-    pub(super) tool_length_on: bool,
-    /// The options' tool lengths, for the scans ahead.
-    pub(super) tool_lengths: ToolLengths,
-    pub(super) pending_tool: Option<u32>,
-    /// Where the program has the tool (program coordinates, mm and degrees).
-    pub(super) position: [f64; 6],
-    /// Where the output program has the tool, as written (mm and degrees).
-    pub(super) written: [f64; 6],
-    /// The motion mode the output program is in.
-    pub(super) written_motion: Motion,
-    /// The direction each axis last moved in, in the output (the options' initial directions
-    /// before it moves).
-    pub(super) approach: Directions,
-    /// The same in the program as it was.
-    pub(super) programmed: Directions,
-    /// Which axes the program has given a value (by a block naming them) since its start or
-    /// their last reference return: an arc needs its start, so both axes of its plane.
-    pub(super) set: [AxisSet; 6],
-}
-
-/// Whether the program has given an axis a value.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum AxisSet {
-    /// Named by a block.
-    Yes,
-    /// Not named by any block yet.
-    Never,
-    /// Sent to the reference point (G28) or moved in machine coordinates (G53) by the block on
-    /// this line, and not named since.
-    Reference(usize),
+/// The state before the program's first block, and which axes the program names.
+pub(in crate::nc) fn first_state(
+    lines: &[Line],
+    machine: &Machine,
+    path: &str,
+    options: &Options,
+) -> Result<(State, [bool; 6]), NcError> {
+    let (start, named) = starting_position(lines, machine, path, options)?;
+    let state = State {
+        motion: Motion::Rapid,
+        plane: XY,
+        absolute: true,
+        inch: false,
+        offset: 54,
+        tool: None,
+        tool_length_on: false,
+        tool_lengths: options.tool_lengths.clone(),
+        pending_tool: None,
+        position: start,
+        // An axis the program names is, for the reader of the output, where the output first
+        // names it: until then the output has not written it (no word is added for it).
+        written: std::array::from_fn(|d| if named[d] { f64::NAN } else { start[d] }),
+        written_motion: Motion::Rapid,
+        approach: options.inputs.approach,
+        programmed: options.inputs.approach,
+        set: [AxisSet::Never; 6],
+    };
+    Ok((state, named))
 }
 
 /// Where each axis is before the program moves it: the first absolute value the program gives
 /// it (rotary axes the program never names: 0), and whether the program names it. An axis first
 /// moved incrementally, or a linear axis never set, has no known start.
-pub(super) fn starting_position(
+fn starting_position(
     lines: &[Line],
     machine: &Machine,
     path: &str,
@@ -207,7 +143,7 @@ pub(super) fn starting_position(
 
 /// The distance mode (G90/G91) and units (G20/G21) a line sets, for the scans ahead of the
 /// program's run.
-pub(super) fn distance_and_units(line: &Line, absolute: &mut bool, inch: &mut bool) {
+fn distance_and_units(line: &Line, absolute: &mut bool, inch: &mut bool) {
     for w in line.words.iter().filter(|w| w.letter == 'G') {
         match w.value as u32 {
             20 => *inch = true,
@@ -220,14 +156,14 @@ pub(super) fn distance_and_units(line: &Line, absolute: &mut bool, inch: &mut bo
 }
 
 /// G4: a dwell, whose X or P is a time.
-pub(super) fn is_dwell(line: &Line) -> bool {
+fn is_dwell(line: &Line) -> bool {
     line.words.iter().any(|w| w.letter == 'G' && w.value == 4.0)
 }
 
 /// G28 (to the reference point through the intermediate point its axis words give) or G53 (a
 /// move in machine coordinates, a home or a tool-change position): where the axes it names go is
 /// not a point of the program.
-pub(super) fn is_reference_return(line: &Line) -> bool {
+fn is_reference_return(line: &Line) -> bool {
     line.words
         .iter()
         .any(|w| w.letter == 'G' && (w.value == 28.0 || w.value == 53.0))
@@ -243,7 +179,7 @@ fn cutter_compensation(line: &Line) -> Option<&str> {
 
 /// The length the tool-length offset adds to Z with `tool` and G43 `on` (0 without G43 or a
 /// length from the options).
-pub(super) fn length_added(lengths: &ToolLengths, tool: Option<u32>, on: bool) -> f64 {
+fn length_added(lengths: &ToolLengths, tool: Option<u32>, on: bool) -> f64 {
     tool.and_then(|t| lengths.per_tool.get(&t).copied())
         .or(lengths.all)
         .filter(|_| on)
@@ -253,7 +189,7 @@ pub(super) fn length_added(lengths: &ToolLengths, tool: Option<u32>, on: bool) -
 /// Where axis `d` is next set absolutely after line `from` (for an axis the program sent to
 /// its reference point: the machine's reference is not in the program). Modal distance and
 /// units are followed from `state`.
-pub(super) fn next_absolute(
+fn next_absolute(
     lines: &[Line],
     from: usize,
     d: usize,
@@ -310,7 +246,7 @@ pub(super) fn next_absolute(
 /// A G28 block passes as it is; the axes it names are at the machine's reference afterwards,
 /// which the program does not know: they take the value the program next gives them, and the
 /// output writes them afresh.
-pub(super) fn reference_return(
+fn reference_return(
     lines: &[Line],
     index: usize,
     state: &mut State,
@@ -361,11 +297,11 @@ fn arc_start_known(line: &Line, state: &State, path: &str) -> Result<(), NcError
 }
 
 /// Whether every G code of the line is one volmap follows (or the user passes unknown ones).
-pub(super) fn is_understood(line: &Line, pass_unknown: bool) -> bool {
+fn is_understood(line: &Line, pass_unknown: bool) -> bool {
     pass_unknown || unknown_code(line).is_none()
 }
 
-pub(super) fn unknown_code(line: &Line) -> Option<String> {
+pub(in crate::nc) fn unknown_code(line: &Line) -> Option<String> {
     if let Some(code) = &line.unknown {
         return Some(code.clone());
     }
@@ -391,7 +327,7 @@ pub(super) fn unknown_code(line: &Line) -> Option<String> {
 
 /// What a line does once its modal words are taken.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Step {
+pub(in crate::nc) enum Step {
     /// It moves no axis volmap follows: it is copied as it is.
     Pass,
     /// It moves the tool to a programmed point.
@@ -401,7 +337,7 @@ pub(super) enum Step {
 /// Takes a line's modal words (motion, plane, distance, units, work offset, tool), and says
 /// whether it moves. Lines with codes volmap does not follow are errors, or with `pass_unknown`
 /// passed, their axis words moving the program's tool as straight moves would.
-pub(super) fn take_line(
+pub(in crate::nc) fn take_line(
     lines: &[Line],
     index: usize,
     state: &mut State,
@@ -498,7 +434,7 @@ pub(super) fn take_line(
     Ok(Step::Move)
 }
 
-pub(super) fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcError> {
+fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcError> {
     let mut motions = 0;
     for w in line.words.iter().filter(|w| w.letter == 'G') {
         match w.value as u32 {
@@ -533,7 +469,7 @@ pub(super) fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result
 }
 
 /// The block's end point in program coordinates (mm, degrees).
-pub(super) fn end_position(line: &Line, state: &State) -> [f64; 6] {
+pub(in crate::nc) fn end_position(line: &Line, state: &State) -> [f64; 6] {
     let mut end = state.position;
     for w in &line.words {
         if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {

@@ -17,8 +17,8 @@
 
 use super::parse::{parse_line, Line};
 use super::subprograms::{Room, BLOCK_WORDS, MAX_EXPANDED_WORDS};
-use super::NcError;
 use crate::error::shown;
+use crate::nc::error::NcError;
 
 /// The most pecks a G73 or G83 hole may take from its R plane to its depth: a peck depth Q far
 /// smaller than the hole (or a hole far deeper than any travel) would otherwise make moves
