@@ -3,6 +3,7 @@
 use std::sync::OnceLock;
 
 use volmap::gpu::{GpuMapper, GpuSampler};
+use volmap::model::random::SplitMix64;
 use volmap::model::{AxisLetter, ErrorFunction, Interp, Machine, Table};
 
 /// The GPU engine, opened once. `None` (test skipped, with a line on stderr) only where no
@@ -38,21 +39,21 @@ pub fn sampler() -> Option<&'static GpuSampler> {
     sampler
 }
 
-/// A small deterministic generator (splitmix64) for test data.
-pub struct Rng(pub u64);
+/// Test data from the library's SplitMix64 (`Rng::new(seed)`), with uniform draws in a range.
+pub struct Rng(SplitMix64);
 
 impl Rng {
+    pub fn new(seed: u64) -> Rng {
+        Rng(SplitMix64::new(seed))
+    }
+
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// Uniform in [lo, hi).
     pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        lo + (hi - lo) * self.0.next_f64()
     }
 }
 
