@@ -1,4 +1,5 @@
-//! Shared helpers: machines for tests, the GPU (or the reason it is skipped).
+//! Shared helpers: machines for tests, the GPU (or the reason it is skipped), the inputs of past
+//! fuzzing findings.
 
 use std::sync::OnceLock;
 
@@ -181,4 +182,47 @@ pub fn rs274(program: &std::path::Path, canon: &std::path::Path) -> std::process
         .arg(canon)
         .output()
         .expect("rs274 starts")
+}
+
+/// The saved input of a fuzzing finding, `tests/fuzz-regressions/NAME`.
+pub fn fuzz_regression(name: &str) -> Vec<u8> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz-regressions")
+        .join(name);
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Writes an input of several files as the fuzzing harness writes them (the main file, then each
+/// other file after a line `#=== NAME`) into `dir`, the main file as `main`; its path.
+pub fn write_input_files(dir: &std::path::Path, main: &str, input: &[u8]) -> std::path::PathBuf {
+    let mut files: Vec<(String, Vec<u8>)> = vec![(main.to_string(), Vec::new())];
+    for line in input.split_inclusive(|&b| b == b'\n') {
+        let mark = line.strip_prefix(b"#=== ").map(|rest| {
+            let rest = rest.strip_suffix(b"\n").unwrap_or(rest);
+            rest.strip_suffix(b"\r").unwrap_or(rest)
+        });
+        match mark {
+            Some(other) if plain_name(other) => {
+                files.push((String::from_utf8_lossy(other).into_owned(), Vec::new()))
+            }
+            _ => files
+                .last_mut()
+                .expect("the main file")
+                .1
+                .extend_from_slice(line),
+        }
+    }
+    for (name, bytes) in files {
+        std::fs::write(dir.join(name), bytes).unwrap();
+    }
+    dir.join(main)
+}
+
+/// A name the harness takes for a file of an input: no folder, no leading dot.
+fn plain_name(name: &[u8]) -> bool {
+    (1..=40).contains(&name.len())
+        && name[0] != b'.'
+        && name
+            .iter()
+            .all(|&b| b.is_ascii_alphanumeric() || matches!(b, b'.' | b'_' | b'-'))
 }
