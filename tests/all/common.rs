@@ -1,4 +1,4 @@
-//! Shared helpers: machines for tests, the GPU (or the reason it is skipped), the inputs of past
+//! Shared helpers: machines for tests (and the shared ones of `tests/fixtures/`), the GPU (or the reason it is skipped), the inputs of past
 //! fuzzing findings.
 
 use std::sync::OnceLock;
@@ -182,6 +182,19 @@ pub fn rs274(program: &std::path::Path, canon: &std::path::Path) -> std::process
         .arg(canon)
         .output()
         .expect("rs274 starts")
+}
+
+/// The machine file `tests/fixtures/NAME.toml`, a machine several tests share.
+pub fn fixture_path(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(format!("{name}.toml"))
+}
+
+/// The text of the machine file `tests/fixtures/NAME.toml`.
+pub fn fixture(name: &str) -> String {
+    let path = fixture_path(name);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// The saved input of a fuzzing finding, `tests/fuzz-regressions/NAME`.
