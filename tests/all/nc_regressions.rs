@@ -184,7 +184,7 @@ fn compensated_half_circles_by_radius_read_back() {
 /// An arc in the XZ plane after `G53 G0 Z0` and no Z word since: its K was written relative to
 /// a Z the output had not written, as `KNaN`. Such an arc starts where the control has Z, not at
 /// a point of the program: it is refused now, naming its line and the G53 block
-/// (`fuzz_findings_nc`); with Z set again before it, its centre words are numbers.
+/// (`an_arc_from_a_homed_axis_is_refused_naming_both_lines`); with Z set again before it, its centre words are numbers.
 #[test]
 fn centre_words_after_a_reference_return_are_numbers() {
     let program = regression("gcode-arc-after-home.nc");
