@@ -279,7 +279,7 @@ fn the_harness_finds_each_kind_of_failure_and_saves_its_input() {
     let (kind, message, input) = first_finding(&PANICS, &plan);
     assert_eq!(kind, Kind::Panic);
     assert!(
-        message.contains("fuzz.rs") && message.contains("index out of bounds"),
+        message.contains("campaigns.rs") && message.contains("index out of bounds"),
         "{message}"
     );
     assert_eq!(
