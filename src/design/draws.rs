@@ -4,16 +4,12 @@
 //! allocation) reuse the same draws.
 
 use crate::model::perturbation::{Distribution, Tolerance};
+use crate::model::random::SplitMix64;
 
-/// SplitMix64's finaliser: a bijection of u64 that mixes every input bit into every output bit.
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// A uniform number in (0, 1) for counter `(seed, sample, term, k)`.
+/// A uniform number in (0, 1) for counter `(seed, sample, term, k)`, hashed by SplitMix64's
+/// finaliser (a bijection of u64).
 fn open_unit(seed: u64, sample: u64, term: u64, k: u64) -> f64 {
+    let mix = SplitMix64::mix;
     let z = mix(mix(mix(seed ^ 0x6A09_E667_F3BC_C909) ^ sample) ^ (term << 1 | k));
     ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
 }

@@ -12,6 +12,7 @@ use crate::io::field::{FieldError, FieldInfo, FieldWriter, Storage, WriteTimes};
 use crate::io::vtk::FieldImage;
 use crate::model::channels::CHANNELS;
 use crate::model::grid::Grid;
+use crate::model::random::SplitMix64;
 pub use crate::model::statistics::FieldStats;
 use crate::model::Machine;
 use crate::reference::Twin;
@@ -85,16 +86,11 @@ pub struct MapOptions {
     pub storage: Storage,
 }
 
-/// `n` distinct pseudo-random point numbers below `total`, sorted (splitmix64, fixed seed).
+/// `n` distinct pseudo-random point numbers below `total`, sorted (SplitMix64, a seed fixed by
+/// `total`).
 pub fn sample_points(total: u64, n: usize) -> Vec<u64> {
-    let mut state = 0x9E37_79B9_7F4A_7C15u64 ^ total;
-    let mut next = || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
+    let mut rng = SplitMix64::new(0x9E37_79B9_7F4A_7C15 ^ total);
+    let mut next = || rng.next_u64();
     let mut points: Vec<u64> = if n as u64 >= total {
         (0..total).collect()
     } else {

@@ -10,6 +10,7 @@ pub mod grid;
 pub mod inputs;
 pub mod perturbation;
 pub mod poses;
+pub mod random;
 mod spline;
 pub mod statistics;
 pub mod table2d;

@@ -65,7 +65,7 @@ fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
         machine.axis_mut(axis).unwrap().location[index] = value;
     }
     let setup = Setup::new(&machine, "").unwrap();
-    let mut rng = super::common::Rng(42);
+    let mut rng = super::common::Rng::new(42);
     let noise = 0.3e-3;
     let mut fit_toml = String::from("estimate = [\"EC0Y\", \"EB0Z\", \"EA0Z\"]\n");
     for plane in ["XY", "YZ", "ZX"] {
@@ -164,7 +164,7 @@ fn fit_recovers_a_rotary_axis_line_from_r_tests() {
         machine.axis_mut(C).unwrap().location[index] = value;
     }
     let setup = Setup::new(&machine, "").unwrap();
-    let mut rng = super::common::Rng(7);
+    let mut rng = super::common::Rng::new(7);
     let mut fit_toml = String::from("estimate = [\"EX0C\", \"EY0C\", \"EA0C\", \"EB0C\"]\n");
     // Two spheres at different heights separate the tilt of the line from its position.
     for (n, sphere) in [[150.0, 0.0, 20.0], [150.0, 0.0, 220.0]].iter().enumerate() {
@@ -214,7 +214,7 @@ fn fit_says_what_the_measurements_cannot_see() {
         "angle_deg,deviation_um",
         &result,
         0.0,
-        &mut super::common::Rng(1),
+        &mut super::common::Rng::new(1),
     );
     let file = |estimate: &str| {
         let text = format!(
@@ -377,7 +377,7 @@ fn thermal_measurements(
     ) + &format!("EB0Z = {b:e}\n");
     let truth = Machine::from_toml(&text, "truth.toml", None).unwrap();
     assert_eq!(truth.thermal, given.thermal);
-    let mut rng = super::common::Rng(11);
+    let mut rng = super::common::Rng::new(11);
     let mut fit_toml = format!("estimate = [{estimate}]\n");
     let circles = xy_halls.iter().map(|&t| ("XY", t)).chain([("ZX", 26.0)]);
     for (n, (plane, hall)) in circles.enumerate() {

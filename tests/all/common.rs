@@ -1,8 +1,10 @@
-//! Shared helpers: machines for tests, the GPU (or the reason it is skipped).
+//! Shared helpers: machines for tests (and the shared ones of `tests/fixtures/`), the GPU (or the reason it is skipped), the inputs of past
+//! fuzzing findings.
 
 use std::sync::OnceLock;
 
 use volmap::gpu::{GpuMapper, GpuSampler};
+use volmap::model::random::SplitMix64;
 use volmap::model::{AxisLetter, ErrorFunction, Interp, Machine, Table};
 
 /// The GPU engine, opened once. `None` (test skipped, with a line on stderr) only where no
@@ -38,21 +40,21 @@ pub fn sampler() -> Option<&'static GpuSampler> {
     sampler
 }
 
-/// A small deterministic generator (splitmix64) for test data.
-pub struct Rng(pub u64);
+/// Test data from the library's SplitMix64 (`Rng::new(seed)`), with uniform draws in a range.
+pub struct Rng(SplitMix64);
 
 impl Rng {
+    pub fn new(seed: u64) -> Rng {
+        Rng(SplitMix64::new(seed))
+    }
+
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.0.next_u64()
     }
 
     /// Uniform in [lo, hi).
     pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        lo + (hi - lo) * self.0.next_f64()
     }
 }
 
@@ -180,4 +182,60 @@ pub fn rs274(program: &std::path::Path, canon: &std::path::Path) -> std::process
         .arg(canon)
         .output()
         .expect("rs274 starts")
+}
+
+/// The machine file `tests/fixtures/NAME.toml`, a machine several tests share.
+pub fn fixture_path(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(format!("{name}.toml"))
+}
+
+/// The text of the machine file `tests/fixtures/NAME.toml`.
+pub fn fixture(name: &str) -> String {
+    let path = fixture_path(name);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The saved input of a fuzzing finding, `tests/fuzz-regressions/NAME`.
+pub fn fuzz_regression(name: &str) -> Vec<u8> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz-regressions")
+        .join(name);
+    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// Writes an input of several files as the fuzzing harness writes them (the main file, then each
+/// other file after a line `#=== NAME`) into `dir`, the main file as `main`; its path.
+pub fn write_input_files(dir: &std::path::Path, main: &str, input: &[u8]) -> std::path::PathBuf {
+    let mut files: Vec<(String, Vec<u8>)> = vec![(main.to_string(), Vec::new())];
+    for line in input.split_inclusive(|&b| b == b'\n') {
+        let mark = line.strip_prefix(b"#=== ").map(|rest| {
+            let rest = rest.strip_suffix(b"\n").unwrap_or(rest);
+            rest.strip_suffix(b"\r").unwrap_or(rest)
+        });
+        match mark {
+            Some(other) if plain_name(other) => {
+                files.push((String::from_utf8_lossy(other).into_owned(), Vec::new()))
+            }
+            _ => files
+                .last_mut()
+                .expect("the main file")
+                .1
+                .extend_from_slice(line),
+        }
+    }
+    for (name, bytes) in files {
+        std::fs::write(dir.join(name), bytes).unwrap();
+    }
+    dir.join(main)
+}
+
+/// A name the harness takes for a file of an input: no folder, no leading dot.
+fn plain_name(name: &[u8]) -> bool {
+    (1..=40).contains(&name.len())
+        && name[0] != b'.'
+        && name
+            .iter()
+            .all(|&b| b.is_ascii_alphanumeric() || matches!(b, b'.' | b'_' | b'-'))
 }

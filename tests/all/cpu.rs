@@ -47,7 +47,7 @@ fn cpu_plan_matches_the_reference() {
             &Grid::full_travel(&machine, [9, 7, 5], pose_for_machine).unwrap(),
         );
     }
-    let mut rng = Rng(5);
+    let mut rng = Rng::new(5);
     for chain in ["FYXCFZB", "FCAFZYX", "FFYZ", "FXYZBF"] {
         let letters: Vec<AxisLetter> = Chain::parse(chain).unwrap().axes().collect();
         let machine = with_random_errors(

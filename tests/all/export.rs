@@ -8,6 +8,8 @@ use volmap::model::inputs::Inputs;
 use volmap::model::{Command, Machine};
 use volmap::reference::Twin;
 
+use super::common::fixture;
+
 pub fn machine(toml: &str) -> Machine {
     Machine::from_toml(toml, "test.toml", None).unwrap()
 }
@@ -179,23 +181,11 @@ fn grid_csv_round_trip_gives_the_reported_residual() {
     assert!(finer < 1.1 * max, "{finer} vs {max}");
 }
 
-const SCALE_X: &str = r#"
-name = "x scale"
-chain = "FYXFZ"
-[axes.X]
-range = [0.0, 400.0]
-EXX = { poly = [0.0, 1.0e-4] }
-[axes.Y]
-range = [0.0, 300.0]
-[axes.Z]
-range = [0.0, 200.0]
-"#;
-
 #[test]
 fn grid_csv_holds_a_scale_error_to_rounding_with_the_hand_derived_correction() {
     // Real X tip at command c: c + 1e-4·c = x, so c = x / (1 + 1e-4) and dX = −1e-4·x / (1 + 1e-4):
     // linear, which a trilinear grid holds exactly; what is left is the 6 decimals.
-    let m = machine(SCALE_X);
+    let m = machine(&fixture("scale-x"));
     let inputs = Inputs::default();
     let exported = export::export(
         export::format_named("grid-csv").unwrap(),
@@ -319,7 +309,7 @@ fn an_unknown_format_lists_the_formats() {
 
 #[test]
 fn a_spacing_past_the_end_of_a_travel_covers_it() {
-    let m = machine(SCALE_X);
+    let m = machine(&fixture("scale-x"));
     let inputs = Inputs::default();
     let exported = export::export(
         export::format_named("grid-csv").unwrap(),

@@ -7,6 +7,7 @@
 
 use std::collections::BTreeMap;
 
+use super::common::fixture;
 use super::export::{dense, machine, request, residual};
 use volmap::export::{self, format::WrittenFile, ExportError, TableSize};
 use volmap::io::embedded;
@@ -130,24 +131,12 @@ fn fanuc() -> &'static dyn export::Format {
     export::format_named("fanuc").unwrap()
 }
 
-const SCALE_X: &str = r#"
-name = "x scale"
-chain = "FYXFZ"
-[axes.X]
-range = [0.0, 400.0]
-EXX = { poly = [0.0, 1.0e-4] }
-[axes.Y]
-range = [0.0, 300.0]
-[axes.Z]
-range = [0.0, 200.0]
-"#;
-
 #[test]
 fn fanuc_pitch_of_a_scale_error_by_hand() {
     // EXX = 1e-4·x: the real X is c(1 + 1e-4), so the correction is −1e-4·x/(1 + 1e-4):
     // −4.9995 µm per 50 mm, rounded −5, −10, …, −40: every increment −5 µm, NEGATIVE for an
     // axis that travels too far.
-    let m = machine(SCALE_X);
+    let m = machine(&fixture("scale-x"));
     let inputs = Inputs::default();
     let exported =
         export::export(fanuc(), &request(&m, &inputs, TableSize::Spacing(50.0))).unwrap();
@@ -248,7 +237,7 @@ fn fanuc_round_trip_gives_the_reported_residual() {
 fn fanuc_magnification_rises_where_an_increment_outgrows_a_byte() {
     // 3 mm/m: −149.55 µm per 50 mm, beyond 127: magnification 2, increments of 2 µm units,
     // the rounding carried in the sums (−75, −150, −224 …).
-    let m = machine(&SCALE_X.replace("1.0e-4", "3.0e-3"));
+    let m = machine(&fixture("scale-x").replace("1.0e-4", "3.0e-3"));
     let inputs = Inputs::default();
     let exported =
         export::export(fanuc(), &request(&m, &inputs, TableSize::Spacing(50.0))).unwrap();
@@ -347,9 +336,7 @@ fn fanuc_refuses_what_its_tables_cannot_take() {
     assert!(refused(TableSize::Spacing(0.5))
         .starts_with("a spacing of 0.5 mm is below the smallest a fanuc table takes: 1 mm"));
     // A squareness is no axis's error along itself: the tables hold nothing of it.
-    let square = machine(
-        "name = \"square\"\nchain = \"FYXFZ\"\n[axes.X]\nrange = [0.0, 400.0]\n[axes.Y]\nrange = [0.0, 300.0]\nEC0Y = 2.0e-5\n[axes.Z]\nrange = [0.0, 200.0]\n",
-    );
+    let square = machine(&fixture("squareness"));
     let e = export::export(fanuc(), &request(&square, &inputs, TableSize::Default))
         .err()
         .expect("refused");
@@ -446,7 +433,7 @@ fn fanuc_3d_round_trip_gives_the_reported_residual() {
 fn fanuc_3d_holds_a_scale_error_in_whole_microns() {
     // CX = −1e-4·x/(1 + 1e-4): −9.999 µm at 100 mm → −10, −39.996 at 400 → −40; linear, so
     // trilinear blending leaves only the rounding, at most 4 nm here.
-    let m = machine(SCALE_X);
+    let m = machine(&fixture("scale-x"));
     let inputs = Inputs::default();
     let exported = export::export(
         export::format_named("fanuc-3d").unwrap(),
@@ -470,7 +457,7 @@ fn fanuc_3d_holds_a_scale_error_in_whole_microns() {
 
 #[test]
 fn fanuc_reading_back_names_the_file_and_line_of_what_does_not_read() {
-    let m = machine(SCALE_X);
+    let m = machine(&fixture("scale-x"));
     let inputs = Inputs::default();
     let fitting = export::Fitting::new(&m, &inputs, [0.0; 6], Vec::new()).unwrap();
     let written = fanuc()

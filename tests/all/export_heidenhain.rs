@@ -12,6 +12,7 @@ use volmap::model::inputs::{Approach, Inputs};
 use volmap::reference::Twin;
 
 use crate::cli::volmap;
+use crate::common::fixture;
 use crate::export::{dense, machine, request, residual};
 
 /// The column names of a table and its rows, each field the text under its column's name up to
@@ -162,23 +163,11 @@ fn heidenhain_round_trip_gives_the_reported_residual_with_backlash() {
     }
 }
 
-const SCALE_X: &str = r#"
-name = "x scale"
-chain = "FYXFZ"
-[axes.X]
-range = [0.0, 400.0]
-EXX = { poly = [0.0, 1.0e-4] }
-[axes.Y]
-range = [0.0, 300.0]
-[axes.Z]
-range = [0.0, 200.0]
-"#;
-
 #[test]
 fn heidenhain_holds_a_pure_positioning_error_with_hand_derived_values() {
     // EXX = k·x: the error at command x is k·x/(1 + k) to the correction's first digits,
     // positive (X travels too far). Free points: a straight line needs its two ends.
-    let m = machine(SCALE_X);
+    let m = machine(&fixture("scale-x"));
     let inputs = Inputs::default();
     let free = export::export(heidenhain(), &request(&m, &inputs, TableSize::Default)).unwrap();
     let x = &tables(&free.files)[0];
@@ -208,23 +197,11 @@ fn heidenhain_holds_a_pure_positioning_error_with_hand_derived_values() {
     assert!(spaced.report.residual.max_mm <= 5e-5 * 1.01);
 }
 
-const SQUARE: &str = r#"
-name = "squareness"
-chain = "FYXFZ"
-[axes.X]
-range = [0.0, 400.0]
-[axes.Y]
-range = [0.0, 300.0]
-EC0Y = 2.0e-5
-[axes.Z]
-range = [0.0, 200.0]
-"#;
-
 #[test]
 fn heidenhain_holds_a_pure_squareness_in_the_x_column_of_y() {
     // EC0Y = γ: the X error as a function of Y is −y·tan γ (see the siemens test): −0.006 mm
     // at Y = 300, in y.com's X column; nothing else.
-    let m = machine(SQUARE);
+    let m = machine(&fixture("squareness"));
     let inputs = Inputs::default();
     let exported = export::export(heidenhain(), &request(&m, &inputs, TableSize::Default)).unwrap();
     let read = tables(&exported.files);
@@ -339,7 +316,7 @@ fn heidenhain_tables_have_the_fixed_width_form_line_by_line() {
 
 #[test]
 fn heidenhain_reader_refuses_what_the_control_would_not_load() {
-    let m = machine(SQUARE);
+    let m = machine(&fixture("squareness"));
     let inputs = Inputs::default();
     let exported = export::export(
         heidenhain(),

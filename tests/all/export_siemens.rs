@@ -15,6 +15,7 @@ use volmap::model::inputs::{Approach, Inputs};
 use volmap::reference::Twin;
 
 use crate::cli::volmap;
+use crate::common::fixture;
 use crate::export::{dense, machine, request, residual};
 
 /// A table as read here: which axis it reads (at its actual position for MSEC, at the setpoint
@@ -217,24 +218,12 @@ fn siemens_round_trip_gives_the_reported_residual_in_both_directions() {
     assert_eq!(texts[0], texts[1]);
 }
 
-const SCALE_X: &str = r#"
-name = "x scale"
-chain = "FYXFZ"
-[axes.X]
-range = [0.0, 400.0]
-EXX = { poly = [0.0, 1.0e-4] }
-[axes.Y]
-range = [0.0, 300.0]
-[axes.Z]
-range = [0.0, 200.0]
-"#;
-
 #[test]
 fn siemens_holds_a_pure_positioning_error_in_msec_with_hand_derived_values() {
     // EXX = k·x: the real X tip at command c is c·(1 + k); MSEC reads the actual position, so
     // its table is the error there, +k·c, as a laser measures it: positive where the axis
     // travels too far. The control then stands at c = x − k·c, whose tip is on x.
-    let m = machine(SCALE_X);
+    let m = machine(&fixture("scale-x"));
     let inputs = Inputs::default();
     let exported = export::export(siemens(), &request(&m, &inputs, TableSize::Points(5))).unwrap();
     let names: Vec<&str> = exported.files.iter().map(|f| f.name.as_str()).collect();
@@ -264,24 +253,12 @@ fn siemens_holds_a_pure_positioning_error_in_msec_with_hand_derived_values() {
     assert!(r.not_held.is_empty() && r.structural_mm < 1e-9);
 }
 
-const SQUARE: &str = r#"
-name = "squareness"
-chain = "FYXFZ"
-[axes.X]
-range = [0.0, 400.0]
-[axes.Y]
-range = [0.0, 300.0]
-EC0Y = 2.0e-5
-[axes.Z]
-range = [0.0, 200.0]
-"#;
-
 #[test]
 fn siemens_holds_a_pure_squareness_in_one_cross_table_with_hand_derived_values() {
     // EC0Y = γ tilts +Y towards −X: the tip of command (x, y) is at (x − y·sin γ, y·cos γ), the
     // command putting it on (x, y) is (x + y·tan γ, y / cos γ): d_x = y·tan γ, and the X1 error
     // as a function of Y1, −y·tan γ (X lags by y·tan γ; a negative value moves X positive).
-    let m = machine(SQUARE);
+    let m = machine(&fixture("squareness"));
     let inputs = Inputs::default();
     let exported = export::export(siemens(), &request(&m, &inputs, TableSize::Points(5))).unwrap();
     let read = tables(&exported.files);
@@ -424,7 +401,7 @@ fn siemens_reversal_is_a_negative_direction_cec_table_of_the_axis_itself() {
 
 #[test]
 fn siemens_reader_refuses_what_the_control_would_not_load() {
-    let m = machine(SQUARE);
+    let m = machine(&fixture("squareness"));
     let inputs = Inputs::default();
     let exported = export::export(siemens(), &request(&m, &inputs, TableSize::Points(5))).unwrap();
     let refused = |file: usize, from: &str, to: &str| -> String {

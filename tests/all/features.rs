@@ -424,3 +424,38 @@ fn positions_need_plane_datums() {
         "{message}"
     );
 }
+
+fn machine() -> Machine {
+    volmap::io::embedded::embedded("vmc-li2015")
+        .unwrap()
+        .unwrap()
+}
+
+/// A part whose ply output is named by a NUL byte: the name no file can have was reported as a
+/// failure of the work (exit code 1); it is the input's fault (exit code 2), and the message
+/// names the feature.
+#[test]
+fn an_output_name_no_file_can_have_is_bad_input() {
+    use volmap::error::{Classify, ErrorKind};
+    use volmap::part::{self, ErrorSource, PartFile};
+    let dir = tempfile::tempdir().unwrap();
+    let skin = "solid plate\nfacet normal 0 0 1\nouter loop\nvertex 0 0 -5\nvertex 100 0 -5\nvertex 100 80 -5\nendloop\nendfacet\nendsolid plate\n";
+    std::fs::write(dir.path().join("skin.stl"), skin).unwrap();
+    let path = dir.path().join("part.toml");
+    std::fs::write(
+        &path,
+        "name = \"profile\"\n[placement]\nzero_mm = [200.0, 150.0, 300.0]\n[cutter]\nradius_mm = 5.0\nlength_mm = 40.0\n[sampling]\nspacing_mm = 10.0\n\n[[features]]\nkind = \"profile\"\nname = \"top skin\"\nmesh = \"skin.stl\"\ntolerance_mm = 0.05\nply = \"\\u0000\"\n",
+    )
+    .unwrap();
+    let part = PartFile::read(&path).unwrap();
+    let machine = machine();
+    let Err(error) = part::evaluate(&part, ErrorSource::Exact(&machine), "part.toml") else {
+        panic!("refused");
+    };
+    let message = error.to_string();
+    assert_eq!(error.kind(), ErrorKind::Input, "{message}");
+    assert!(
+        message.contains("top skin") && message.contains("cannot write"),
+        "{message}"
+    );
+}

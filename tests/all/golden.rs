@@ -15,7 +15,7 @@ fn current() -> String {
     let mut out = String::from("machine,X,Y,Z,A,B,C,VE.X,VE.Y,VE.Z,OE.X,OE.Y,OE.Z\n");
     for (name, _) in embedded::EMBEDDED {
         let machine = embedded::load(name).unwrap();
-        let mut rng = Rng(11);
+        let mut rng = Rng::new(11);
         for _ in 0..6 {
             let mut command = [0.0; 6];
             for axis in &machine.axes {

@@ -5,6 +5,7 @@ use std::path::Path;
 use volmap::io::embedded;
 use volmap::io::machine_file::MachineError;
 use volmap::model::{AxisLetter, ErrorFunction, Interp, Machine};
+use volmap::nc;
 
 const GOOD: &str = r#"
 name = "3-axis VMC"
@@ -275,4 +276,63 @@ fn toml_syntax_errors_name_the_file_and_line() {
         .unwrap_err()
         .to_string();
     assert_mentions(&message, &["bad.toml", "line 2"]);
+}
+
+/// The embedded vmc-li2015, which tolerance files name the terms of.
+fn machine() -> Machine {
+    embedded::embedded("vmc-li2015").unwrap().unwrap()
+}
+
+/// A misspelt key of 3,000 characters was quoted whole in the message, as the command line
+/// shows it (`capped` cuts what is quoted between backticks, not the key's path).
+#[test]
+fn long_keys_are_quoted_within_80_characters() {
+    use volmap::error::capped;
+    let key = "k".repeat(3000);
+    let text = format!("name = \"m\"\nchain = \"FYXFZ\"\n[axes.X]\nrange = [0.0, 100.0]\n\"{key}\" = 1\n[axes.Y]\nrange = [0.0, 100.0]\n[axes.Z]\nrange = [0.0, 100.0]\n");
+    let message = capped(
+        &Machine::from_toml(&text, "m.toml", None)
+            .unwrap_err()
+            .to_string(),
+    );
+    assert!(message.len() < 400, "{message}");
+    assert!(message.starts_with("m.toml: axes.X.kkk"), "{message}");
+    let tolerances = format!("[\"{key}\"]\nx = 1\n");
+    let message = capped(
+        &volmap::io::tolerance_file::ToleranceFile::parse(
+            &tolerances,
+            std::path::Path::new("t.toml"),
+            &machine(),
+        )
+        .unwrap_err()
+        .to_string(),
+    );
+    assert!(message.len() < 400, "{message}");
+    assert!(message.starts_with("t.toml: kkk"), "{message}");
+}
+
+/// Work offsets of ten thousand unclosed inline tables overflowed the TOML parser's stack (an
+/// abort, on the command line too): every TOML reader refuses nesting beyond 64 levels first,
+/// naming the line.
+#[test]
+fn toml_nested_beyond_the_limit_is_refused_before_it_is_parsed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("offsets.toml");
+    std::fs::write(&path, "G54 = { [200.0, 200.0, 300.0]\n".repeat(10_000)).unwrap();
+    let error = nc::read_work_offsets(&path).unwrap_err().to_string();
+    assert!(
+        error.ends_with(
+            "line 64, column 9: arrays and inline tables nested more than 64 levels deep\n  | G54 = { [200.0, 200.0, 300.0]"
+        ),
+        "{error}"
+    );
+    let machine_file = dir.path().join("m.toml");
+    std::fs::write(&machine_file, format!("name = {}", "[".repeat(100_000))).unwrap();
+    let error = volmap::model::Machine::from_path(&machine_file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("line 1, column 72: arrays and inline tables nested more than 64"),
+        "{error}"
+    );
 }

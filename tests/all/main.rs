@@ -1,13 +1,9 @@
 //! volmap's integration tests, one binary. GPU tests skip only where no adapter exists; with
 //! `VOLMAP_REQUIRE_GPU=1` (set by CI) a missing adapter is a failure.
 
-/// The fuzzing harness counts the heap of the campaigns' threads (`fuzz`); other threads only
-/// pass through it.
-#[global_allocator]
-static ALLOCATOR: fuzz::harness::watch::CountingAllocator = fuzz::harness::watch::CountingAllocator;
-
 mod ballbar;
 mod calibrate;
+mod calibrate_regressions;
 mod citations;
 mod cli;
 mod common;
@@ -24,10 +20,8 @@ mod export_siemens;
 mod features;
 mod field;
 mod field_inputs;
+mod field_regressions;
 mod field_storage;
-mod fuzz;
-mod fuzz_findings;
-mod fuzz_findings_nc;
 mod golden;
 mod gpu;
 mod gpu_sparse;
@@ -42,6 +36,7 @@ mod nc_arcs;
 mod nc_inputs;
 mod nc_orientation;
 mod nc_posts;
+mod nc_regressions;
 mod plot;
 mod plot_extremes;
 mod plot_looks;
@@ -52,6 +47,7 @@ mod shaders;
 mod standards;
 mod standards_frames;
 mod standards_inputs;
+mod standards_regressions;
 mod standards_rotary;
 mod variants;
 mod vtk;

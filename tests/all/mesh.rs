@@ -193,3 +193,19 @@ fn vtk_reads_the_poly_data_with_the_deviation_as_its_scalars() {
         serde_json::json!([[0, 1, 2], [0, 2, 3], [2, 1, 3], [1, 0, 3]])
     );
 }
+
+/// A part whose mesh is /dev/zero read 512 MiB of zeros before the limit refused it (up to a
+/// second under load): a device's binary header says how much follows, and no more is read.
+#[cfg(unix)]
+#[test]
+fn an_endless_device_as_a_mesh_is_read_no_further_than_its_header() {
+    let error = volmap::io::mesh::Mesh::read_stl(std::path::Path::new("/dev/zero"))
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        error.starts_with("/dev/zero")
+            && error.ends_with("the header announces 0 triangles (84 bytes) but more follow"),
+        "{error}"
+    );
+}

@@ -59,7 +59,7 @@ fn trilinear_sampling_is_exact_where_the_field_is_trilinear() {
     let dir = tempfile::tempdir().unwrap();
     let machine = linear_machine();
     let field = LoadedField::open(&mapped(dir.path(), &machine, [7, 5, 4], [0.0; 6])).unwrap();
-    let mut rng = Rng(17);
+    let mut rng = Rng::new(17);
     let positions: Vec<[f64; 3]> = (0..500)
         .map(|_| {
             [
@@ -240,7 +240,7 @@ fn gpu_sampling_matches_the_cpu() {
             [0.0, 0.0, 0.0, 0.0, 30.0, 60.0],
         ))
         .unwrap();
-        let positions = positions_within(&field, 2000, &mut Rng(5));
+        let positions = positions_within(&field, 2000, &mut Rng::new(5));
         let points = parse_points(&points_csv(&positions), "p.csv").unwrap();
         let on_cpu = query::sample_field(&field, &points, "p.csv").unwrap();
         let on_gpu = query::sample_field_gpu(&field, &points, "p.csv", sampler).unwrap();
@@ -263,7 +263,7 @@ fn gpu_sampling_in_slabs_equals_one_slab() {
     let dir = tempfile::tempdir().unwrap();
     let machine = embedded::load("vmc-li2015").unwrap();
     let field = LoadedField::open(&mapped(dir.path(), &machine, [6, 5, 11], [0.0; 6])).unwrap();
-    let positions = positions_within(&field, 3000, &mut Rng(9));
+    let positions = positions_within(&field, 3000, &mut Rng::new(9));
     let points = parse_points(&points_csv(&positions), "p.csv").unwrap();
     let located: Vec<_> = points
         .iter()

@@ -112,7 +112,7 @@ fn rotary_axis_location_error() {
 fn zero_errors_give_zero_error_for_all_720_five_axis_orders() {
     let chains = all_five_axis_chains([X, Y, Z, B, C]);
     assert_eq!(chains.len(), 720);
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     for chain in &chains {
         let mut m = Machine::nominal("m", chain, &ranges(&[X, Y, Z, B, C])).unwrap();
         m.tool_offset_mm = [5.0, -3.0, -120.0];
@@ -185,7 +185,7 @@ fn hwang_and_iso10791_chains_are_the_same_machine() {
     .unwrap();
     assert_eq!(hwang.chain, iso.chain);
     assert_eq!(hwang.chain.product_order(), vec![C, X, Y, Z, B]);
-    let mut rng = Rng(3);
+    let mut rng = Rng::new(3);
     for _ in 0..50 {
         let c = [
             rng.uniform(0.0, 800.0),
@@ -229,7 +229,7 @@ proptest! {
     #[test]
     fn chain_product_equals_inverted_work_branch(chain_index in 0usize..720, seed in any::<u64>(), q in prop::array::uniform6(-1.0f64..1.0)) {
         let chain = &all_five_axis_chains([X, Y, Z, A, C])[chain_index];
-        let mut rng = Rng(seed);
+        let mut rng = Rng::new(seed);
         let m = with_random_errors(Machine::nominal("p", chain, &ranges(&[X, Y, Z, A, C])).unwrap(), &mut rng);
         let command = [q[0] * 1000.0, q[1] * 1000.0, q[2] * 1000.0, q[3] * 180.0, 0.0, q[5] * 180.0];
         let direct = relative_transform(&m, &command);
@@ -286,7 +286,7 @@ fn a_twin_commands_the_tip_where_it_is_asked_for() {
     let letters: Vec<AxisLetter> = Chain::parse(chain).unwrap().axes().collect();
     let machine = with_random_errors(
         Machine::nominal("five", chain, &ranges(&letters)).unwrap(),
-        &mut Rng(41),
+        &mut Rng::new(41),
     );
     let twin = reference::Twin::of(&machine);
     let start = [100.0, -200.0, 50.0, 0.0, 30.0, -60.0];

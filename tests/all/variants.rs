@@ -77,7 +77,7 @@ fn gpu_statistics_of_sampled_machines_match_the_cpu_engine_sample_by_sample() {
     ] {
         let machine = embedded::load(name).unwrap();
         let perturbations = perturbations(&machine);
-        let rows = rows(&perturbations, 7, &mut Rng(3));
+        let rows = rows(&perturbations, 7, &mut Rng::new(3));
         let variants = Variants {
             base: &machine,
             perturbations: &perturbations,
@@ -120,7 +120,7 @@ fn gpu_values_of_sampled_machines_at_positions_match_the_reference_sample_by_sam
     ] {
         let machine = embedded::load(name).unwrap();
         let perturbations = perturbations(&machine);
-        let mut rng = Rng(11);
+        let mut rng = Rng::new(11);
         let rows = rows(&perturbations, 5, &mut rng);
         let ranges: Vec<[f64; 2]> = [X, Y, Z]
             .iter()

@@ -95,12 +95,7 @@ fn isg_writes_the_configuration_list_the_parameters_and_the_start_up_lines() {
 fn bad_requests_exit_2_naming_the_problem() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let square = dir.path().join("square.toml");
-    std::fs::write(
-        &square,
-        "name = \"square\"\nchain = \"FYXFZ\"\n[axes.X]\nrange = [0.0, 400.0]\n[axes.Y]\nrange = [0.0, 300.0]\nEC0Y = 2.0e-5\n[axes.Z]\nrange = [0.0, 200.0]\n",
-    )
-    .unwrap();
+    let square = crate::common::fixture_path("squareness");
     let three = dir.path().join("three.toml");
     std::fs::write(
         &three,

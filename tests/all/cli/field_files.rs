@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use predicates::prelude::*;
 
-use super::volmap;
+use super::{refused, volmap};
 
 fn map(dir: &Path, name: &str, grid: &str, extra: &[&str]) -> PathBuf {
     let out = dir.join(name);
@@ -520,4 +520,43 @@ fn half_refuses_a_value_beyond_its_range_and_leaves_nothing() {
         .arg(&out)
         .assert()
         .success();
+}
+
+/// A field holding a NaN (a damaged file: volmap never writes one) was summarised and sampled
+/// as NaN with exit 0.
+#[test]
+fn a_field_holding_a_value_that_is_not_a_number_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    volmap()
+        .args([
+            "map",
+            "--machine",
+            "vmc-li2015",
+            "--device",
+            "cpu",
+            "--grid",
+            "3x3x3",
+            "--compression",
+            "none",
+            "--out",
+            "f.exr",
+        ])
+        .current_dir(d)
+        .assert()
+        .success();
+    let mut bytes = std::fs::read(d.join("f.exr")).unwrap();
+    let n = bytes.len();
+    bytes[n - 4..].copy_from_slice(&f32::NAN.to_le_bytes());
+    std::fs::write(d.join("c.exr"), bytes).unwrap();
+    std::fs::write(d.join("q.csv"), "X,Y,Z\n1000,600,500\n").unwrap();
+    let says = ["c.exr", "VE.Z of grid point (2, 2, 2) is NaN"];
+    refused(&["info", "c.exr"], d, &says);
+    refused(
+        &[
+            "sample", "--field", "c.exr", "--points", "q.csv", "--device", "cpu",
+        ],
+        d,
+        &says,
+    );
 }

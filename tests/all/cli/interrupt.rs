@@ -4,17 +4,8 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use super::volmap;
-
-/// The temporary files (`.NAME.PID.part`) in `dir`.
-fn temporaries(dir: &Path) -> Vec<String> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".part"))
-        .collect()
-}
+use super::outputs::points;
+use super::{temporaries, volmap};
 
 /// Starts a map large enough to be interrupted (with `extra` arguments), waits for its
 /// temporary file, sends `signal` and returns the exit code.
@@ -146,4 +137,48 @@ fn a_later_run_removes_stale_temporaries_of_gone_processes_only() {
     assert!(alive.exists());
     assert!(other.exists());
     assert!(dir.path().join("f.exr").exists());
+}
+
+/// A writer other than a map's, interrupted while it writes: `sample` streams its answer into
+/// its temporary file batch by batch.
+#[cfg(unix)]
+#[test]
+fn an_interrupted_sample_leaves_no_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    points(&d.join("many.csv"), 3_000_000, "p");
+    for (signal, code) in [("-TERM", 143), ("-HUP", 129)] {
+        let mut child = Command::new(assert_cmd::cargo::cargo_bin("volmap"))
+            .current_dir(d)
+            .args([
+                "sample",
+                "--exact",
+                "--machine",
+                "vmc-li2015",
+                "--points",
+                "many.csv",
+            ])
+            .args(["--out", "s.csv"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let start = Instant::now();
+        while temporaries(d).is_empty() {
+            assert!(
+                start.elapsed() < Duration::from_secs(60),
+                "no temporary file"
+            );
+            assert!(child.try_wait().unwrap().is_none(), "the run ended early");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let killed = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(killed.success());
+        assert_eq!(child.wait().unwrap().code(), Some(code));
+        assert!(temporaries(d).is_empty(), "{:?}", temporaries(d));
+        assert!(!d.join("s.csv").exists());
+    }
 }

@@ -2,7 +2,9 @@
 
 use predicates::prelude::*;
 
-use super::volmap;
+use std::path::Path;
+
+use super::{s, volmap};
 
 #[test]
 fn map_check_and_info_on_the_cpu() {
@@ -306,4 +308,67 @@ fn bench_prints_a_table_and_writes_json() {
             assert!(m["kernel_tiling"].is_null() && m["ceiling_tiling"].is_null());
         }
     }
+}
+
+#[test]
+fn a_chunk_below_a_grid_line_maps_one_line_per_chunk_on_every_device() {
+    let dir = tempfile::tempdir().unwrap();
+    let gpu = super::super::common::gpu().is_some();
+    let devices: &[&str] = if gpu { &["cpu", "gpu"] } else { &["cpu"] };
+    for device in devices {
+        let whole = dir.path().join(format!("{device}-whole.exr"));
+        let one = dir.path().join(format!("{device}-one.exr"));
+        for (path, chunk) in [(&whole, None), (&one, Some("1"))] {
+            let mut cmd = volmap();
+            cmd.args([
+                "map", "--grid", "8x6x5", "--check", "30", "--device", device,
+            ])
+            .arg("--out")
+            .arg(path);
+            if let Some(c) = chunk {
+                cmd.args(["--chunk-points", c]);
+            }
+            cmd.assert()
+                .success()
+                .stdout(predicate::str::contains(": ok"));
+        }
+        let sample = |field: &Path| {
+            let points = dir.path().join("p.csv");
+            std::fs::write(&points, "X,Y,Z\n0,0,0\n571.4,240,375\n1000,600,500\n").unwrap();
+            let output = volmap()
+                .args([
+                    "sample",
+                    "--device",
+                    "cpu",
+                    "--points",
+                    s(&points),
+                    "--field",
+                    s(field),
+                ])
+                .output()
+                .unwrap();
+            assert!(output.status.success());
+            String::from_utf8(output.stdout).unwrap()
+        };
+        assert_eq!(sample(&whole), sample(&one), "{device}");
+    }
+}
+
+#[test]
+fn a_gpu_map_without_a_window_system_prints_no_error() {
+    if super::super::common::gpu().is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let output = volmap()
+        .args(["map", "--grid", "8x8x8", "--device", "gpu", "--out"])
+        .arg(dir.path().join("f.exr"))
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("NODEVICE_SELECT")
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.to_lowercase().contains("error"), "{stderr}");
 }

@@ -1,4 +1,7 @@
-//! The `volmap` binary as a user runs it, command by command.
+//! The `volmap` binary as a user runs it: command by command (`map`, `sample`, `features`,
+//! `compensate`, …), then what holds across commands (`outputs`, `input_files`, `messages`,
+//! `flag_values`, `machine_values`), and the inputs every command refuses as one table
+//! (`refusals`).
 
 mod compensate;
 mod compensate_orientation;
@@ -6,29 +9,29 @@ mod design;
 mod evaluation_inputs;
 mod export;
 mod export_fanuc;
+mod features;
 mod field_files;
-mod finite;
-mod hardening_inputs;
-mod hardening_messages;
-mod hardening_outputs;
+mod flag_values;
+mod input_files;
 mod interrupt;
-mod limits;
 mod machine_files;
 mod machine_files_tables;
+mod machine_values;
 mod machines;
 mod map;
+mod messages;
+mod outputs;
 mod plot;
 mod profile_datums;
 mod query;
-mod robust;
+mod refusals;
 mod sample;
 mod standards;
 mod standards_frames;
 mod sweep;
-mod sweep_findings;
-mod sweep_messages;
-mod sweep_readers;
 mod trace;
+
+use std::path::Path;
 
 use assert_cmd::Command;
 use predicates::prelude::*;
@@ -56,6 +59,86 @@ pub fn succeeds(args: &[&str], dir: &std::path::Path) -> String {
     assert!(output.status.success(), "{args:?}: {stderr}");
     assert!(!stderr.contains("error"), "{args:?}: {stderr}");
     String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// A path as the `&str` an argument list takes.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// `base` then `extra`.
+pub fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+    base.iter().chain(extra).copied().collect()
+}
+
+/// Arguments built as `String`s, as `volmap().args` takes them.
+pub fn strs(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}
+
+/// Exit code 2, the error naming each of `named`, and no panic.
+pub fn assert_refused(cmd: &mut assert_cmd::Command, named: &[&str]) {
+    let output = cmd.output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    for n in named {
+        assert!(stderr.contains(n), "`{n}` not named in {stderr}");
+    }
+}
+
+/// The embedded example machine's file with the line of `key` replaced by `line`.
+pub fn machine_with(
+    dir: &std::path::Path,
+    name: &str,
+    key: &str,
+    line: &str,
+) -> std::path::PathBuf {
+    let output = volmap()
+        .args(["machines", "--show", "vmc-li2015"])
+        .output()
+        .unwrap();
+    let text = String::from_utf8(output.stdout).unwrap();
+    let prefix = format!("{key} = ");
+    assert!(text.lines().any(|l| l.starts_with(&prefix)), "{key}");
+    let changed: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if l.starts_with(&prefix) {
+                line.to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    let path = dir.join(name);
+    std::fs::write(&path, changed.join("\n")).unwrap();
+    path
+}
+
+/// The temporary files (`.NAME.PID.part`) in `dir`.
+pub fn temporaries(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".part"))
+        .collect()
+}
+
+/// An SVG written by a command: no NaN or infinity anywhere, no label longer than 16 characters.
+pub fn assert_finite_svg(path: &Path) {
+    let svg = std::fs::read_to_string(path).unwrap();
+    let words = svg.split(|c: char| !(c.is_alphanumeric() || c == '-' || c == '.'));
+    for word in words {
+        let word = word.trim_start_matches('-');
+        assert!(word != "NaN" && word != "inf", "{path:?}: {word}");
+    }
+    for label in svg.split("<text").skip(1) {
+        let text = label.split('>').nth(1).unwrap().split('<').next().unwrap();
+        if text.parse::<f64>().is_ok() {
+            assert!(text.chars().count() <= 16, "label `{text}`");
+        }
+    }
 }
 
 #[test]

@@ -9,7 +9,8 @@ use volmap::io::field::LoadedField;
 use volmap::io::points::parse_points;
 use volmap::query;
 
-use super::volmap;
+use super::sweep::{map, swept};
+use super::{refused, volmap};
 
 /// A 5×5×5 field of `vmc-li2015` (X 0 to 1000, Y 0 to 600, Z 0 to 500 mm).
 fn field(dir: &Path) -> std::path::PathBuf {
@@ -238,4 +239,142 @@ fn memory_stays_flat_in_the_number_of_points() {
             "{count} points: {peak} bytes resident at the peak"
         );
     }
+}
+
+/// The samples (CSV rows without the position columns) `volmap sample` writes.
+fn sample(field: &Path, points: &Path) -> Vec<String> {
+    let output = volmap()
+        .args(["sample", "--device", "cpu", "--field"])
+        .arg(field)
+        .arg("--points")
+        .arg(points)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8(output.stdout)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').skip(5).collect::<Vec<_>>().join(","))
+        .collect()
+}
+
+#[test]
+fn sample_picks_the_part_of_each_points_pose() {
+    let dir = tempfile::tempdir().unwrap();
+    let field = swept(dir.path());
+    let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    map(&["--pose", "B=90,C=180"], "cpu", &a);
+    map(&["--pose", "B=-90,C=0"], "cpu", &b);
+    let points = dir.path().join("p.csv");
+    std::fs::write(
+        &points,
+        "X,Y,Z,B,C\n100,200,300,90,180\n# a comment\n412.5,37,480,-90,0\n700,550,20,90,180\n",
+    )
+    .unwrap();
+    let from_sweep = sample(&field, &points);
+    let only = |keep: &[usize]| {
+        let text = std::fs::read_to_string(&points).unwrap();
+        let rows: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
+        let path = dir.path().join("only.csv");
+        let mut out = rows[0].to_string();
+        for &n in keep {
+            out.push('\n');
+            out.push_str(rows[n + 1]);
+        }
+        std::fs::write(&path, out).unwrap();
+        path
+    };
+    let at_a = sample(&a, &only(&[0, 2]));
+    let at_b = sample(&b, &only(&[1]));
+    assert_eq!(
+        from_sweep,
+        [at_a[0].clone(), at_b[0].clone(), at_a[1].clone()]
+    );
+
+    // A pose the file does not hold: exit 2, naming the line and listing the poses.
+    std::fs::write(&points, "X,Y,Z,B,C\n100,200,300,90,180\n100,200,300,45,0\n").unwrap();
+    volmap()
+        .args(["sample", "--field"])
+        .arg(&field)
+        .arg("--points")
+        .arg(&points)
+        .assert()
+        .code(2)
+        .stderr(
+            predicate::str::contains("line 3")
+                .and(predicate::str::contains("B=45,C=0"))
+                .and(predicate::str::contains("B=-90,C=0 B=-90,C=90"))
+                .and(predicate::str::contains("B=90,C=270")),
+        );
+    // Columns that leave several parts: exit 2, saying which column to add.
+    std::fs::write(&points, "X,Y,Z,B\n100,200,300,90\n").unwrap();
+    volmap()
+        .args(["sample", "--field"])
+        .arg(&field)
+        .arg("--points")
+        .arg(&points)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("line 2").and(predicate::str::contains("column C")));
+}
+
+/// A machine without a Y axis: the points file holds X, Y and Z, and Y is 0 on it.
+#[test]
+fn a_machine_without_a_linear_axis_is_sampled_at_its_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("xz.toml"),
+        "name = \"two axes\"\nchain = \"FXFZ\"\n[axes.X]\nrange = [0.0, 100.0]\nEXX = { poly = [0.0, 2.4e-4] }\n[axes.Z]\nrange = [0.0, 100.0]\nEZZ = 1e-7\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("q.csv"), "X,Y,Z\n50,0,20\n").unwrap();
+    let output = volmap()
+        .args([
+            "sample",
+            "--exact",
+            "--machine",
+            "xz.toml",
+            "--points",
+            "q.csv",
+        ])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = String::from_utf8(output.stdout).unwrap();
+    let row: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    // EXX = 2.4e-4·x at x = 50 and EZZ = 1e-7: VE = (0.012, 0, 1e-7).
+    assert!(
+        (row[3] - 0.012).abs() < 1e-12 && row[4] == 0.0 && (row[5] - 1e-7).abs() < 1e-12,
+        "{text}"
+    );
+    std::fs::write(d.join("q.csv"), "X,Y,Z\n50,5,20\n").unwrap();
+    refused(
+        &[
+            "sample",
+            "--exact",
+            "--machine",
+            "xz.toml",
+            "--points",
+            "q.csv",
+        ],
+        d,
+        &["q.csv: line 2: Y=5 lies outside the machine's travel (0 to 0)"],
+    );
 }

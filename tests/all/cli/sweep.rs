@@ -1,7 +1,7 @@
 //! Five-axis maps over the rotary axes: `volmap map --poses` writes one multi-part field, one part
 //! per pose, each the field `map --pose` writes alone, and `info` summarises it; exrheader and
-//! Python OpenEXR open it; bad sweeps are refused naming `--poses`. The other readers are in
-//! `sweep_readers.rs`.
+//! Python OpenEXR open it; bad sweeps are refused naming `--poses`. The other readers of a sweep
+//! are with their commands (`sample`, `plot`, `features`).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

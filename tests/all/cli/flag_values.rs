@@ -1,7 +1,11 @@
-//! What a sweep of the command line with bad values found (README "Inputs, outputs and their
-//! limits"), each now refused with exit code 2 naming the flag or key, or done right.
+//! The values flags take, on every command: counts and values that would abort, loop for ever
+//! or give output that is not a number are bounded (exit 2 naming the flag); a name given twice,
+//! an empty list item or a bare value beside named ones is refused, not taken silently.
 
-use super::{refused, volmap};
+use super::{refused, s, succeeds, volmap, with};
+
+/// Measured positioning errors of X, as `build --axis` reads them.
+pub const MEASURED_X: &str = "position_mm,EXX_um\n0,0\n500,2\n1000,3\n";
 
 /// Counts and values that made an abort, an endless loop or output that is not a number.
 #[test]
@@ -138,128 +142,6 @@ fn unbounded_values_are_refused_naming_the_flag() {
     }
 }
 
-/// A field holding a NaN (a damaged file: volmap never writes one) was summarised and sampled
-/// as NaN with exit 0.
-#[test]
-fn a_field_holding_a_value_that_is_not_a_number_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    volmap()
-        .args([
-            "map",
-            "--machine",
-            "vmc-li2015",
-            "--device",
-            "cpu",
-            "--grid",
-            "3x3x3",
-            "--compression",
-            "none",
-            "--out",
-            "f.exr",
-        ])
-        .current_dir(d)
-        .assert()
-        .success();
-    let mut bytes = std::fs::read(d.join("f.exr")).unwrap();
-    let n = bytes.len();
-    bytes[n - 4..].copy_from_slice(&f32::NAN.to_le_bytes());
-    std::fs::write(d.join("c.exr"), bytes).unwrap();
-    std::fs::write(d.join("q.csv"), "X,Y,Z\n1000,600,500\n").unwrap();
-    let says = ["c.exr", "VE.Z of grid point (2, 2, 2) is NaN"];
-    refused(&["info", "c.exr"], d, &says);
-    refused(
-        &[
-            "sample", "--field", "c.exr", "--points", "q.csv", "--device", "cpu",
-        ],
-        d,
-        &says,
-    );
-}
-
-/// A machine without a Y axis: the points file holds X, Y and Z, and Y is 0 on it.
-#[test]
-fn a_machine_without_a_linear_axis_is_sampled_at_its_zero() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    std::fs::write(
-        d.join("xz.toml"),
-        "name = \"two axes\"\nchain = \"FXFZ\"\n[axes.X]\nrange = [0.0, 100.0]\nEXX = { poly = [0.0, 2.4e-4] }\n[axes.Z]\nrange = [0.0, 100.0]\nEZZ = 1e-7\n",
-    )
-    .unwrap();
-    std::fs::write(d.join("q.csv"), "X,Y,Z\n50,0,20\n").unwrap();
-    let output = volmap()
-        .args([
-            "sample",
-            "--exact",
-            "--machine",
-            "xz.toml",
-            "--points",
-            "q.csv",
-        ])
-        .current_dir(d)
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    let text = String::from_utf8(output.stdout).unwrap();
-    let row: Vec<f64> = text
-        .lines()
-        .nth(1)
-        .unwrap()
-        .split(',')
-        .map(|v| v.parse().unwrap())
-        .collect();
-    // EXX = 2.4e-4·x at x = 50 and EZZ = 1e-7: VE = (0.012, 0, 1e-7).
-    assert!(
-        (row[3] - 0.012).abs() < 1e-12 && row[4] == 0.0 && (row[5] - 1e-7).abs() < 1e-12,
-        "{text}"
-    );
-    std::fs::write(d.join("q.csv"), "X,Y,Z\n50,5,20\n").unwrap();
-    refused(
-        &[
-            "sample",
-            "--exact",
-            "--machine",
-            "xz.toml",
-            "--points",
-            "q.csv",
-        ],
-        d,
-        &["q.csv: line 2: Y=5 lies outside the machine's travel (0 to 0)"],
-    );
-}
-
-/// `--out /dev/null` as root renamed a file over the device; it is written directly now.
-#[cfg(unix)]
-#[test]
-fn an_output_that_is_a_device_stays_a_device() {
-    use std::os::unix::fs::FileTypeExt;
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("q.csv"), "X,Y,Z\n100,100,100\n").unwrap();
-    volmap()
-        .args([
-            "sample",
-            "--exact",
-            "--machine",
-            "vmc-li2015",
-            "--points",
-            "q.csv",
-            "--out",
-            "/dev/null",
-        ])
-        .current_dir(dir.path())
-        .assert()
-        .success();
-    assert!(std::fs::metadata("/dev/null")
-        .unwrap()
-        .file_type()
-        .is_char_device());
-}
-
 /// Tool lengths of 1e12 mm gave deviations of 2e7 mm; two bare lengths, a bare one beside
 /// per-tool ones, an empty item or a tool twice were taken silently.
 #[test]
@@ -349,64 +231,166 @@ fn a_work_offset_twice_and_two_outputs_on_one_file_are_refused() {
         .success();
 }
 
-/// A machine's name with terminal escapes or a NUL was printed whole in every summary.
 #[test]
-fn a_machine_name_with_control_characters_is_refused() {
+fn a_name_given_twice_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("q.csv"), "X,Y,Z\n1,1,1\n").unwrap();
-    let machine = "chain = \"FFXYZ\"\n[axes.X]\nrange = [0.0, 10.0]\n[axes.Y]\nrange = [0.0, 10.0]\n[axes.Z]\nrange = [0.0, 10.0]\n";
-    for name in ["\\u001b[31mred", "a\\u0000b", &"n".repeat(201)] {
-        std::fs::write(d.join("m.toml"), format!("name = \"{name}\"\n{machine}")).unwrap();
+    std::fs::write(d.join("x.csv"), MEASURED_X).unwrap();
+    let build =
+        |extra: &[&'static str]| with(&["build", "--base", "vmc-li2015", "--out", "b.toml"], extra);
+    refused(
+        &build(&["--axis", "X=x.csv", "--axis", "X=x.csv"]),
+        d,
+        &["--axis", "X is given twice"],
+    );
+    refused(
+        &build(&["--axis", "X=x.csv", "--interp", "EXX=linear,EXX=cubic"]),
+        d,
+        &["--interp", "EXX is given twice"],
+    );
+    assert!(!d.join("b.toml").exists());
+    // The same measurements once each build a machine.
+    succeeds(&build(&["--axis", "X=x.csv", "--interp", "EXX=linear"]), d);
+
+    std::fs::write(
+        d.join("tol.toml"),
+        "[axes.X]\nEXX = { uniform = 1e-3 }\nEYX = { uniform = 1e-3 }\n",
+    )
+    .unwrap();
+    for terms in ["EXX,EXX", "EXX,axes.X.EXX"] {
         refused(
             &[
-                "sample",
-                "--exact",
+                "budget",
                 "--machine",
-                "m.toml",
-                "--points",
-                "q.csv",
+                "vmc-li2015",
+                "--tolerances",
+                "tol.toml",
+                "--grid",
+                "2x2x2",
+                "--device",
+                "cpu",
+                "--samples",
+                "3",
+                "--spec",
+                "0.1",
+                "--allocate",
+                "--allocate-terms",
+                terms,
             ],
             d,
-            &["m.toml", "name", "without control characters"],
+            &["--allocate-terms", "names a term already named"],
         );
     }
-    std::fs::write(d.join("m.toml"), format!("name = \"plain\"\n{machine}")).unwrap();
-    volmap()
-        .args([
-            "sample",
-            "--exact",
-            "--machine",
-            "m.toml",
-            "--points",
-            "q.csv",
-        ])
-        .current_dir(d)
-        .assert()
-        .success();
-}
 
-/// `trace` evaluated moves beyond the travels with exit 0, where `compensate` and `sample`
-/// refuse them.
-#[test]
-fn trace_refuses_a_move_beyond_the_travel() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    std::fs::write(d.join("p.nc"), "G90 G0 X0 Y0 Z10\nG1 X5000 F500\nM30\n").unwrap();
+    // A table of two axes that names one of them twice.
+    std::fs::write(
+        d.join("t2.toml"),
+        "name = \"t2\"\nchain = \"FFXYZ\"\n[axes.X]\nrange = [0.0, 100.0]\n[axes.Y]\nrange = [0.0, 100.0]\n\
+         EZY = { table2d = { of = [\"Y\", \"Y\"], x = [0.0, 100.0], y = [0.0, 100.0], values = [[0.0, 1e-3], [1e-3, 2e-3]] } }\n\
+         [axes.Z]\nrange = [0.0, 100.0]\n",
+    )
+    .unwrap();
     refused(
         &[
-            "trace",
+            "map",
             "--machine",
-            "vmc-li2015",
-            "--program",
-            "p.nc",
-            "--work-offset",
-            "G54=100,100,100",
+            "t2.toml",
+            "--grid",
+            "2x2x2",
+            "--device",
+            "cpu",
+            "--out",
+            "f.exr",
         ],
         d,
-        &[
-            "p.nc: line 2: the move reaches X=",
-            "outside the travel of X",
-        ],
+        &["t2.toml", "axes.Y.EZY", "of", "names Y twice"],
+    );
+    assert!(!d.join("f.exr").exists());
+}
+
+#[test]
+fn empty_list_items_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let map = |flag: &str, value: &str, machine: &str| {
+        vec![
+            "map".to_string(),
+            "--machine".into(),
+            machine.into(),
+            "--grid".into(),
+            "2x2x2".into(),
+            "--device".into(),
+            "cpu".into(),
+            "--out".into(),
+            "f.exr".into(),
+            flag.into(),
+            value.into(),
+        ]
+    };
+    for (flag, value, machine) in [
+        ("--pose", "B=30,", "5axis-hwang2014"),
+        ("--pose", ",B=30", "5axis-hwang2014"),
+        ("--pose", "B=30,,C=10", "5axis-hwang2014"),
+        ("--temperatures", "x_scale=25,", "gantry-2m"),
+        ("--approach", "X=-,", "vmc-li2015"),
+    ] {
+        let args = map(flag, value, machine);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        refused(&args, d, &[flag]);
+        assert!(!d.join("f.exr").exists());
+        // Without the empty item the value is taken.
+        let clean = value.trim_matches(',').replace(",,", ",");
+        let args = map(flag, &clean, machine);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        succeeds(&args, d);
+        std::fs::remove_file(d.join("f.exr")).unwrap();
+    }
+}
+
+/// The limits of the counts `refusals` refuses beyond are themselves taken: a positioning test
+/// of 100,000 targets and 100 runs, a compensation written with 15 decimals (more than 9 on the
+/// compensated G0).
+#[test]
+fn counts_at_their_limits_are_taken() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("p.nc");
+    std::fs::write(&program, "G0 X10 Y10 Z10\nG1 X500 Y300 Z200 F1000\n").unwrap();
+    let out = dir.path().join("o.nc");
+    let li = ["--machine", "vmc-li2015"];
+    // The limits themselves pass.
+    volmap()
+        .args([
+            "test",
+            "positioning",
+            "--axis",
+            "X",
+            "--targets",
+            "100000",
+            "--runs",
+            "100",
+        ])
+        .args(li)
+        .assert()
+        .success();
+    volmap()
+        .args([
+            "compensate",
+            "--program",
+            s(&program),
+            "--out",
+            s(&out),
+            "--decimals",
+            "15",
+        ])
+        .args(li)
+        .assert()
+        .success();
+    // The coordinates of the compensated G0 are written with more than 9 decimals.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let decimals = |word: &str| word.split('.').nth(1).map_or(0, str::len);
+    assert!(
+        text.split_whitespace()
+            .any(|w| w.starts_with('X') && decimals(w) > 9),
+        "{text}"
     );
 }

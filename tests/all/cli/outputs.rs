@@ -1,28 +1,19 @@
-//! Nothing lost: two runs on one output each write a whole file under a temporary name of their
-//! own (the file left is one of them, whole); an output that is one of the run's inputs is
-//! refused before anything is written; a full disk (a file-size limit) and an interruption leave
-//! no temporary file.
+//! How results are written, whatever the command: two runs on one output each write a whole
+//! file under a temporary name of their own (the file left is one of them, whole); an output
+//! that is one of the run's inputs, or two outputs of one run on one file (through a link too),
+//! are refused before anything is written; a full disk (a file-size limit) leaves no temporary
+//! file and a failed run no partial one; a device stays a device; a closed or full standard
+//! output ends the command without a panic.
 
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 use predicates::prelude::*;
 
-use super::volmap;
-
-/// The files in `dir` whose names end in `.part`.
-fn temporaries(dir: &Path) -> Vec<String> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with(".part"))
-        .collect()
-}
+use super::{refused, succeeds, temporaries, volmap};
 
 /// A points file of `count` positions inside vmc-li2015's travels, with a label column `tag`.
-fn points(path: &Path, count: usize, tag: &str) {
+pub fn points(path: &Path, count: usize, tag: &str) {
     let mut text = String::from("X,Y,Z,tag\n");
     for n in 0..count {
         text += &format!("{},{},{},{tag}{n}\n", n % 997, n % 593, n % 487);
@@ -239,6 +230,46 @@ fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
     assert!(temporaries(d).is_empty(), "{:?}", temporaries(d));
 }
 
+/// Two outputs of one run through a link to one file: one file, refused as two flags naming it.
+#[cfg(unix)]
+#[test]
+fn two_outputs_through_a_link_are_one_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("real")).unwrap();
+    std::os::unix::fs::symlink(d.join("real"), d.join("alias")).unwrap();
+    std::fs::write(d.join("p.nc"), "G90 G0 X100 Y100 Z100\nG1 X200 F100\nM30\n").unwrap();
+    let compensate = |out: &'static str, json: &'static str| {
+        [
+            "compensate",
+            "--machine",
+            "vmc-li2015",
+            "--program",
+            "p.nc",
+            "--out",
+            out,
+            "--json",
+            json,
+        ]
+    };
+    // The folder through a link, the file not there yet.
+    refused(
+        &compensate("real/c.nc", "alias/c.nc"),
+        d,
+        &["--json", "is also the output of --out"],
+    );
+    // A hard link to a file that is there.
+    std::fs::write(d.join("real/old.nc"), "old").unwrap();
+    std::fs::hard_link(d.join("real/old.nc"), d.join("hard.nc")).unwrap();
+    refused(
+        &compensate("real/old.nc", "hard.nc"),
+        d,
+        &["--json", "is also the output of --out"],
+    );
+    assert_eq!(std::fs::read_to_string(d.join("hard.nc")).unwrap(), "old");
+    succeeds(&compensate("real/c.nc", "alias/c.json"), d);
+}
+
 /// Runs volmap with `args` in `dir` under a file-size limit of `bytes` (a full disk, as a
 /// process meets one without root); SIGXFSZ keeps its default action: volmap itself ignores it.
 #[cfg(unix)]
@@ -305,46 +336,134 @@ fn a_full_disk_leaves_no_temporary_file() {
     }
 }
 
-/// A writer other than a map's, interrupted while it writes: `sample` streams its answer into
-/// its temporary file batch by batch.
-#[cfg(unix)]
 #[test]
-fn an_interrupted_sample_leaves_no_temporary_file() {
+fn a_failed_allocation_leaves_no_per_sample_file() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    points(&d.join("many.csv"), 3_000_000, "p");
-    for (signal, code) in [("-TERM", 143), ("-HUP", 129)] {
-        let mut child = Command::new(assert_cmd::cargo::cargo_bin("volmap"))
-            .current_dir(d)
-            .args([
-                "sample",
-                "--exact",
-                "--machine",
-                "vmc-li2015",
-                "--points",
-                "many.csv",
-            ])
-            .args(["--out", "s.csv"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
+    // A tolerance of zero width: the allocated factor could grow without limit.
+    std::fs::write(d.join("zero.toml"), "[axes.X]\nEXX = { uniform = 0 }\n").unwrap();
+    let budget = |allocate: bool| {
+        let mut args = vec![
+            "budget",
+            "--machine",
+            "vmc-li2015",
+            "--tolerances",
+            "zero.toml",
+            "--grid",
+            "2x2x2",
+            "--device",
+            "cpu",
+            "--samples",
+            "3",
+            "--spec",
+            "0.1",
+            "--per-sample",
+            "ps.csv",
+        ];
+        if allocate {
+            args.push("--allocate");
+        }
+        args
+    };
+    refused(&budget(true), d, &["--allocate"]);
+    assert!(!d.join("ps.csv").exists());
+    // Without the allocation the same run writes it.
+    succeeds(&budget(false), d);
+    assert!(d.join("ps.csv").exists());
+}
+
+/// `--out /dev/null` as root renamed a file over the device; it is written directly now.
+#[cfg(unix)]
+#[test]
+fn an_output_that_is_a_device_stays_a_device() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("q.csv"), "X,Y,Z\n100,100,100\n").unwrap();
+    volmap()
+        .args([
+            "sample",
+            "--exact",
+            "--machine",
+            "vmc-li2015",
+            "--points",
+            "q.csv",
+            "--out",
+            "/dev/null",
+        ])
+        .current_dir(dir.path())
+        .assert()
+        .success();
+    assert!(std::fs::metadata("/dev/null")
+        .unwrap()
+        .file_type()
+        .is_char_device());
+}
+
+/// `volmap … | head`: a standard output closed under a command ends it quietly with 141 (128 +
+/// SIGPIPE), as Unix tools end, and a full one (`> /dev/full`) with an error and exit 1; never a
+/// panic.
+#[cfg(unix)]
+#[test]
+fn a_closed_or_full_standard_output_ends_the_command_without_a_panic() {
+    use std::io::Read;
+    use std::process::{Command, Stdio};
+    let dir = tempfile::tempdir().unwrap();
+    let points = dir.path().join("p.csv");
+    let mut text = String::from("X,Y,Z\n");
+    for n in 0..200_000 {
+        text += &format!("{},{},{}\n", n % 997, n % 593, n % 487);
+    }
+    std::fs::write(&points, text).unwrap();
+    let volmap = assert_cmd::cargo::cargo_bin("volmap");
+    // The values on standard output, the data pipe closed after its first bytes; the text
+    // report of `test`, closed before it is read.
+    let runs: [Vec<std::ffi::OsString>; 2] = [
+        ["sample", "--machine", "vmc-li2015", "--exact", "--points"]
+            .iter()
+            .map(Into::into)
+            .chain([points.clone().into_os_string()])
+            .collect(),
+        [
+            "test",
+            "positioning",
+            "--machine",
+            "gantry-2m",
+            "--axis",
+            "X",
+            "--targets",
+            "5000",
+        ]
+        .iter()
+        .map(Into::into)
+        .collect(),
+    ];
+    for args in &runs {
+        let mut child = Command::new(&volmap)
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        let start = Instant::now();
-        while temporaries(d).is_empty() {
-            assert!(
-                start.elapsed() < Duration::from_secs(60),
-                "no temporary file"
-            );
-            assert!(child.try_wait().unwrap().is_none(), "the run ended early");
-            std::thread::sleep(Duration::from_millis(5));
-        }
-        let killed = Command::new("kill")
-            .args([signal, &child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(killed.success());
-        assert_eq!(child.wait().unwrap().code(), Some(code));
-        assert!(temporaries(d).is_empty(), "{:?}", temporaries(d));
-        assert!(!d.join("s.csv").exists());
+        let mut first = [0u8; 16];
+        child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+        let output = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(141), "{args:?}: {stderr}");
+        assert!(stderr.is_empty(), "{args:?}: {stderr}");
     }
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let output = Command::new(&volmap)
+        .args(["machines", "--show", "gantry-2m"])
+        .stdout(full)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("error: writing to standard output") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
 }

@@ -1,7 +1,7 @@
 //! The mutations of the text formats: TOML, CSV, G-code.
 
-use super::super::mutate::{interesting_number, lines, with_line_end, Material};
-use super::super::rng::Rng;
+use crate::mutate::{interesting_number, lines, with_line_end, Material};
+use crate::rng::Rng;
 
 /// Where the value of a random `key = value` line starts and ends (the line end excluded).
 fn value_span(data: &[u8], rng: &mut Rng) -> Option<(usize, usize)> {

@@ -1,16 +1,14 @@
-//! The campaign runner of volmap's fuzzing harness (see `harness`):
+//! The campaign runner of volmap's fuzzing harness (the library of this crate):
 //!
 //! ```text
-//! cargo run --release --example fuzz -- --target machine --executions 10000000 --seed 1
-//! cargo run --release --example fuzz -- --target all --executions 100000
-//! cargo run --release --example fuzz -- --target gcode --replay target/fuzz-findings/gcode-panic-seed1-execution42.bin
-//! cargo run --release --example fuzz -- --target gcode --seed 1 --at 42 --save input.nc
+//! cargo run --release -p volmap-fuzz -- --target machine --executions 10000000 --seed 1
+//! cargo run --release -p volmap-fuzz -- --target all --executions 100000
+//! cargo run --release -p volmap-fuzz -- --target gcode --replay target/fuzz-findings/gcode-panic-seed1-execution42.bin
+//! cargo run --release -p volmap-fuzz -- --target gcode --seed 1 --at 42 --save input.nc
 //! ```
 //!
 //! Exit code 0 when no campaign found anything, 1 when one did (each finding's input is saved
 //! under `--findings`), 2 when the campaign could not run.
-
-mod harness;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -18,9 +16,9 @@ use std::time::Duration;
 
 use clap::Parser;
 
-use harness::campaign::{self, Plan};
-use harness::targets::{self, Outcome, TARGETS};
-use harness::watch::{CountingAllocator, ThreadClock};
+use volmap_fuzz::campaign::{self, Plan};
+use volmap_fuzz::targets::{self, Outcome, TARGETS};
+use volmap_fuzz::watch::{CountingAllocator, ThreadClock};
 
 #[global_allocator]
 static ALLOCATOR: CountingAllocator = CountingAllocator;
@@ -41,7 +39,7 @@ struct Args {
     #[arg(long, default_value_t = 0)]
     first: u64,
     /// Where the inputs of findings are saved.
-    #[arg(long, default_value = concat!(env!("CARGO_MANIFEST_DIR"), "/target/fuzz-findings"))]
+    #[arg(long, default_value_os_t = volmap_fuzz::findings_folder())]
     findings: PathBuf,
     /// Collect up to 16 distinct findings instead of stopping at the first.
     #[arg(long)]

@@ -2,8 +2,8 @@
 
 use volmap::io::field::{FieldFile, LoadedField};
 
-use super::super::mutate::Grammar;
 use super::{read, Context, Outcome, Target, Verdict};
+use crate::mutate::Grammar;
 
 pub const FIELD: Target = Target {
     name: "field",

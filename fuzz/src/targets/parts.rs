@@ -7,9 +7,9 @@ use volmap::io::points::PointReader;
 use volmap::part::{self, ErrorSource, PartFile};
 use volmap::query::{sample_exact_within, Outside};
 
-use super::super::mutate::Grammar;
 use super::machine::{as_strs, names};
 use super::{read, Context, Outcome, Target, Verdict};
+use crate::mutate::Grammar;
 
 const PART_WORDS: &[&str] = &[
     "name",

@@ -1,6 +1,8 @@
-//! The campaign's random numbers: xoshiro256** seeded by splitmix64 from the campaign's seed and
+//! The campaign's random numbers: xoshiro256** seeded by the library's SplitMix64 from the campaign's seed and
 //! the execution's number, so that execution `n` of seed `s` is the same input whatever ran
 //! before it (`--seed s --at n` makes it again without running the others).
+
+use volmap::model::random::SplitMix64;
 
 /// A small, fast generator; not for anything but choosing mutations.
 #[derive(Debug, Clone)]
@@ -8,25 +10,18 @@ pub struct Rng {
     state: [u64; 4],
 }
 
-fn splitmix64(x: &mut u64) -> u64 {
-    *x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *x;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 impl Rng {
     /// The generator of execution `execution` of the campaign with `seed`.
     pub fn for_execution(seed: u64, execution: u64) -> Rng {
-        let mut x = seed ^ execution.wrapping_mul(0xD605_0B43_FA61_0F71);
-        let mut mix = splitmix64(&mut x) ^ execution;
+        let first =
+            SplitMix64::new(seed ^ execution.wrapping_mul(0xD605_0B43_FA61_0F71)).next_u64();
+        let mut seeds = SplitMix64::new(first ^ execution);
         Rng {
             state: [
-                splitmix64(&mut mix),
-                splitmix64(&mut mix),
-                splitmix64(&mut mix),
-                splitmix64(&mut mix),
+                seeds.next_u64(),
+                seeds.next_u64(),
+                seeds.next_u64(),
+                seeds.next_u64(),
             ],
         }
     }

@@ -1,25 +1,17 @@
 //! Short fuzzing campaigns of every parser and reader, run on every change (README "Fuzzing"):
-//! the harness of `fuzz/` (the one the long campaigns run), a few thousand executions per
+//! the harness of this crate (the one the long campaigns run), a few thousand executions per
 //! target from a fixed seed (`VOLMAP_FUZZ_SEED` picks another), each failing the test with the
 //! finding and the saved input; the corpus read as it is; and the harness's own checks (a
 //! panic, a broken check, a slow execution, a large allocation and a hang are each found, and
 //! execution N of a seed is always the same input).
 
-#[path = "../../fuzz/harness/mod.rs"]
-pub mod harness;
-
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use harness::campaign::{self, Kind, Plan, Report};
-use harness::mutate::Grammar;
-use harness::targets::{self, Context, Outcome, Target, Verdict, TARGETS};
-use harness::watch::ThreadClock;
-
-fn findings_folder() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/fuzz-findings")
-}
+use volmap_fuzz::campaign::{self, Kind, Plan, Report};
+use volmap_fuzz::mutate::Grammar;
+use volmap_fuzz::targets::{self, Context, Outcome, Target, Verdict, TARGETS};
+use volmap_fuzz::watch::ThreadClock;
 
 fn plan(executions: u64) -> Plan {
     let seed = std::env::var("VOLMAP_FUZZ_SEED")
@@ -30,7 +22,7 @@ fn plan(executions: u64) -> Plan {
         seed,
         first: 0,
         executions,
-        findings: findings_folder(),
+        findings: volmap_fuzz::findings_folder(),
         keep_going: false,
         progress: None,
         hang_after: campaign::HANG_CPU,
@@ -52,7 +44,7 @@ fn short_campaign(name: &str, executions: u64) {
         .iter()
         .map(|f| {
             format!(
-                "{} at execution {}: {}\n  input: {}\n  again: cargo run --release --example fuzz -- --target {name} --replay {}",
+                "{} at execution {}: {}\n  input: {}\n  again: cargo run --release -p volmap-fuzz -- --target {name} --replay {}",
                 f.kind.name(),
                 f.execution,
                 f.message,
@@ -192,7 +184,7 @@ fn execution_n_of_a_seed_is_always_the_same_input() {
 #[test]
 fn inputs_of_several_files_split_at_their_marks() {
     let (main, files) =
-        harness::corpus::split(b"a = 1\n#=== x.csv\nq,v\n0,1\n#=== ../up.csv\n#=== y.csv\r\nz");
+        volmap_fuzz::corpus::split(b"a = 1\n#=== x.csv\nq,v\n0,1\n#=== ../up.csv\n#=== y.csv\r\nz");
     assert_eq!(main, b"a = 1\n");
     assert_eq!(
         files,
@@ -201,7 +193,10 @@ fn inputs_of_several_files_split_at_their_marks() {
             ("y.csv", &b"z"[..])
         ]
     );
-    assert_eq!(harness::corpus::split(b"plain"), (&b"plain"[..], vec![]));
+    assert_eq!(
+        volmap_fuzz::corpus::split(b"plain"),
+        (&b"plain"[..], vec![])
+    );
 }
 
 // The harness finds what it is for: each kind of finding from a target made to show it.
@@ -284,7 +279,7 @@ fn the_harness_finds_each_kind_of_failure_and_saves_its_input() {
     let (kind, message, input) = first_finding(&PANICS, &plan);
     assert_eq!(kind, Kind::Panic);
     assert!(
-        message.contains("fuzz.rs") && message.contains("index out of bounds"),
+        message.contains("campaigns.rs") && message.contains("index out of bounds"),
         "{message}"
     );
     assert_eq!(

@@ -1,15 +1,14 @@
-//! Inputs that never end, inputs that reach outside their folder, and messages that quote
-//! input: every input is read with a size bound (exit 2 naming the file and the limit), CSV
-//! files named in machine files and fit files stay in the file's folder unless
-//! `--allow-outside-paths` says otherwise, and no message quotes more than a few characters of
-//! any line.
+//! How every input file is read, whatever the command: with a size bound (an input that never
+//! ends is refused, exit 2 naming the file and the limit); CSV files named in machine files and
+//! fit files stay in the file's folder unless `--allow-outside-paths` says otherwise; no message
+//! quotes more than a few characters of any line; a byte-order mark is read past.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use predicates::prelude::*;
 
-use super::volmap;
+use super::{succeeds, volmap};
 
 const MACHINE: &str = include_str!("../../../machines/vmc-li2015.toml");
 
@@ -186,35 +185,6 @@ fn every_input_given_an_endless_device_is_refused_at_its_size_limit() {
         );
     }
     assert!(!d.join("o.nc").exists() && !d.join("b.toml").exists());
-}
-
-/// Leave-one-out over every node in constant time per node: 200,000 measured positions build
-/// (in the time the quadratic scheme took for about a thousand).
-#[test]
-fn build_reads_hundreds_of_thousands_of_rows() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut text = String::from("position_mm,EXX_um,EBX_urad\n");
-    let n = 200_000;
-    for k in 0..n {
-        let q = 1000.0 * k as f64 / (n - 1) as f64;
-        text += &format!("{q:.6},{:.6},{:.6}\n", (q / 80.0).sin(), (q / 130.0).cos());
-    }
-    std::fs::write(dir.path().join("x.csv"), text).unwrap();
-    volmap()
-        .current_dir(dir.path())
-        .args([
-            "build",
-            "--base",
-            "vmc-li2015",
-            "--axis",
-            "X=x.csv",
-            "--out",
-            "b.toml",
-        ])
-        .timeout(Duration::from_secs(300))
-        .assert()
-        .success()
-        .stdout(predicate::str::contains("EXX   200000").and(predicate::str::contains("cubic")));
 }
 
 #[test]
@@ -453,5 +423,147 @@ fn messages_quote_a_few_characters_of_any_line() {
             "fit.toml",
         ],
         "X=1e300 lies outside the travel of X",
+    );
+}
+
+/// A measured circle of 8 points.
+pub const CIRCLE: &str = "angle_deg,deviation_mm\n0,0.001\n45,0.0005\n90,0.0\n135,-0.0005\n180,-0.001\n225,-0.0005\n270,0.0\n315,0.0005\n";
+
+const BOM: &str = "\u{feff}";
+
+#[test]
+fn a_byte_order_mark_is_read_past_in_every_text_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let machine = succeeds(&["machines", "--show", "vmc-li2015"], d);
+    // A machine file (TOML) whose CSV table starts with a mark too.
+    let table: String = machine
+        .lines()
+        .map(|l| {
+            if l.starts_with("EXX = ") {
+                "EXX = { csv = \"x.csv\", column = \"EXX\" }\n".to_string()
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    assert_ne!(table, machine);
+    std::fs::write(d.join("m.toml"), format!("{BOM}{table}")).unwrap();
+    std::fs::write(
+        d.join("x.csv"),
+        format!("{BOM}position_mm,EXX\n0,0.0\n1000,0.02\n"),
+    )
+    .unwrap();
+    std::fs::write(d.join("p.csv"), format!("{BOM}X,Y,Z\n100,100,100\n")).unwrap();
+    let with_table = succeeds(
+        &[
+            "sample",
+            "--exact",
+            "--machine",
+            "m.toml",
+            "--points",
+            "p.csv",
+        ],
+        d,
+    );
+    let inline = succeeds(
+        &[
+            "sample",
+            "--exact",
+            "--machine",
+            "vmc-li2015",
+            "--points",
+            "p.csv",
+        ],
+        d,
+    );
+    assert_eq!(with_table, inline);
+    // G-code, a part file with an ASCII STL, a fit file with its CSV, a tolerance file, a
+    // measured file and a build CSV.
+    std::fs::write(
+        d.join("p.nc"),
+        format!("{BOM}G0 X10 Y10 Z10\nG1 X20 F100\n"),
+    )
+    .unwrap();
+    succeeds(
+        &[
+            "compensate",
+            "--machine",
+            "vmc-li2015",
+            "--program",
+            "p.nc",
+            "--out",
+            "o.nc",
+        ],
+        d,
+    );
+    std::fs::write(d.join("s.stl"), format!("{BOM}solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 50 0 0\nvertex 50 50 0\nendloop\nendfacet\nendsolid s\n")).unwrap();
+    std::fs::write(d.join("part.toml"), format!("{BOM}name = \"s\"\n[placement]\nzero_mm = [100.0, 100.0, 100.0]\n[cutter]\nradius_mm = 5.0\nlength_mm = 40.0\n[sampling]\nspacing_mm = 5.0\n[[features]]\nkind = \"profile\"\nname = \"skin\"\nmesh = \"s.stl\"\ntolerance_mm = 1.0\n")).unwrap();
+    succeeds(
+        &["features", "--machine", "vmc-li2015", "--part", "part.toml"],
+        d,
+    );
+    std::fs::write(d.join("c.csv"), format!("{BOM}{CIRCLE}")).unwrap();
+    std::fs::write(d.join("fit.toml"), format!("{BOM}estimate = [\"EC0Y\"]\n[[circular]]\nplane = \"XY\"\npoints = 8\ncsv = \"c.csv\"\n")).unwrap();
+    succeeds(
+        &[
+            "fit",
+            "--machine",
+            "vmc-li2015",
+            "--measurements",
+            "fit.toml",
+        ],
+        d,
+    );
+    std::fs::write(
+        d.join("t.toml"),
+        format!("{BOM}[axes.Y]\nEC0Y = {{ uniform = 20e-6 }}\n"),
+    )
+    .unwrap();
+    succeeds(
+        &[
+            "budget",
+            "--machine",
+            "vmc-li2015",
+            "--grid",
+            "3x3x3",
+            "--device",
+            "cpu",
+            "--tolerances",
+            "t.toml",
+        ],
+        d,
+    );
+    succeeds(
+        &[
+            "test",
+            "circular",
+            "--machine",
+            "vmc-li2015",
+            "--plane",
+            "XY",
+            "--points",
+            "4",
+            "--measured",
+            "c.csv",
+        ],
+        d,
+    );
+    std::fs::write(
+        d.join("b.csv"),
+        format!("{BOM}position_mm,EXX_um\n0,0\n500,2\n1000,3\n"),
+    )
+    .unwrap();
+    succeeds(
+        &[
+            "build",
+            "--base",
+            "vmc-li2015",
+            "--axis",
+            "X=b.csv",
+            "--out",
+            "b.toml",
+        ],
+        d,
     );
 }

@@ -2,8 +2,8 @@
 //! break readers, triangles repeated or made degenerate, OpenEXR attributes renamed, retyped,
 //! resized, dropped or repeated, offsets out of the file.
 
-use super::super::mutate::{interesting_number, lines, range, with_line_end};
-use super::super::rng::Rng;
+use crate::mutate::{interesting_number, lines, range, with_line_end};
+use crate::rng::Rng;
 
 const INTERESTING_U32: &[u32] = &[
     0,

@@ -10,9 +10,9 @@ use volmap::standards::{
     self, CircularSpec, DiagonalSpec, PositioningSpec, RTestSpec, Setup, TestResult,
 };
 
-use super::super::mutate::Grammar;
 use super::machine::{as_strs, names};
 use super::{read, Context, Outcome, Target, Verdict};
+use crate::mutate::Grammar;
 
 /// The value of the first comment line `# KEY: VALUE` (or `(KEY: VALUE)`) of an input: what a
 /// seed says the target should run it with.

@@ -1,28 +1,33 @@
-//! What the fuzzing campaigns found in NC compensation and in the measured runs of the
-//! positioning tests (README "Fuzzing"), each kept as the input that showed it
-//! (`tests/fuzz-regressions/`) or a hand-made one like it, with what volmap does now.
-
-use std::path::PathBuf;
+//! What the fuzzing campaigns found in NC programs (README "Fuzzing"): canned cycles and
+//! subprogram calls as the reader expands them, and compensated programs that must read back;
+//! each kept as the input that showed it (`tests/fuzz-regressions/`) or a hand-made one like it,
+//! with what volmap does now.
 
 use volmap::model::Machine;
 use volmap::nc::{self, NcError, Options};
-use volmap::standards::{self, PositioningSpec, Setup};
 
-fn regression(name: &str) -> Vec<u8> {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fuzz-regressions")
-        .join(name);
-    std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
+use super::common::fuzz_regression as regression;
 
 fn embedded(name: &str) -> Machine {
     volmap::io::embedded::embedded(name).unwrap().unwrap()
+}
+
+fn machine() -> Machine {
+    embedded("vmc-li2015")
 }
 
 /// The options of the campaign's `gcode` target.
 fn options() -> Options {
     Options {
         tool_lengths: nc::ToolLengths::parse("T1=80,T2=100,T3=90").unwrap(),
+        work_offsets: [(54, [200.0, 200.0, 300.0, 0.0, 0.0, 0.0])].into(),
+        ..Options::default()
+    }
+}
+
+/// Work offset G54 alone, as the first findings were pinned.
+fn g54_only() -> Options {
+    Options {
         work_offsets: [(54, [200.0, 200.0, 300.0, 0.0, 0.0, 0.0])].into(),
         ..Options::default()
     }
@@ -47,6 +52,150 @@ fn compensated_reads_back(program: &[u8]) -> String {
         );
     }
     out.text
+}
+
+/// Compensates `program` on `machine` with tool T1 and reads the result back; the compensated
+/// text.
+fn compensated_reads_back_on(machine: &Machine, program: &[u8]) -> String {
+    let options = Options {
+        tool_lengths: nc::ToolLengths::parse("T1=80").unwrap(),
+        ..g54_only()
+    };
+    let out = nc::compensate(machine, program, "in.nc", &options).unwrap();
+    if let Err(e) = nc::trace(machine, out.text.as_bytes(), "out.nc", &options) {
+        panic!(
+            "the compensated program does not read back: {e}\n{}",
+            out.text
+        );
+    }
+    out.text
+}
+
+/// A G83 hole 6 km deep in pecks of 2 mm made three million pecks (a 4 GB allocation, then an
+/// abort): a hole takes at most 10,000 pecks.
+#[test]
+fn pecks_past_the_limit_are_refused_naming_the_block() {
+    let program = regression("gcode-pecks.nc");
+    let (line, message) = line_error(nc::compensate(&machine(), &program, "p.nc", &g54_only()));
+    assert_eq!(line, 24);
+    assert_eq!(
+        message,
+        "G83: a peck depth Q2 from R3 to Z-6000000 makes 3000002 pecks, more than the 10000 a hole may take"
+    );
+    // A peck depth of a ten-thousandth of a micrometre in a 7 mm hole.
+    let tiny = b"G0 X10 Y10 Z10\nG83 X10 Y10 Z-5 R2 Q0.0000001\nG80\nM30\n";
+    let (line, message) = line_error(nc::blocks_as_run(tiny, "q.nc", false));
+    assert_eq!(line, 2);
+    assert!(
+        message.contains("makes 70000000 pecks, more than the 10000"),
+        "{message}"
+    );
+}
+
+/// A peck smaller than the last digit of the levels it pecks between went on for ever: each
+/// peck left the level where it was. Such a peck now goes to the depth.
+#[test]
+fn pecks_below_the_resolution_of_their_levels_end() {
+    let program = b"G0 X10 Y10 Z1e17\nG83 X10 Y10 Z99999999999999990 R1e17 Q2\nG80\nM30\n";
+    let blocks = nc::blocks_as_run(program, "deep.nc", false).unwrap();
+    let feeds: Vec<&str> = blocks
+        .iter()
+        .map(|b| b.text.trim())
+        .filter(|t| t.starts_with("G1 Z"))
+        .collect();
+    // The depth as an f64 holds it (its last digit is 16).
+    assert_eq!(feeds, ["G1 Z99999999999999984"], "{blocks:#?}");
+}
+
+/// Subprograms calling subprograms a thousand times each expanded three million blocks from
+/// 30 lines (1.25 GB and 7 s to compensate); calls and cycles add at most four million words
+/// and blocks (a block counting eight), which a million blocks of eight words (700 MB, 1 s to
+/// read) also passed. A million calls of a body of two comments, when a block counted one, took
+/// 600 MB and over a second on a busy machine.
+#[test]
+fn calls_and_cycles_add_at_most_four_million_words_and_blocks() {
+    let program = regression("gcode-calls.nc");
+    let (line, message) = line_error(nc::blocks_as_run(&program, "c.nc", false));
+    assert_eq!(line, 8, "the outermost call");
+    assert_eq!(
+        message,
+        "M98: the calls add more than 4000000 words and blocks to the program"
+    );
+    let words = regression("gcode-words.nc");
+    let (line, message) = line_error(nc::blocks_as_run(&words, "w.nc", false));
+    assert_eq!(line, 18);
+    assert_eq!(
+        message,
+        "M98: the calls add more than 4000000 words and blocks to the program"
+    );
+    // Canned cycles count against the same bound: 1000 repeats of 1000 pecks.
+    let cycles = b"G0 X10 Y10 Z10\nG83 X10 Y10 Z-999 R1 Q1 L1000\nG80\nM30\n";
+    let (line, message) = line_error(nc::blocks_as_run(cycles, "h.nc", false));
+    assert_eq!(line, 2);
+    assert_eq!(
+        message,
+        "the subprogram calls and canned cycles add more than 4000000 words and blocks to the program"
+    );
+    // Blocks of nothing but comments count as blocks: the outermost call is refused.
+    let empty = regression("gcode-empty-calls.nc");
+    let (line, message) = line_error(nc::blocks_as_run(&empty, "e.nc", false));
+    assert_eq!(line, 7);
+    assert_eq!(
+        message,
+        "M98: the calls add more than 4000000 words and blocks to the program"
+    );
+    // Long blocks count for their length: a 6 kB block repeated a million times.
+    let long = format!(
+        "G0 X10 Y10 Z10\nM98 P1 L1000\nM30\nO1\nM98 P2 L1000\nM99\nO2\nG1 X11 ({})\nM99\n",
+        "x".repeat(6000)
+    );
+    let (line, _) = line_error(nc::blocks_as_run(long.as_bytes(), "l.nc", false));
+    assert_eq!(line, 2);
+    // A program's own blocks do not count: two million and more of them are read as they are.
+    let mut own = String::from("G0 X10 Y10 Z10\nM98 P1\nM30\nO1\nG1 X11 F100\nM99\n");
+    own.push_str(&"G1 X12\n".repeat(1_100_000));
+    let blocks = nc::blocks_as_run(own.as_bytes(), "own.nc", false).unwrap();
+    assert!(blocks.len() > 1_100_000);
+}
+
+/// A last line without a line end whose arc was split: the added pieces were written onto it,
+/// one block of two arcs (`X59.9299 Y19.7988 I-9.8263 X49.9317 …`) that no reader takes.
+#[test]
+fn pieces_after_a_last_line_without_a_line_end_start_lines_of_their_own() {
+    let program = regression("gcode-last-line.nc");
+    assert!(!program.ends_with(b"\n"));
+    let text = compensated_reads_back_on(&machine(), &program);
+    for line in text.lines() {
+        assert!(line.matches('X').count() <= 1, "{line}\n{text}");
+    }
+}
+
+/// A half circle by R (`G3 X40 Y0 R10` from X20): compensated, its written R (9.9999) fell
+/// short of half its written chord (10.0000), which the reader refuses; the planner now holds
+/// a written R to the reader's rule and splits such an arc.
+#[test]
+fn compensated_half_circles_by_radius_read_back() {
+    let five = volmap::io::embedded::embedded("5axis-hwang2014")
+        .unwrap()
+        .unwrap();
+    compensated_reads_back_on(&five, &regression("gcode-half-circle-r.nc"));
+}
+
+/// An arc in the XZ plane after `G53 G0 Z0` and no Z word since: its K was written relative to
+/// a Z the output had not written, as `KNaN`. Such an arc starts where the control has Z, not at
+/// a point of the program: it is refused now, naming its line and the G53 block
+/// (`an_arc_from_a_homed_axis_is_refused_naming_both_lines`); with Z set again before it, its centre words are numbers.
+#[test]
+fn centre_words_after_a_reference_return_are_numbers() {
+    let program = regression("gcode-arc-after-home.nc");
+    let (line, message) = line_error(nc::compensate(&machine(), &program, "p.nc", &g54_only()));
+    assert_eq!(line, 10);
+    assert!(message.contains("on line 7"), "{message}");
+    let set = String::from_utf8(program)
+        .unwrap()
+        .replace("G18 G2 X60 Z-1", "G1 Z-1\nG18 G2 X60 Z-1");
+    let text = compensated_reads_back_on(&machine(), set.as_bytes());
+    assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
 }
 
 /// `G28 G91 Z0.` then moves in G91 before the program names Z again: the compensator added an
@@ -163,54 +312,6 @@ fn rotating_what_calls_add_counts_against_their_limit() {
         .filter(|b| b.text.contains("(G68: Y30.)"))
         .count();
     assert_eq!(rotated, 101, "one in the file, 100 from the calls");
-}
-
-fn five_axis_setup() -> Setup {
-    Setup::new(&embedded("5axis-hwang2014"), "").unwrap()
-}
-
-fn positioning_error(axis: &str, csv: &[u8]) -> (PathBuf, String, tempfile::TempDir) {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("measured.csv");
-    std::fs::write(&path, csv).unwrap();
-    let spec = PositioningSpec {
-        axis: axis.into(),
-        targets: None,
-        runs: 5,
-        at_mm: None,
-        pose: String::new(),
-        csv: Some(path.clone()),
-    };
-    let error = standards::positioning(&five_axis_setup(), &spec)
-        .unwrap_err()
-        .to_string();
-    (path, error, dir)
-}
-
-/// Measured runs of C with a target of 450° (C turns 0 to 360°): the error named the target
-/// but not the file; it names the file and the line of the target's first row now.
-#[test]
-fn a_measured_target_beyond_the_travel_names_its_file_and_line() {
-    let (path, error, _dir) =
-        positioning_error("C", &regression("measured-rotary-target-beyond-travel.csv"));
-    assert_eq!(
-        error,
-        format!(
-            "{}: line 6: positioning of C, target 450°: C=450 lies outside the travel of C (0 to 360)",
-            path.display()
-        )
-    );
-    // A linear axis likewise: X to 5000 mm on its second row.
-    let mut csv = String::from("target_mm,direction,run,deviation_um\n");
-    for run in 1..=5 {
-        csv += &format!("0,+,{run},1\n5000,+,{run},2\n5000,-,{run},2\n0,-,{run},1\n");
-    }
-    let (path, error, _dir) = positioning_error("X", csv.as_bytes());
-    let prefix = format!(
-        "{}: line 3: positioning of X, target 5000: X=5000 lies outside the travel of X",
-        path.display()
-    );
-    assert!(error.starts_with(&prefix), "{error}");
 }
 
 /// A program number of 343 digits (`G65 P0.000…1`) was written out whole in the message saying it

@@ -8,8 +8,8 @@ use volmap::model::inputs::{Approach, Inputs};
 use volmap::model::{AxisLetter, Command, Machine};
 use volmap::reference::Twin;
 
-use super::super::mutate::Grammar;
 use super::{read, Context, Outcome, Target, Verdict};
+use crate::mutate::Grammar;
 
 /// Keys and values of machine files, beyond those the corpus holds.
 const MACHINE_WORDS: &[&str] = &[

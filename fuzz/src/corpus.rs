@@ -13,7 +13,7 @@ pub const FILE_MARK: &[u8] = b"#=== ";
 
 /// The folder of `target`'s seed corpus.
 pub fn folder(target: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    crate::checkout()
         .join("tests")
         .join("fuzz-corpus")
         .join(target)
