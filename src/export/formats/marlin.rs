@@ -56,7 +56,7 @@ impl Format for Marlin {
         for (plane, f) in skew.named() {
             if f.abs() > FACTOR_LIMIT {
                 return Err(ExportError::BeyondFormat {
-                    format: "marlin",
+                    format: SPEC.name,
                     what: format!("the {plane} skew factor"),
                     value: f,
                     holds: "skew factors from -1 to 1 (SKEW_FACTOR_MIN, SKEW_FACTOR_MAX)",
