@@ -1,4 +1,5 @@
-//! The correction a table should hold, and its additive fit.
+//! The correction a table should hold, what a format's tables can hold of it ([`Structure`]),
+//! and its additive fit.
 //!
 //! For every target command `t` (X, Y, Z over their travels, the rotary axes at the pose) the
 //! correction is `d(t) = c(t) − t`, `c(t)` the command whose REAL tool tip lands where the IDEAL
@@ -11,12 +12,14 @@
 //! effects, which are orthogonal there: the main effect of axis `i` on the correction of axis `k`
 //! is the mean of `d_k` over the other two axes at each position of `i`, less the grand mean
 //! ([`Fitting::additive`]).
+//!
+//! [`Structure`] lives here, not with the formats, because the fit and the structural remainder
+//! read it: a format's facts (its `Spec`) import it from here.
 
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 
-use super::format::{Structure, Term};
-use super::ExportError;
+use super::error::ExportError;
 use crate::model::inputs::{Approach, Inputs};
 use crate::model::{AxisLetter, Command, ErrorFunction, Machine};
 use crate::reference::Twin;
@@ -27,6 +30,30 @@ pub const AVERAGING_POINTS: usize = 11;
 
 /// The linear axes.
 pub const LINEAR: [AxisLetter; 3] = [AxisLetter::X, AxisLetter::Y, AxisLetter::Z];
+
+/// What the tables of a format can hold of a correction `d(t)`, for the report of what is left.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Structure {
+    /// A 3-D grid: any smooth correction of X, Y, Z at the pose, limited only by its spacing.
+    Grid,
+    /// A sum of functions of one axis position each: `terms[k][i]` says what the correction of
+    /// axis `k` (X, Y, Z) may be as a function of the commanded position of axis `i`.
+    Additive([[Term; 3]; 3]),
+    /// Per axis `k`, a function of its own position plus a function of the other two axes'
+    /// positions together: `d_k = f_k(q_k) + g_k(q_i, q_j)` (an axis table and a plane table).
+    AxisAndPlane,
+}
+
+/// One term of an [`Structure::Additive`] correction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Term {
+    /// Nothing of it.
+    None,
+    /// `s · q`: a slope through the machine zero (a skew or scale factor).
+    Slope,
+    /// Any function of the position (a table), offsets included.
+    Curve,
+}
 
 /// The correction of one machine at one set of evaluation inputs, at the pose.
 pub struct Field {

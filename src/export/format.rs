@@ -1,15 +1,10 @@
-//! What a controller format is to the export: one type per format implements [`Format`] (its
-//! limits, what its tables can hold, how it fits and writes them, how it reads them back) and
-//! hands back a [`Control`], the control's own use of the tables as written.
-//!
-//! Adding a format is one file: a unit struct implementing [`Format`] and a struct implementing
-//! [`Control`], registered in [`super::FORMATS`]. The core ([`super::export`]) does the rest:
-//! checks the table size against [`Limits`], calls [`Format::write`], reads the text back with
-//! [`Format::read`], refuses tables that correct nothing, and measures the residual of the
-//! control's command over the workspace.
+//! What a controller format is to the export: its facts as data ([`Spec`]: name, limits, what
+//! its tables can hold), and the code it brings ([`Format`]: how it fits and writes its tables,
+//! how it reads them back) to hand the core a [`Control`], the control's own use of the tables
+//! as written.
 
-use super::fitting::Fitting;
-use super::ExportError;
+use super::error::ExportError;
+use super::fitting::{Fitting, Structure};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -56,30 +51,6 @@ pub struct Limits {
     pub source: &'static str,
 }
 
-/// What the tables of a format can hold of a correction `d(t)`, for the report of what is left.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Structure {
-    /// A 3-D grid: any smooth correction of X, Y, Z at the pose, limited only by its spacing.
-    Grid,
-    /// A sum of functions of one axis position each: `terms[k][i]` says what the correction of
-    /// axis `k` (X, Y, Z) may be as a function of the commanded position of axis `i`.
-    Additive([[Term; 3]; 3]),
-    /// Per axis `k`, a function of its own position plus a function of the other two axes'
-    /// positions together: `d_k = f_k(q_k) + g_k(q_i, q_j)` (an axis table and a plane table).
-    AxisAndPlane,
-}
-
-/// One term of an [`Structure::Additive`] correction.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Term {
-    /// Nothing of it.
-    None,
-    /// `s · q`: a slope through the machine zero (a skew or scale factor).
-    Slope,
-    /// Any function of the position (a table), offsets included.
-    Curve,
-}
-
 /// The table size asked for.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum TableSize {
@@ -102,24 +73,31 @@ pub struct TableInfo {
     pub points: usize,
 }
 
-/// A controller format.
-pub trait Format: Sync {
+/// What a format is, as data: one `const SPEC: Spec` beside each format's code, read by the
+/// core (the table size's checks, the report) and the command line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spec {
     /// The name `--format` takes: `grid-csv`.
-    fn name(&self) -> &'static str;
+    pub name: &'static str,
     /// The controller in words: "LinuxCNC (joint compensation files, matrixkins)".
-    fn title(&self) -> &'static str;
-    fn layout(&self) -> Layout;
-    fn limits(&self) -> Limits;
-    fn structure(&self) -> Structure;
+    pub title: &'static str,
+    pub layout: Layout,
+    pub limits: Limits,
+    pub structure: Structure,
     /// What its tables hold and cannot hold, one sentence for the report.
-    fn holds(&self) -> &'static str;
+    pub holds: &'static str,
     /// Whether the control picks a table by the direction each axis approaches (LinuxCNC's
     /// forward and reverse columns): the report then says so.
-    fn uses_direction(&self) -> bool {
-        false
-    }
+    pub uses_direction: bool,
+}
+
+/// A controller format: its code. A trait object (the registry holds every format as one), so
+/// its facts come by [`Format::spec`], not as associated consts.
+pub trait Format: Sync {
+    /// The format's facts: its `SPEC`.
+    fn spec(&self) -> &'static Spec;
     /// Fits the tables to the correction and writes them as the control reads them; `points`
-    /// is the size the core checked against [`Format::limits`] (per axis; `None` for
+    /// is the size the core checked against [`Spec::limits`] (per axis; `None` for
     /// [`Nodes::Fixed`]), `spacing_mm` set where a spacing was asked for.
     fn write(
         &self,
@@ -158,13 +136,4 @@ pub trait Control: Sync {
     fn command(&self, target: &Command, approach: &[Approach; 6]) -> Command;
     /// The tables, for the report.
     fn tables(&self) -> Vec<TableInfo>;
-}
-
-/// Reading a written file back: a line that does not read, as the control would refuse it.
-pub fn read_error(file: &str, line: usize, message: impl Into<String>) -> ExportError {
-    ExportError::Read {
-        file: file.to_string(),
-        line,
-        message: message.into(),
-    }
 }

@@ -3,163 +3,70 @@
 //!
 //! The correction a table should hold is the command correction that puts the tool tip on
 //! target ([`fitting`]): `d(t) = c(t) − t`, `c(t)` the command whose real tip lands where the
-//! ideal machine puts it at `t`. Each format ([`format::Format`], one file each) fits its tables
-//! to it within its limits and writes them; the core reads the written text back with the
-//! format's reader, runs the control's command `c_ctrl(t)` through the model over a grid
-//! of the workspace ([`residual`]) and reports the residual `|p_real(c_ctrl(t)) − p_ideal(t)|`
-//! against the error before, with what the format cannot hold.
+//! ideal machine puts it at `t`. Each format fits its tables to it within its limits and writes
+//! them; the core reads the written text back with the format's reader, runs the control's
+//! command `c_ctrl(t)` through the model over a grid of the workspace ([`residual`]) and reports
+//! the residual `|p_real(c_ctrl(t)) − p_ideal(t)|` against the error before, with what the
+//! format cannot hold.
+//!
+//! Two parts, imports pointing one way:
+//! - the core, what every format shares: [`error`] (one error type), [`fitting`] (the
+//!   correction, its additive fit, what a structure of tables can hold), [`nodes`] (tables'
+//!   nodes), [`format`](mod@format) (a format's facts as data, [`Spec`], and its code, the
+//!   [`Format`] and [`Control`] traits), [`residual`], and here the run of an export and its
+//!   [`Report`];
+//! - [`formats`]: the controller formats, one file or folder each, each with one `const SPEC:
+//!   Spec` (its name, title, layout, limits, structure, what it holds, whether it reads the
+//!   direction) and a unit struct implementing [`Format`]; a folder (`fanuc`, `isg`, `siemens`,
+//!   `heidenhain`) splits a format into its tables as the control holds them, its writer and
+//!   its reader, plain modules that import one another one way.
+//!
+//! The formats import the core's files, never this one nor the registry; the core reaches the
+//! formats only through the registry, [`formats::FORMATS`].
+//!
+//! Adding a format: one file (or folder) under `formats/` with its `SPEC` and a unit struct
+//! implementing [`Format`] (`spec`, `write`, `read`) whose reader hands back a [`Control`]; one
+//! line in [`formats::FORMATS`]. The core does the rest: checks the table size against the
+//! spec's [`Limits`], calls [`Format::write`], reads the text back with [`Format::read`],
+//! refuses tables that correct nothing, and measures and reports the residual.
 //!
 //! Layer: above model, reference and io; the command line is the only thing that uses it.
 
+pub mod error;
 pub mod fitting;
 pub mod format;
+pub mod formats;
 pub mod nodes;
 pub mod residual;
 
-mod axis_tables;
-mod fanuc;
-mod fanuc_lattice;
-mod grid_csv;
-mod heidenhain;
-mod isg;
-mod isg_axis;
-mod klipper;
-mod linuxcnc;
-mod marlin;
-mod siemens;
-mod skew;
-
 use std::path::{Path, PathBuf};
 
-use crate::error::{Classify, ErrorKind};
 use crate::io::atomic::AtomicFile;
 use crate::io::FileError;
 use crate::model::inputs::Inputs;
 use crate::model::{Command, Machine};
 
-pub use fitting::{Field, Fitting};
-pub use format::{Control, Format, Layout, Limits, Nodes, Structure, TableInfo, TableSize, Term};
+pub use error::ExportError;
+pub use fitting::{Field, Fitting, Structure, Term};
+pub use format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, TableSize};
 pub use residual::{EvaluationGrid, Figures, NotHeld};
 
-/// Every format volmap writes, in the order `--format` lists them.
-pub static FORMATS: &[&dyn Format] = &[
-    &grid_csv::GridCsv,
-    &linuxcnc::LinuxCnc,
-    &klipper::Klipper,
-    &marlin::Marlin,
-    &siemens::Siemens,
-    &heidenhain::Heidenhain,
-    &fanuc::FanucPitch,
-    &fanuc_lattice::FanucLattice,
-    &isg::Isg,
-    &isg_axis::IsgAxis,
-];
+use formats::FORMATS;
 
 /// The format named `name`.
 pub fn format_named(name: &str) -> Result<&'static dyn Format, ExportError> {
     FORMATS
         .iter()
         .copied()
-        .find(|f| f.name() == name)
+        .find(|f| f.spec().name == name)
         .ok_or_else(|| ExportError::UnknownFormat {
             name: name.to_string(),
             known: FORMATS
                 .iter()
-                .map(|f| f.name())
+                .map(|f| f.spec().name)
                 .collect::<Vec<_>>()
                 .join(", "),
         })
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum ExportError {
-    #[error("`{name}` is not a format volmap exports (formats: {known})")]
-    UnknownFormat { name: String, known: String },
-    #[error("the machine (chain {chain}) has no {missing} axis: a compensation table corrects X, Y and Z")]
-    MissingAxes { chain: String, missing: String },
-    #[error("the linear axes do not span X, Y and Z at the pose")]
-    Singular,
-    #[error("no command puts the real tool tip on the target X={:.3} Y={:.3} Z={:.3} mm (the Newton steps do not converge): the machine's errors are too large", at_mm[0], at_mm[1], at_mm[2])]
-    NoSolution { at_mm: [f64; 3] },
-    #[error("{format} holds fixed factors, not tables: there is no table size to choose")]
-    NoTableSize { format: &'static str },
-    #[error(
-        "{points} points{axis} is more than a {format} table holds: at most {max} ({limits_from})"
-    )]
-    TooManyPoints {
-        format: &'static str,
-        axis: String,
-        points: usize,
-        max: usize,
-        limits_from: &'static str,
-    },
-    #[error("{points} points is fewer than a {format} table needs: at least {min}")]
-    TooFewPoints {
-        format: &'static str,
-        points: usize,
-        min: usize,
-    },
-    #[error("a spacing of {spacing_mm} mm{axis} is below the smallest a {format} table takes: {min_mm} mm ({limits_from})")]
-    SpacingTooSmall {
-        format: &'static str,
-        axis: String,
-        spacing_mm: f64,
-        min_mm: f64,
-        limits_from: &'static str,
-    },
-    #[error("{what} would be {value}: {format} holds {holds}")]
-    BeyondFormat {
-        format: &'static str,
-        what: String,
-        value: f64,
-        holds: &'static str,
-    },
-    #[error("a spacing of {0} mm: it must be a positive number of mm")]
-    BadSpacing(f64),
-    #[error(
-        "{points} points per axis for the residual: at least 2 and at most {}",
-        residual::MAX_RESIDUAL_GRID_POINTS
-    )]
-    BadEvaluationGrid { points: usize },
-    #[error("{format} can hold none of this machine's errors: {holds}; the table as written corrects nothing")]
-    NothingHeld {
-        format: &'static str,
-        holds: &'static str,
-    },
-    #[error("the residual of the {format} table, {residual_um:.3} µm largest ({rms_um:.3} µm RMS; {before_um:.3} µm largest before), is above the {limit_um:.3} µm asked for: nothing written")]
-    ResidualAbove {
-        format: &'static str,
-        residual_um: f64,
-        rms_um: f64,
-        before_um: f64,
-        limit_um: f64,
-    },
-    #[error("the {format} export cannot hold this machine's errors: {message}")]
-    Unrepresentable {
-        format: &'static str,
-        message: String,
-    },
-    #[error("{0} is not a folder: a {1} export writes several files into a folder")]
-    NotAFolder(String, &'static str),
-    #[error("reading back {file}: line {line}: {message}")]
-    Read {
-        file: String,
-        line: usize,
-        message: String,
-    },
-    #[error(transparent)]
-    File(#[from] FileError),
-}
-
-impl Classify for ExportError {
-    fn kind(&self) -> ErrorKind {
-        match self {
-            ExportError::File(e) => e.kind(),
-            // What volmap wrote and cannot read back is its own failure, not the user's.
-            ExportError::Read { .. } => ErrorKind::Work,
-            _ => ErrorKind::Input,
-        }
-    }
 }
 
 /// What to export.
@@ -207,8 +114,8 @@ pub struct Report {
 
 /// An export: the files as written and the report.
 pub struct Export {
-    pub layout: Layout,
-    pub format: &'static str,
+    /// The format's facts: where its files go, its name for messages.
+    pub spec: &'static Spec,
     pub files: Vec<format::WrittenFile>,
     pub report: Report,
 }
@@ -227,14 +134,14 @@ pub fn pose_text(machine: &Machine, pose: &Command) -> String {
 }
 
 /// The points per axis (`None`: a fixed-factor format) and the spacing asked for, checked
-/// against the format's limits over the travels `ranges`.
+/// against the limits of the format `spec` over the travels `ranges`.
 pub fn table_points(
-    format: &dyn Format,
+    spec: &Spec,
     size: TableSize,
     ranges: &[[f64; 2]; 3],
 ) -> Result<(Option<[usize; 3]>, Option<f64>), ExportError> {
-    let limits = format.limits();
-    let name = format.name();
+    let limits = spec.limits;
+    let name = spec.name;
     if limits.nodes == Nodes::Fixed {
         return match size {
             TableSize::Default => Ok((None, None)),
@@ -330,16 +237,20 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
         format!("inputs: {}", inputs.describe(machine)),
         format!("pose (rotary axes, degrees): {pose_words}"),
     ];
+    let spec = format.spec();
     let fitting = Fitting::new(machine, inputs, request.pose, header)?;
     let ranges = fitting.ranges;
-    let (points, spacing) = table_points(format, request.size, &ranges)?;
+    let (points, spacing) = table_points(spec, request.size, &ranges)?;
     let files = format.write(&fitting, points, spacing)?;
     let control = format.read_for(&files, &fitting)?;
     let tables = control.tables();
     let table_points = tables.iter().map(|t| t.points).max().unwrap_or(2);
     let n = match request.evaluation_points {
         Some(n) if !(2..=residual::MAX_RESIDUAL_GRID_POINTS).contains(&n) => {
-            return Err(ExportError::BadEvaluationGrid { points: n })
+            return Err(ExportError::BadEvaluationGrid {
+                points: n,
+                max: residual::MAX_RESIDUAL_GRID_POINTS,
+            })
         }
         Some(n) => n,
         None => EvaluationGrid::default_points(table_points),
@@ -354,19 +265,19 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     );
     if measured.largest_applied_mm == 0.0 {
         return Err(ExportError::NothingHeld {
-            format: format.name(),
-            holds: format.holds(),
+            format: spec.name,
+            holds: spec.holds,
         });
     }
     let at_inputs = machine.at(inputs);
-    let structure = format.structure();
+    let structure = spec.structure;
     let not_held = residual::not_held(&at_inputs, structure, request.pose, &ranges)?;
     let coarse: [Vec<f64>; 3] =
         std::array::from_fn(|d| fitting.travel(d, fitting::AVERAGING_POINTS));
     let structural_mm = fitting::structural_remainder(fitting.field(), structure, &coarse)?;
     let report = Report {
-        format: format.name(),
-        controller: format.title(),
+        format: spec.name,
+        controller: spec.title,
         machine: machine.name.clone(),
         inputs: inputs.describe(machine),
         pose: pose_words,
@@ -377,14 +288,13 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
         residual: measured.residual,
         before_offset_free: measured.before_offset_free,
         residual_offset_free: measured.residual_offset_free,
-        holds: format.holds(),
-        uses_direction: format.uses_direction(),
+        holds: spec.holds,
+        uses_direction: spec.uses_direction,
         structural_mm,
         not_held,
     };
     Ok(Export {
-        layout: format.layout(),
-        format: format.name(),
+        spec,
         files,
         report,
     })
@@ -396,7 +306,7 @@ impl Export {
         let r = &self.report;
         if r.residual.max_mm > limit_mm {
             return Err(ExportError::ResidualAbove {
-                format: self.format,
+                format: self.spec.name,
                 residual_um: r.residual.max_mm * 1e3,
                 rms_um: r.residual.rms_mm * 1e3,
                 before_um: r.before.max_mm * 1e3,
@@ -410,13 +320,13 @@ impl Export {
     /// the others. Every file goes to a temporary name first and all are renamed into place
     /// only when all are written, so a failure leaves none of them. Returns the paths written.
     pub fn write(&self, out: &Path) -> Result<Vec<PathBuf>, ExportError> {
-        let paths: Vec<PathBuf> = match self.layout {
+        let paths: Vec<PathBuf> = match self.spec.layout {
             Layout::File => vec![out.to_path_buf()],
             Layout::Folder => {
                 if out.exists() && !out.is_dir() {
                     return Err(ExportError::NotAFolder(
                         out.display().to_string(),
-                        self.format,
+                        self.spec.name,
                     ));
                 }
                 std::fs::create_dir_all(out).map_err(|e| FileError::write(out, e))?;

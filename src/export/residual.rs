@@ -9,9 +9,9 @@
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::fitting::{structural_remainder, uniform, Field, AVERAGING_POINTS};
-use super::format::{Control, Structure};
-use super::ExportError;
+use super::error::ExportError;
+use super::fitting::{structural_remainder, uniform, Field, Structure, AVERAGING_POINTS};
+use super::format::Control;
 use crate::model::inputs::Approach;
 use crate::model::perturbation::SPINDLE_NAMES;
 use crate::model::{Command, Machine};

@@ -309,15 +309,16 @@ fn help_names_every_format_and_its_layout() {
     let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
     let format_help = &help[help.find("--format").unwrap()..help.find("--out").unwrap()];
     let out_help = &help[help.find("--out").unwrap()..help.find("--spacing").unwrap()];
-    for format in volmap::export::FORMATS {
-        let name = format.name();
+    for format in volmap::export::formats::FORMATS {
+        let spec = format.spec();
+        let name = spec.name;
         let named = |text: &str| {
             text.split(|c: char| !(c.is_alphanumeric() || c == '-'))
                 .any(|w| w == name)
         };
         assert!(named(format_help), "{name} missing from: {format_help}");
         let (file_part, folder_part) = out_help.split_at(out_help.find("folder").unwrap());
-        match format.layout() {
+        match spec.layout {
             volmap::export::Layout::File => assert!(named(file_part), "{name}: {out_help}"),
             volmap::export::Layout::Folder => assert!(named(folder_part), "{name}: {out_help}"),
         }

@@ -6,12 +6,12 @@
 
 use std::collections::BTreeMap;
 
-use super::{
+use super::tables::{
     Grid, Loaded, Sinumerik, CEC_FILE, CEC_PROGRAM, MACHINE_AXES, MSEC_FILE, MSEC_PROGRAM,
 };
-use crate::export::format::{read_error, WrittenFile};
+use crate::export::error::{read_error, ExportError};
+use crate::export::format::WrittenFile;
 use crate::export::nodes::{equidistant, Pwl};
-use crate::export::ExportError;
 
 /// One assignment `$NAME[i,j,..]=value` and the line it is on.
 struct Assignment {

@@ -9,12 +9,10 @@
 //! `[X_MIN_POS, X_MAX_POS] × [Y_MIN_POS, Y_MAX_POS]`; other targets pass uncorrected. The
 //! residual takes the machine's travels as those limits.
 
-use super::fitting::Fitting;
-use super::format::{
-    read_error, Control, Format, Layout, Limits, Nodes, Structure, TableInfo, WrittenFile,
-};
 use super::skew::{Skew, TERMS};
-use super::ExportError;
+use crate::export::error::{read_error, ExportError};
+use crate::export::fitting::{Fitting, Structure};
+use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -26,36 +24,26 @@ const DECIMALS: usize = 12;
 /// `SKEW_FACTOR_MIN`, `SKEW_FACTOR_MAX`.
 const FACTOR_LIMIT: f64 = 1.0;
 
+const SPEC: Spec = Spec {
+    name: "marlin",
+    title: "Marlin (M852 bed skew compensation)",
+    layout: Layout::File,
+    limits: Limits {
+        nodes: Nodes::Fixed,
+        min_points: 0,
+        max_points: 0,
+        min_spacing_mm: 0.0,
+        default_points: 0,
+        source: "Marlin's M852: three factors",
+    },
+    structure: Structure::Additive(TERMS),
+    holds: "three skew factors from -1 to 1: the linear dependence of X on Y and Z and of Y on Z (squareness), applied only to targets at least 1 mm inside the X and Y minimum whose corrected X, Y stay within the travel; not positioning or scale errors, straightness, angular errors' Abbe terms, backlash, offsets, nor anything that varies along an axis",
+    uses_direction: false,
+};
+
 impl Format for Marlin {
-    fn name(&self) -> &'static str {
-        "marlin"
-    }
-
-    fn title(&self) -> &'static str {
-        "Marlin (M852 bed skew compensation)"
-    }
-
-    fn layout(&self) -> Layout {
-        Layout::File
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            nodes: Nodes::Fixed,
-            min_points: 0,
-            max_points: 0,
-            min_spacing_mm: 0.0,
-            default_points: 0,
-            source: "Marlin's M852: three factors",
-        }
-    }
-
-    fn structure(&self) -> Structure {
-        Structure::Additive(TERMS)
-    }
-
-    fn holds(&self) -> &'static str {
-        "three skew factors from -1 to 1: the linear dependence of X on Y and Z and of Y on Z (squareness), applied only to targets at least 1 mm inside the X and Y minimum whose corrected X, Y stay within the travel; not positioning or scale errors, straightness, angular errors' Abbe terms, backlash, offsets, nor anything that varies along an axis"
+    fn spec(&self) -> &'static Spec {
+        &SPEC
     }
 
     fn write(
@@ -68,7 +56,7 @@ impl Format for Marlin {
         for (plane, f) in skew.named() {
             if f.abs() > FACTOR_LIMIT {
                 return Err(ExportError::BeyondFormat {
-                    format: "marlin",
+                    format: SPEC.name,
                     what: format!("the {plane} skew factor"),
                     value: f,
                     holds: "skew factors from -1 to 1 (SKEW_FACTOR_MIN, SKEW_FACTOR_MAX)",

@@ -17,58 +17,26 @@
 //! grid of its two arguments. The control is taken to interpolate linearly between nodes and
 //! to hold the end values outside them, and to run the same model as volmap: its command puts
 //! the tip of volmap's model, with every error replaced by its interpolation from the written
-//! nodes, on target ([`read::IsgControl`]).
+//! nodes, on target ([`IsgControl`]).
 
-use super::fitting::{breakpoints, Fitting};
-use super::format::{Control, Format, Layout, Limits, Nodes, Structure, WrittenFile};
-use super::nodes::{candidates, free_nodes};
-use super::ExportError;
 use nalgebra::Vector3;
 
+use super::parameters::{axis_numbers, isg_chain, Parameter, CONFIG, ERRORS};
+use super::read::{check_files, IsgControl};
+use crate::export::error::{read_error, ExportError};
+use crate::export::fitting::{breakpoints, Fitting, Structure};
+use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, WrittenFile};
+use crate::export::nodes::{candidates, free_nodes};
 use crate::model::{Axis, AxisLetter, Command, ErrorFunction, Machine, COMPONENT_NAMES};
 use crate::reference::{error_transform, rot_about, spindle_error, Transform};
 
-#[path = "isg_read.rs"]
-pub mod read;
-
 pub struct Isg;
 
-pub const CONFIG: &str = "vol_comp_0.lis";
-pub const ERRORS: &str = "volcomp_errors.csv";
-pub const STARTUP: &str = "hochlauf_volcomp.lis";
+const STARTUP: &str = "hochlauf_volcomp.lis";
 /// Where the configuration list says the files lie on the control.
-pub const FOLDER: &str = r"C:\volcomp\";
+const FOLDER: &str = r"C:\volcomp\";
 /// Positions of another argument a node choice looks at for an error of two axes.
 const SLICES: usize = 11;
-
-/// One error parameter as written: its ISG name (`EXX`, `C0Y`, `N0Z`), the axes it is
-/// tabulated against (none: a constant), the nodes along each, and its values on the full grid
-/// of the nodes, the first argument outermost.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Parameter {
-    pub name: String,
-    pub arguments: Vec<AxisLetter>,
-    pub nodes: Vec<Vec<f64>>,
-    pub values: Vec<f64>,
-}
-
-impl Parameter {
-    /// Whether its values are angles (rad).
-    pub fn is_angular(&self) -> bool {
-        is_angular(&self.name)
-    }
-}
-
-/// Whether the parameter `name` is an angle: a rotation component (`EA?`, `EB?`, `EC?`) or
-/// orientation position error (`A0?`, `B0?`, `C0?`).
-pub fn is_angular(name: &str) -> bool {
-    let b = name.as_bytes();
-    match b {
-        [b'E', c, _] => matches!(c, b'A' | b'B' | b'C'),
-        [c, b'0', _] => matches!(c, b'A' | b'B' | b'C'),
-        _ => false,
-    }
-}
 
 /// A value of a parameter: angles to 1e-12 rad, lengths to 1e-9 mm; `-0` written `0`.
 pub fn value_text(v: f64, angular: bool) -> String {
@@ -98,36 +66,26 @@ pub fn position_text(v: f64) -> String {
     }
 }
 
+const SPEC: Spec = Spec {
+    name: "isg",
+    title: "ISG kernel / Beckhoff TwinCAT CNC volumetric compensation (ISO 230-1 error parameters, ISG CSV)",
+    layout: Layout::Folder,
+    limits: Limits {
+        nodes: Nodes::Free,
+        min_points: 2,
+        max_points: 1001,
+        min_spacing_mm: 0.0,
+        default_points: 21,
+        source: "volmap's limit per table; the control reads at most the max_records of its start-up list",
+    },
+    structure: Structure::Grid,
+    holds: "the volumetric compensation holds the machine's geometric errors themselves (component errors as tables, position errors) and corrects the tool position at any pose, to within linear interpolation between the written nodes; not reversal (written at the approach asked), not temperature terms (written at the temperatures asked), not the tool orientation; the spindle errors, which have no ISG parameter, are folded into the errors of the last axis before the tool",
+    uses_direction: false,
+};
+
 impl Format for Isg {
-    fn name(&self) -> &'static str {
-        "isg"
-    }
-
-    fn title(&self) -> &'static str {
-        "ISG kernel / Beckhoff TwinCAT CNC volumetric compensation (ISO 230-1 error parameters, ISG CSV)"
-    }
-
-    fn layout(&self) -> Layout {
-        Layout::Folder
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            nodes: Nodes::Free,
-            min_points: 2,
-            max_points: 1001,
-            min_spacing_mm: 0.0,
-            default_points: 21,
-            source: "volmap's limit per table; the control reads at most the max_records of its start-up list",
-        }
-    }
-
-    fn structure(&self) -> Structure {
-        Structure::Grid
-    }
-
-    fn holds(&self) -> &'static str {
-        "the volumetric compensation holds the machine's geometric errors themselves (component errors as tables, position errors) and corrects the tool position at any pose, to within linear interpolation between the written nodes; not reversal (written at the approach asked), not temperature terms (written at the temperatures asked), not the tool orientation; the spindle errors, which have no ISG parameter, are folded into the errors of the last axis before the tool"
+    fn spec(&self) -> &'static Spec {
+        &SPEC
     }
 
     fn write(
@@ -136,7 +94,7 @@ impl Format for Isg {
         points: Option<[usize; 3]>,
         spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError> {
-        let points = points.unwrap_or([self.limits().default_points; 3]);
+        let points = points.unwrap_or([SPEC.limits.default_points; 3]);
         let machine = fitting.machine.at(fitting.inputs);
         let count = |b: AxisLetter| {
             if b.is_linear() {
@@ -236,8 +194,8 @@ impl Format for Isg {
         files: &[WrittenFile],
         _travel_mm: &[[f64; 2]; 3],
     ) -> Result<Box<dyn Control>, ExportError> {
-        read::check_files(files)?;
-        Err(super::format::read_error(
+        check_files(files)?;
+        Err(read_error(
             CONFIG,
             0,
             "the ISG kernel models the machine with its own nominal kinematics, which these files do not carry: read them for a machine",
@@ -249,7 +207,7 @@ impl Format for Isg {
         files: &[WrittenFile],
         fitting: &Fitting,
     ) -> Result<Box<dyn Control>, ExportError> {
-        Ok(Box::new(read::IsgControl::new(files, fitting)?))
+        Ok(Box::new(IsgControl::new(files, fitting)?))
     }
 }
 
@@ -321,7 +279,7 @@ fn tabulate(
 ) -> Result<Parameter, ExportError> {
     if args.len() > 2 {
         return Err(ExportError::Unrepresentable {
-            format: "isg",
+            format: SPEC.name,
             message: format!(
                 "{name} depends on {} axes at once ({}); volmap writes tables of at most two arguments",
                 args.len(),
@@ -395,37 +353,6 @@ fn tabulate(
         nodes,
         values,
     })
-}
-
-/// The ISG chain: the axes from the workpiece to the tool (the work branch from the workpiece
-/// inward, then the tool branch from the bed), and how many of them carry the workpiece.
-pub fn isg_chain(machine: &Machine) -> (String, usize) {
-    let order: String = machine
-        .chain
-        .product_order()
-        .iter()
-        .map(|a| a.as_char())
-        .collect();
-    (order, machine.chain.work.len())
-}
-
-/// The logical axis numbers the configuration list assigns: X 1, Y 2, Z 3, then the rotary
-/// axes in the order A B C from 4.
-pub fn axis_numbers(machine: &Machine) -> Vec<(AxisLetter, usize)> {
-    let mut out = Vec::new();
-    let mut next = 4;
-    for letter in AxisLetter::ALL {
-        if machine.chain.contains(letter) {
-            let n = if letter.is_linear() {
-                letter.index() + 1
-            } else {
-                next += 1;
-                next - 1
-            };
-            out.push((letter, n));
-        }
-    }
-    out
 }
 
 fn config_text(fitting: &Fitting, machine: &Machine) -> String {

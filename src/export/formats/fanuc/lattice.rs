@@ -11,13 +11,11 @@
 //! lattice the nearest face's values are taken (not documented: the lattice should cover the
 //! travels, which volmap's does).
 
-use super::fitting::Fitting;
-use super::format::{
-    read_error, Control, Format, Layout, Limits, Nodes, Structure, TableInfo, WrittenFile,
-};
-use super::grid_csv::Grid;
-use super::nodes::lattice;
-use super::ExportError;
+use crate::export::error::{read_error, ExportError};
+use crate::export::fitting::{Fitting, Structure};
+use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::formats::grid_csv::Grid;
+use crate::export::nodes::lattice;
 use crate::io::csv::Csv;
 use crate::model::inputs::Approach;
 use crate::model::Command;
@@ -29,36 +27,26 @@ const COLUMNS: [&str; 7] = ["NO", "X", "Y", "Z", "CX", "CY", "CZ"];
 /// The detection unit: 1 µm (IS-B on a metric machine), mm.
 const UNIT_MM: f64 = 0.001;
 
+const SPEC: Spec = Spec {
+    name: "fanuc-3d",
+    title: "FANUC three-dimensional error compensation (lattice of compensation vectors)",
+    layout: Layout::File,
+    limits: Limits {
+        nodes: Nodes::Equidistant,
+        min_points: 2,
+        max_points: 101,
+        min_spacing_mm: 1.0,
+        default_points: 21,
+        source: "volmap's limit for the lattice: the documents volmap cites give no lattice size; the machine builder's setting decides",
+    },
+    structure: Structure::Grid,
+    holds: "the three-dimensional error compensation lattice holds any correction of X, Y and Z at the pose and tool length, in whole µm at the lattice points, trilinear between them; not the tool orientation",
+    uses_direction: false,
+};
+
 impl Format for FanucLattice {
-    fn name(&self) -> &'static str {
-        "fanuc-3d"
-    }
-
-    fn title(&self) -> &'static str {
-        "FANUC three-dimensional error compensation (lattice of compensation vectors)"
-    }
-
-    fn layout(&self) -> Layout {
-        Layout::File
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            nodes: Nodes::Equidistant,
-            min_points: 2,
-            max_points: 101,
-            min_spacing_mm: 1.0,
-            default_points: 21,
-            source: "volmap's limit for the lattice: the documents volmap cites give no lattice size; the machine builder's setting decides",
-        }
-    }
-
-    fn structure(&self) -> Structure {
-        Structure::Grid
-    }
-
-    fn holds(&self) -> &'static str {
-        "the three-dimensional error compensation lattice holds any correction of X, Y and Z at the pose and tool length, in whole µm at the lattice points, trilinear between them; not the tool orientation"
+    fn spec(&self) -> &'static Spec {
+        &SPEC
     }
 
     fn write(
@@ -67,7 +55,7 @@ impl Format for FanucLattice {
         points: Option<[usize; 3]>,
         spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError> {
-        let points = points.unwrap_or([self.limits().default_points; 3]);
+        let points = points.unwrap_or([SPEC.limits.default_points; 3]);
         let (axes, targets) = lattice(&fitting.ranges, points, spacing_mm, |x| {
             (x / UNIT_MM).round() * UNIT_MM
         });

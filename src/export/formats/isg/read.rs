@@ -7,10 +7,10 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{axis_numbers, isg_chain, Parameter, CONFIG, ERRORS};
+use super::parameters::{axis_numbers, isg_chain, Parameter, CONFIG, ERRORS};
+use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{Field, Fitting};
-use crate::export::format::{read_error, Control, TableInfo, WrittenFile};
-use crate::export::ExportError;
+use crate::export::format::{Control, TableInfo, WrittenFile};
 use crate::model::inputs::Approach;
 use crate::model::table2d::Table2d;
 use crate::model::{AxisLetter, Command, ErrorFunction, Interp, Table, COMPONENT_NAMES};

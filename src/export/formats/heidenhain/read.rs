@@ -4,10 +4,10 @@
 //! `[END]`. Positions must increase; values are linear between them and, beyond the ends, the
 //! end values hold.
 
-use super::{LoadedCom, Tnc, ASSIGNMENT_FILE, AXIS_KEYS};
-use crate::export::format::{read_error, WrittenFile};
+use super::tables::{LoadedCom, Tnc, ASSIGNMENT_FILE, AXIS_KEYS};
+use crate::export::error::{read_error, ExportError};
+use crate::export::format::WrittenFile;
 use crate::export::nodes::Pwl;
-use crate::export::ExportError;
 
 /// A table file: its column names and, per row, the line and each column's field (trimmed).
 struct Fields {

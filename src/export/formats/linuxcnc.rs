@@ -12,12 +12,10 @@
 //! increasing, no comment before the rows (reading stops at the first line that is not three
 //! numbers, so provenance goes after them).
 
-use super::fitting::{Fitting, AVERAGING_POINTS, LINEAR};
-use super::format::{
-    read_error, Control, Format, Layout, Limits, Nodes, Structure, TableInfo, Term, WrittenFile,
-};
-use super::nodes::{candidates, free_nodes};
-use super::ExportError;
+use crate::export::error::{read_error, ExportError};
+use crate::export::fitting::{Fitting, Structure, Term, AVERAGING_POINTS, LINEAR};
+use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::nodes::{candidates, free_nodes};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -43,40 +41,26 @@ const TERMS: [[Term; 3]; 3] = [
     [Term::Slope, Term::Slope, Term::Curve],
 ];
 
+const SPEC: Spec = Spec {
+    name: "linuxcnc",
+    title: "LinuxCNC (joint compensation files, matrixkins)",
+    layout: Layout::Folder,
+    limits: Limits {
+        nodes: Nodes::Free,
+        min_points: 2,
+        max_points: MAX_ENTRIES,
+        min_spacing_mm: 0.0,
+        default_points: MAX_ENTRIES,
+        source: "LinuxCNC's EMCMOT_COMP_SIZE",
+    },
+    structure: Structure::Additive(TERMS),
+    holds: "per joint, its correction along its own axis as a function of its own position, forward and reverse; with matrixkins one constant linear map of X, Y, Z (squareness); not straightness, angular errors' Abbe terms, sag or other errors that vary with another axis's position nonlinearly, nor rotary axes",
+    uses_direction: true,
+};
+
 impl Format for LinuxCnc {
-    fn name(&self) -> &'static str {
-        "linuxcnc"
-    }
-
-    fn title(&self) -> &'static str {
-        "LinuxCNC (joint compensation files, matrixkins)"
-    }
-
-    fn layout(&self) -> Layout {
-        Layout::Folder
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            nodes: Nodes::Free,
-            min_points: 2,
-            max_points: MAX_ENTRIES,
-            min_spacing_mm: 0.0,
-            default_points: MAX_ENTRIES,
-            source: "LinuxCNC's EMCMOT_COMP_SIZE",
-        }
-    }
-
-    fn structure(&self) -> Structure {
-        Structure::Additive(TERMS)
-    }
-
-    fn holds(&self) -> &'static str {
-        "per joint, its correction along its own axis as a function of its own position, forward and reverse; with matrixkins one constant linear map of X, Y, Z (squareness); not straightness, angular errors' Abbe terms, sag or other errors that vary with another axis's position nonlinearly, nor rotary axes"
-    }
-
-    fn uses_direction(&self) -> bool {
-        true
+    fn spec(&self) -> &'static Spec {
+        &SPEC
     }
 
     fn write(
@@ -173,7 +157,7 @@ fn joint_table(
         hi += ends[0].max(ends[1]);
     }
     let count = (4 * (n - 1) + 1).clamp(201, 1025);
-    let breaks = super::fitting::breakpoints(fitting.machine, LINEAR[k]);
+    let breaks = crate::export::fitting::breakpoints(fitting.machine, LINEAR[k]);
     let mut q = candidates(lo, hi, count, &breaks);
     // The trim of joint k at each candidate: the mean correction of axis k over the others at
     // that position, less what the kinematics' cross terms already add on average.

@@ -16,9 +16,8 @@
 //! Heidenhain format chooses free nodes shared by the curves of one table
 //! ([`free_nodes`](super::nodes::free_nodes)).
 
-use super::fitting::{Field, Fitting, LINEAR};
-use super::format::Term;
-use super::ExportError;
+use crate::export::error::ExportError;
+use crate::export::fitting::{Field, Fitting, Term, LINEAR};
 use crate::model::inputs::Approach;
 use crate::model::perturbation::ErrorTarget;
 use crate::model::{AxisLetter, Machine};

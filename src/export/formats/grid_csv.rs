@@ -7,12 +7,10 @@
 //! The CSV follows volmap's one CSV grammar (one header row, comma-separated fields, `#`
 //! comment lines) and reads back with its one reader.
 
-use super::fitting::Fitting;
-use super::format::{
-    read_error, Control, Format, Layout, Limits, Nodes, Structure, TableInfo, WrittenFile,
-};
-use super::nodes::lattice;
-use super::ExportError;
+use crate::export::error::{read_error, ExportError};
+use crate::export::fitting::{Fitting, Structure};
+use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::nodes::lattice;
 use crate::io::csv::Csv;
 use crate::model::inputs::Approach;
 use crate::model::Command;
@@ -24,36 +22,26 @@ const COLUMNS: [&str; 6] = ["X", "Y", "Z", "dX", "dY", "dZ"];
 /// Decimals of positions and corrections, mm: 1 nm.
 const DECIMALS: usize = 6;
 
+const SPEC: Spec = Spec {
+    name: "grid-csv",
+    title: "generic 3-D correction grid (CSV)",
+    layout: Layout::File,
+    limits: Limits {
+        nodes: Nodes::Equidistant,
+        min_points: 2,
+        max_points: 101,
+        min_spacing_mm: 0.1,
+        default_points: 21,
+        source: "volmap's limits for the generic grid",
+    },
+    structure: Structure::Grid,
+    holds: "a 3-D grid holds any correction of X, Y and Z at the pose, to within its trilinear interpolation between nodes",
+    uses_direction: false,
+};
+
 impl Format for GridCsv {
-    fn name(&self) -> &'static str {
-        "grid-csv"
-    }
-
-    fn title(&self) -> &'static str {
-        "generic 3-D correction grid (CSV)"
-    }
-
-    fn layout(&self) -> Layout {
-        Layout::File
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            nodes: Nodes::Equidistant,
-            min_points: 2,
-            max_points: 101,
-            min_spacing_mm: 0.1,
-            default_points: 21,
-            source: "volmap's limits for the generic grid",
-        }
-    }
-
-    fn structure(&self) -> Structure {
-        Structure::Grid
-    }
-
-    fn holds(&self) -> &'static str {
-        "a 3-D grid holds any correction of X, Y and Z at the pose, to within its trilinear interpolation between nodes"
+    fn spec(&self) -> &'static Spec {
+        &SPEC
     }
 
     fn write(
@@ -62,7 +50,7 @@ impl Format for GridCsv {
         points: Option<[usize; 3]>,
         spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError> {
-        let points = points.unwrap_or([self.limits().default_points; 3]);
+        let points = points.unwrap_or([SPEC.limits.default_points; 3]);
         let (axes, targets) = lattice(&fitting.ranges, points, spacing_mm, |x| x);
         let corrections = fitting.field().corrections(&targets)?;
         let mut text = String::new();

@@ -4,12 +4,10 @@
 //! transform applies to every move's end point before the kinematics, over the whole
 //! workspace, with no limits on the factors (see [`super::skew`]).
 
-use super::fitting::Fitting;
-use super::format::{
-    read_error, Control, Format, Layout, Limits, Nodes, Structure, TableInfo, WrittenFile,
-};
 use super::skew::{square_lengths, Skew, TERMS};
-use super::ExportError;
+use crate::export::error::{read_error, ExportError};
+use crate::export::fitting::{Fitting, Structure};
+use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -20,36 +18,26 @@ const PROFILE: &str = "volmap";
 /// Decimals of the factors: 1e-12, a nanometre over a metre.
 const DECIMALS: usize = 12;
 
+const SPEC: Spec = Spec {
+    name: "klipper",
+    title: "Klipper ([skew_correction] profile)",
+    layout: Layout::File,
+    limits: Limits {
+        nodes: Nodes::Fixed,
+        min_points: 0,
+        max_points: 0,
+        min_spacing_mm: 0.0,
+        default_points: 0,
+        source: "Klipper's skew_correction: three factors",
+    },
+    structure: Structure::Additive(TERMS),
+    holds: "three skew factors: the linear dependence of X on Y and Z and of Y on Z (squareness); not positioning or scale errors, straightness, angular errors' Abbe terms, backlash, offsets, nor anything that varies along an axis",
+    uses_direction: false,
+};
+
 impl Format for Klipper {
-    fn name(&self) -> &'static str {
-        "klipper"
-    }
-
-    fn title(&self) -> &'static str {
-        "Klipper ([skew_correction] profile)"
-    }
-
-    fn layout(&self) -> Layout {
-        Layout::File
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            nodes: Nodes::Fixed,
-            min_points: 0,
-            max_points: 0,
-            min_spacing_mm: 0.0,
-            default_points: 0,
-            source: "Klipper's skew_correction: three factors",
-        }
-    }
-
-    fn structure(&self) -> Structure {
-        Structure::Additive(TERMS)
-    }
-
-    fn holds(&self) -> &'static str {
-        "three skew factors: the linear dependence of X on Y and Z and of Y on Z (squareness); not positioning or scale errors, straightness, angular errors' Abbe terms, backlash, offsets, nor anything that varies along an axis"
+    fn spec(&self) -> &'static Spec {
+        &SPEC
     }
 
     fn write(

@@ -10,9 +10,8 @@
 //! least-squares slopes of the machine's correction ([`Fitting::additive`]), so an offset the
 //! skew cannot hold does not tilt them; a squareness `EC0Y = c` alone gives `xy = −tan c`.
 
-use super::fitting::Fitting;
-use super::format::Term;
-use super::ExportError;
+use crate::export::error::ExportError;
+use crate::export::fitting::{Fitting, Term};
 
 /// What a skew holds: X from Y and Z, Y from Z, as slopes.
 pub const TERMS: [[Term; 3]; 3] = [

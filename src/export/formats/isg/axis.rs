@@ -17,83 +17,40 @@
 //! effects on `k` along the other axes, with their interaction, not a dependence of `k`'s
 //! correction on its own position together with another's.
 
-use super::fitting::{breakpoints, others, uniform, Fitting, AVERAGING_POINTS, LINEAR};
-use super::format::{Control, Format, Layout, Limits, Nodes, Structure, Term, WrittenFile};
-use super::nodes::{candidates, free_nodes};
-use super::ExportError;
+use super::axis_lists::{
+    list_name, AxisControl, AxisLists, LSEC_MAX_POINTS, PLANE_MAX_POINTS, STARTUP, UNIT_MM,
+};
+use super::axis_read::read_lists;
+use crate::export::error::ExportError;
+use crate::export::fitting::{
+    breakpoints, others, uniform, Fitting, Structure, Term, AVERAGING_POINTS, LINEAR,
+};
+use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, WrittenFile};
+use crate::export::nodes::{candidates, free_nodes};
 use crate::model::inputs::Approach;
-
-#[path = "isg_axis_read.rs"]
-pub mod read;
 
 pub struct IsgAxis;
 
-/// The unit of the lists' positions and values: 0.1 µm, mm.
-pub const UNIT_MM: f64 = 1e-4;
-/// P-COMP-00059, the LSEC memory volmap reserves (`kw_nr_max` must stay below it).
-pub const LSEC_MAX_POINTS: usize = 1500;
-/// P-COMP-00061, the plane compensation's memory (101 × 101 by default).
-pub const PLANE_MAX_POINTS: usize = 10201;
-pub const STARTUP: &str = "hochlauf_axis_comp.lis";
-
-/// The list of linear axis `axis` (0, 1, 2).
-pub fn list_name(axis: usize) -> String {
-    format!(
-        "achskw_{}.lis",
-        LINEAR[axis].to_string().to_ascii_lowercase()
-    )
-}
-
-/// One axis's lists as written: positions and values in 0.1 µm.
-#[derive(Debug, Clone, PartialEq)]
-pub struct AxisLists {
-    pub axis: usize,
-    /// LSEC set points and the errors there travelling + and (bilateral) −.
-    pub setpoints: Vec<i64>,
-    pub pos: Vec<i64>,
-    pub neg: Option<Vec<i64>>,
-    /// The plane: its masters (axes), start positions, intervals, and
-    /// `correction[j][i]` (j along master 2, i along master 1).
-    pub masters: [usize; 2],
-    pub start: [i64; 2],
-    pub interval: [i64; 2],
-    pub correction: Vec<Vec<i64>>,
-}
+const SPEC: Spec = Spec {
+    name: "isg-axis",
+    title: "ISG kernel / Beckhoff TwinCAT CNC axis compensation lists (leadscrew error and plane compensation)",
+    layout: Layout::Folder,
+    limits: Limits {
+        nodes: Nodes::Free,
+        min_points: 2,
+        max_points: 101,
+        min_spacing_mm: 0.0,
+        default_points: 21,
+        source: "ISG plane compensation: 10201 points (101 x 101) by default, P-COMP-00061",
+    },
+    structure: Structure::AxisAndPlane,
+    holds: "the leadscrew error compensation holds each linear axis's positioning error along its own travel (per direction where bilateral), the plane compensation its correction as a function of the other two axes (straightness, squareness, angular errors' effects at the tool length, their interaction); not a dependence on its own position together with another's, not the tool orientation; linear between the written points",
+    uses_direction: true,
+};
 
 impl Format for IsgAxis {
-    fn name(&self) -> &'static str {
-        "isg-axis"
-    }
-
-    fn title(&self) -> &'static str {
-        "ISG kernel / Beckhoff TwinCAT CNC axis compensation lists (leadscrew error and plane compensation)"
-    }
-
-    fn layout(&self) -> Layout {
-        Layout::Folder
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            nodes: Nodes::Free,
-            min_points: 2,
-            max_points: 101,
-            min_spacing_mm: 0.0,
-            default_points: 21,
-            source: "ISG plane compensation: 10201 points (101 x 101) by default, P-COMP-00061",
-        }
-    }
-
-    fn structure(&self) -> Structure {
-        Structure::AxisAndPlane
-    }
-
-    fn holds(&self) -> &'static str {
-        "the leadscrew error compensation holds each linear axis's positioning error along its own travel (per direction where bilateral), the plane compensation its correction as a function of the other two axes (straightness, squareness, angular errors' effects at the tool length, their interaction); not a dependence on its own position together with another's, not the tool orientation; linear between the written points"
-    }
-
-    fn uses_direction(&self) -> bool {
-        true
+    fn spec(&self) -> &'static Spec {
+        &SPEC
     }
 
     fn write(
@@ -102,7 +59,7 @@ impl Format for IsgAxis {
         points: Option<[usize; 3]>,
         spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError> {
-        let points = points.unwrap_or([self.limits().default_points; 3]);
+        let points = points.unwrap_or([SPEC.limits.default_points; 3]);
         let mut lists = Vec::new();
         for axis in 0..3 {
             lists.push(fit_lists(fitting, axis, points, spacing_mm)?);
@@ -111,12 +68,12 @@ impl Format for IsgAxis {
             .iter()
             .map(|l| WrittenFile {
                 name: list_name(l.axis),
-                text: read::list_text(fitting, l),
+                text: list_text(fitting, l),
             })
             .collect();
         files.push(WrittenFile {
             name: STARTUP.into(),
-            text: read::startup_text(fitting),
+            text: startup_text(fitting),
         });
         Ok(files)
     }
@@ -126,8 +83,8 @@ impl Format for IsgAxis {
         files: &[WrittenFile],
         _travel_mm: &[[f64; 2]; 3],
     ) -> Result<Box<dyn Control>, ExportError> {
-        Ok(Box::new(read::AxisControl {
-            lists: read::read_lists(files)?,
+        Ok(Box::new(AxisControl {
+            lists: read_lists(files)?,
         }))
     }
 }
@@ -228,4 +185,86 @@ fn fit_lists(
         interval: [g1.1, g2.1],
         correction,
     })
+}
+
+/// Where the start-up lines say the lists lie on the control.
+const FOLDER: &str = r"C:\axiscomp\";
+
+fn line(key: &str, value: impl std::fmt::Display) -> String {
+    format!("{key:<40} {value}\n")
+}
+
+/// One axis's compensation value list.
+fn list_text(fitting: &Fitting, l: &AxisLists) -> String {
+    let letter = LINEAR[l.axis];
+    let mut text = String::new();
+    for h in &fitting.header {
+        text += &format!("# {h}\n");
+    }
+    text += &format!(
+        "# volmap isg-axis: compensation value list of axis {letter} (logical axis {}), positions and values in 0.1 um\n",
+        l.axis + 1
+    );
+    text += &line("kopf.achs_nr", l.axis + 1);
+    text += &line("kopf.log_achs_name", letter);
+    text += &format!("# leadscrew error compensation: the ERROR of {letter} at its set point (actual - nominal); the control subtracts it\n");
+    text += &line("kw.ssfk.unit", 1);
+    text += &line("kw.ssfk.max_points", LSEC_MAX_POINTS);
+    text += &line("kw.ssfk.interval", 0);
+    text += &line("kw.ssfk.kw_nr_max", l.setpoints.len());
+    text += &line("kw.ssfk.bilateral", u8::from(l.neg.is_some()));
+    text += &line("kw.ssfk.modulo", 0);
+    for (i, s) in l.setpoints.iter().enumerate() {
+        text += &line(&format!("kw.ssfk.table[{i}].setpoint"), s);
+        text += &line(&format!("kw.ssfk.table[{i}].pos"), l.pos[i]);
+        if let Some(neg) = &l.neg {
+            text += &line(&format!("kw.ssfk.table[{i}].neg"), neg[i]);
+        }
+    }
+    let [m1, m2] = l.masters;
+    text += &format!(
+        "# plane compensation: the CORRECTION added to the set point of {letter} over {} (master 1) and {} (master 2)\n",
+        LINEAR[m1], LINEAR[m2]
+    );
+    text += &line("kw.crosscomp2.unit", 1);
+    text += &line("kw.crosscomp2.grid", "RECTANGULAR");
+    text += &line("kw.crosscomp2.interval1", l.interval[0]);
+    text += &line("kw.crosscomp2.interval2", l.interval[1]);
+    text += &line("kw.crosscomp2.start_position_master1", l.start[0]);
+    text += &line("kw.crosscomp2.start_position_master2", l.start[1]);
+    text += &line(
+        "kw.crosscomp2.last_index_master1",
+        l.correction[0].len() - 1,
+    );
+    text += &line("kw.crosscomp2.last_index_master2", l.correction.len() - 1);
+    text += &line("kw.crosscomp2.master1_ax_nr", m1 + 1);
+    text += &line("kw.crosscomp2.master2_ax_nr", m2 + 1);
+    text += &line("kw.crosscomp2.n_cycles", 0);
+    text += &line("kw.crosscomp2.max_points", PLANE_MAX_POINTS);
+    for (j, row) in l.correction.iter().enumerate() {
+        for (i, v) in row.iter().enumerate() {
+            text += &line(&format!("kw.crosscomp2.table[{j}][{i}].correction"), v);
+        }
+    }
+    text + "End\n"
+}
+
+/// The lines of the start-up list that name the lists.
+fn startup_text(fitting: &Fitting) -> String {
+    let mut text = String::new();
+    for h in &fitting.header {
+        text += &format!("# {h}\n");
+    }
+    text +=
+        "# volmap isg-axis: the compensation value lists in the start-up list (hochlauf.lis);\n";
+    text += "# activate them in each axis's parameters: lr_param.ssfk 1 (P-AXIS-00175), lr_param.crosscomp2 1 (P-AXIS-00174)\n";
+    text += &line("zahl_kw", 3);
+    for axis in 0..3 {
+        text += &line(
+            &format!("achs_kw[{axis}]"),
+            format!("{FOLDER}{}", list_name(axis)),
+        );
+        text += &line(&format!("achs_kw_log_ax_nr[{axis}]"), axis + 1);
+    }
+    text
 }

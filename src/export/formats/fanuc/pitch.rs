@@ -25,212 +25,43 @@
 //! for travel in the negative direction from 3626 on, and 3627 the absolute compensation at
 //! the reference position in that direction.
 
-use super::fitting::Fitting;
-use super::format::{
-    Control, Format, Layout, Limits, Nodes, Structure, TableInfo, Term, WrittenFile,
+use super::read::read_tables;
+use super::tables::{
+    first_number, floor_div, real, PitchControl, PitchTable, ReverseTable, AXES, DETECTION_UNIT_MM,
+    INCREMENT_RANGE, MAX_MAGNIFICATION, NUMBERS_PER_TABLE,
 };
-use super::ExportError;
+use super::write::write_files;
+use crate::export::error::ExportError;
+use crate::export::fitting::{Fitting, Structure, Term};
+use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, WrittenFile};
 use crate::model::inputs::Approach;
-use crate::model::Command;
-
-#[path = "fanuc_text.rs"]
-mod text;
-
-pub use text::read_tables;
 
 pub struct FanucPitch;
 
-/// The detection unit: 1 µm (IS-B on a metric machine), mm.
-pub const DETECTION_UNIT_MM: f64 = 0.001;
-/// The range of one increment (the signed byte of the FOCAS pitch data), units.
-pub const INCREMENT_RANGE: [i64; 2] = [-128, 127];
-/// The largest magnification (3623) volmap writes.
-pub const MAX_MAGNIFICATION: i64 = 100;
-/// Compensation point numbers per axis and direction (between 3621 and 3622).
-pub const NUMBERS_PER_TABLE: i64 = 128;
-
-/// The first point number of axis `axis`'s table for travel in the positive direction (or, for
-/// `negative`, of its bidirectional table): blocks of 128 numbers in the pool 0…1023, X Y Z
-/// positive from 0, X Y Z negative from 384.
-pub fn first_number(axis: usize, negative: bool) -> i64 {
-    axis as i64 * NUMBERS_PER_TABLE + if negative { 3 * NUMBERS_PER_TABLE } else { 0 }
-}
-
-/// One axis's pitch error compensation as the control holds it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PitchTable {
-    /// 0, 1, 2: X, Y, Z (controlled axis numbers 1, 2, 3).
-    pub axis: usize,
-    /// The machine coordinate of the reference position, detection units.
-    pub reference_units: i64,
-    /// 3620, 3621, 3622.
-    pub reference_number: i64,
-    pub first_number: i64,
-    pub last_number: i64,
-    /// 3623 (1 or more).
-    pub magnification: i64,
-    /// 3624, detection units.
-    pub interval_units: i64,
-    /// The increments of points `first_number..=last_number`, units of the magnification.
-    pub increments: Vec<i64>,
-    /// The bidirectional table, where written.
-    pub reverse: Option<ReverseTable>,
-}
-
-/// The table for travel in the negative direction of a bidirectional pitch error compensation.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ReverseTable {
-    /// 3626: its first point number; point `first + i` goes with `first_number + i`.
-    pub first_number: i64,
-    /// 3627: the absolute compensation at the reference position in that direction, units of
-    /// the magnification.
-    pub at_reference: i64,
-    pub increments: Vec<i64>,
-}
-
-/// `floor(a / b)` for `b > 0`.
-fn floor_div(a: i64, b: i64) -> i64 {
-    a.div_euclid(b)
-}
-
-impl PitchTable {
-    /// The grid indices the table defines: from the section below its first point to its last.
-    pub fn index_range(&self) -> (i64, i64) {
-        (
-            self.first_number - self.reference_number - 1,
-            self.last_number - self.reference_number,
-        )
-    }
-
-    /// The absolute compensation at every grid index of [`PitchTable::index_range`], units of
-    /// the magnification, from `increments` with `at_reference` at the reference.
-    pub fn absolute(&self, increments: &[i64], at_reference: i64) -> Vec<i64> {
-        let (lo, hi) = self.index_range();
-        let increment =
-            |j: i64| increments[(self.reference_number + j - self.first_number) as usize];
-        let mut values = vec![0; (hi - lo + 1) as usize];
-        values[(-lo) as usize] = at_reference;
-        for j in 1..=hi {
-            values[(j - lo) as usize] = values[(j - 1 - lo) as usize] + increment(j);
-        }
-        for j in (lo..0).rev() {
-            values[(j - lo) as usize] = values[(j + 1 - lo) as usize] - increment(j + 1);
-        }
-        values
-    }
-
-    /// The compensation at machine coordinate `x_mm`, mm, travelling in `approach`: the
-    /// staircase of the absolute values, the point at or below the position.
-    pub fn compensation_mm(&self, x_mm: f64, approach: Approach) -> f64 {
-        let (lo, hi) = self.index_range();
-        let values = match (&self.reverse, approach) {
-            (Some(r), Approach::Negative) => self.absolute(&r.increments, r.at_reference),
-            _ => self.absolute(&self.increments, 0),
-        };
-        let position = (x_mm / DETECTION_UNIT_MM).round() as i64;
-        let j = floor_div(position - self.reference_units, self.interval_units).clamp(lo, hi);
-        values[(j - lo) as usize] as f64 * self.magnification as f64 * DETECTION_UNIT_MM
-    }
-
-    /// Where the first and the last point lie, mm.
-    pub fn point_positions_mm(&self) -> [f64; 2] {
-        [
-            self.position_mm(self.first_number - self.reference_number),
-            self.position_mm(self.last_number - self.reference_number),
-        ]
-    }
-
-    /// The position of grid index `j`, mm.
-    pub fn position_mm(&self, j: i64) -> f64 {
-        (self.reference_units + j * self.interval_units) as f64 * DETECTION_UNIT_MM
-    }
-}
-
-/// The pitch tables read back: what the control applies.
-pub struct PitchControl {
-    pub tables: Vec<PitchTable>,
-}
-
-impl Control for PitchControl {
-    fn command(&self, target: &Command, approach: &[Approach; 6]) -> Command {
-        let mut c = *target;
-        for t in &self.tables {
-            c[t.axis] += t.compensation_mm(target[t.axis], approach[t.axis]);
-        }
-        c
-    }
-
-    fn tables(&self) -> Vec<TableInfo> {
-        self.tables
-            .iter()
-            .map(|t| {
-                let interval = t.interval_units as f64 * DETECTION_UNIT_MM;
-                let reverse = match &t.reverse {
-                    Some(r) => format!(
-                        "; bidirectional, negative-direction points {}-{}",
-                        r.first_number,
-                        r.first_number + t.last_number - t.first_number
-                    ),
-                    None => String::new(),
-                };
-                let [from, to] = t.point_positions_mm();
-                TableInfo {
-                    name: format!("{} pitch", text::AXES[t.axis]),
-                    size: format!(
-                        "points {}-{} (reference {}) at {} to {} mm, interval {} mm, magnification {}{reverse}",
-                        t.first_number,
-                        t.last_number,
-                        t.reference_number,
-                        text::real(from),
-                        text::real(to),
-                        text::real(interval),
-                        t.magnification
-                    ),
-                    points: (t.last_number - t.first_number + 1) as usize,
-                }
-            })
-            .collect()
-    }
-}
+const SPEC: Spec = Spec {
+    name: "fanuc",
+    title: "FANUC pitch error compensation (parameters 3620-3627, pitch error data)",
+    layout: Layout::Folder,
+    limits: Limits {
+        nodes: Nodes::Equidistant,
+        min_points: 2,
+        max_points: NUMBERS_PER_TABLE as usize,
+        min_spacing_mm: 1.0,
+        default_points: 41,
+        source: "FANUC pitch error compensation: 128 compensation points per axis, volmap's block of the 1024-point pool",
+    },
+    structure: Structure::Additive([
+        [Term::Curve, Term::None, Term::None],
+        [Term::None, Term::Curve, Term::None],
+        [Term::None, Term::None, Term::Curve],
+    ]),
+    holds: "pitch error compensation holds each linear axis's positioning error along its own travel (per direction where bidirectional), as whole-µm steps at the compensation points, zero at the reference position; no straightness, squareness or angular error's effect on another axis",
+    uses_direction: true,
+};
 
 impl Format for FanucPitch {
-    fn name(&self) -> &'static str {
-        "fanuc"
-    }
-
-    fn title(&self) -> &'static str {
-        "FANUC pitch error compensation (parameters 3620-3627, pitch error data)"
-    }
-
-    fn layout(&self) -> Layout {
-        Layout::Folder
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            nodes: Nodes::Equidistant,
-            min_points: 2,
-            max_points: NUMBERS_PER_TABLE as usize,
-            min_spacing_mm: 1.0,
-            default_points: 41,
-            source: "FANUC pitch error compensation: 128 compensation points per axis, volmap's block of the 1024-point pool",
-        }
-    }
-
-    fn structure(&self) -> Structure {
-        Structure::Additive([
-            [Term::Curve, Term::None, Term::None],
-            [Term::None, Term::Curve, Term::None],
-            [Term::None, Term::None, Term::Curve],
-        ])
-    }
-
-    fn holds(&self) -> &'static str {
-        "pitch error compensation holds each linear axis's positioning error along its own travel (per direction where bidirectional), as whole-µm steps at the compensation points, zero at the reference position; no straightness, squareness or angular error's effect on another axis"
-    }
-
-    fn uses_direction(&self) -> bool {
-        true
+    fn spec(&self) -> &'static Spec {
+        &SPEC
     }
 
     fn write(
@@ -239,7 +70,7 @@ impl Format for FanucPitch {
         points: Option<[usize; 3]>,
         spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError> {
-        let points = points.unwrap_or([self.limits().default_points; 3]);
+        let points = points.unwrap_or([SPEC.limits.default_points; 3]);
         let mut tables = Vec::new();
         let mut at_reference_mm = Vec::new();
         for (axis, &n) in points.iter().enumerate() {
@@ -247,7 +78,7 @@ impl Format for FanucPitch {
             tables.push(table);
             at_reference_mm.push(offset);
         }
-        Ok(text::write_files(fitting, &tables, &at_reference_mm))
+        Ok(write_files(fitting, &tables, &at_reference_mm))
     }
 
     fn read(
@@ -304,15 +135,15 @@ fn fit_table(
     let (first, last) = (first.min(0), j_hi.max(1));
     let count = last - first + 1;
     if count > NUMBERS_PER_TABLE {
-        let limits = FanucPitch.limits();
+        let limits = SPEC.limits;
         return Err(ExportError::TooManyPoints {
-            format: "fanuc",
+            format: SPEC.name,
             axis: format!(
                 " along {} ({} compensation points at {} mm from the reference position at {} mm)",
-                text::AXES[axis],
+                AXES[axis],
                 count,
-                text::real(interval as f64 * DETECTION_UNIT_MM),
-                text::real(reference as f64 * DETECTION_UNIT_MM)
+                real(interval as f64 * DETECTION_UNIT_MM),
+                real(reference as f64 * DETECTION_UNIT_MM)
             ),
             points: count as usize,
             max: limits.max_points,
@@ -394,13 +225,13 @@ fn fit_table(
         return Ok((table, at_reference_mm));
     }
     Err(ExportError::Unrepresentable {
-        format: "fanuc",
+        format: SPEC.name,
         message: format!(
             "the {} correction changes by more than {} units of {} µm over one {} mm interval",
-            text::AXES[axis],
+            AXES[axis],
             INCREMENT_RANGE[1],
             MAX_MAGNIFICATION,
-            text::real(interval as f64 * DETECTION_UNIT_MM)
+            real(interval as f64 * DETECTION_UNIT_MM)
         ),
     })
 }
