@@ -10,7 +10,7 @@ mod cli;
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 
 /// Maps the volumetric error of multi-axis machine tools: the full chain of homogeneous
 /// transforms with every measured axis error, at every point of a grid over the workspace.
@@ -61,8 +61,12 @@ enum Command {
     /// rewriting it (and, with --compensate, along its compensated program).
     Trace(cli::trace::TraceArgs),
     /// Write the machine's correction as a controller's compensation table (LinuxCNC, Klipper,
-    /// Marlin, a generic 3-D grid), with the residual the control leaves applying it.
+    /// Marlin, SINUMERIK, HEIDENHAIN, FANUC, ISG/TwinCAT, a generic 3-D grid), with the residual
+    /// the control leaves applying it.
     Export(cli::export::ExportArgs),
+    /// Print this command line's reference as Markdown (the page `docs/cli.md`).
+    #[command(hide = true)]
+    CliReference,
 }
 
 fn main() -> ExitCode {
@@ -83,6 +87,7 @@ fn main() -> ExitCode {
         Command::Compensate(args) => cli::compensate::run(args),
         Command::Trace(args) => cli::trace::run(args),
         Command::Export(args) => cli::export::run(args),
+        Command::CliReference => cli::reference::run(Cli::command()),
     };
     result.unwrap_or_else(|failure| {
         failure.report();

@@ -22,7 +22,7 @@ pub struct ExportArgs {
     #[command(flatten)]
     machine: MachineArg,
     /// The controller format: grid-csv, linuxcnc, klipper, marlin, siemens, heidenhain, fanuc,
-    /// fanuc-3d, isg or isg-axis (see the README for each format's tables, limits and how to
+    /// fanuc-3d, isg or isg-axis (see docs/export/ for each format's tables, limits and how to
     /// load them).
     #[arg(long)]
     format: String,
@@ -35,7 +35,7 @@ pub struct ExportArgs {
     /// its end or beyond).
     #[arg(long, conflicts_with = "points")]
     spacing: Option<f64>,
-    /// Points per table (per axis for a 3-D grid); default: the format's (see the README).
+    /// Points per table (per axis for a 3-D grid); default: the format's (see docs/export/).
     #[arg(long)]
     points: Option<usize>,
     #[command(flatten)]

@@ -18,6 +18,7 @@
 //! | `plot` | [`plot`] | `volmap::plot`, `volmap::query` |
 //! | `compensate`, `trace` | [`compensate`], [`trace`] | `volmap::nc` |
 //! | `export` | [`export`] | `volmap::export` |
+//! | `cli-reference` (hidden) | [`reference`] | none: the clap definitions as Markdown |
 
 // Defined before the commands' modules, so every one of them has them in scope.
 
@@ -62,6 +63,7 @@ pub mod machines;
 pub mod map;
 pub mod output;
 pub mod plot;
+pub mod reference;
 pub mod sample;
 pub mod sweep;
 pub mod test;

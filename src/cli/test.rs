@@ -49,7 +49,7 @@ struct Common {
     /// axes that stand still.
     #[command(flatten)]
     inputs: InputsArg,
-    /// Measured results to compare with (CSV; the layout of each test is in the README).
+    /// Measured results to compare with (CSV; the layout of each test is in docs/standard-tests.md).
     #[arg(long)]
     measured: Option<PathBuf>,
     /// Draw the error curve, predicted and measured, into this file (.svg or .png).

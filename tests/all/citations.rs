@@ -137,7 +137,10 @@ fn the_model_document_cites_every_paper_and_the_readme_points_to_it() {
         assert!(model.contains(citation), "docs/model.md lacks {citation:?}");
     }
     let readme = fs::read_to_string(root.join("README.md")).unwrap();
-    assert!(readme.contains("[docs/model.md](docs/model.md)"));
+    assert!(
+        readme.contains("](docs/model.md)"),
+        "the README should link the model, docs/model.md"
+    );
 }
 
 #[test]

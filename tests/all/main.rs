@@ -9,6 +9,7 @@ mod cli;
 mod common;
 mod cpu;
 mod design;
+mod docs;
 mod export;
 mod export_fanuc;
 mod export_figure;

@@ -1,0 +1,337 @@
+//! The documentation holds together: `docs/cli.md` is what the binary generates from its own
+//! command-line definitions (`VOLMAP_BLESS=1 cargo test docs` writes it again), every relative link
+//! of the README and the book resolves to a file and a heading, every command and every export
+//! format is in the README's command table and in the reference, and the README stays short.
+
+use std::collections::HashMap;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+
+/// The README is the front page: longer than this and its text belongs in a chapter of `docs/`.
+const README_MOST_LINES: usize = 400;
+
+fn repository() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn volmap(args: &[&str]) -> String {
+    let output = Command::cargo_bin("volmap")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "volmap {args:?} failed");
+    String::from_utf8(output.stdout).unwrap()
+}
+
+#[test]
+fn the_command_line_reference_is_what_the_binary_generates() {
+    let generated = volmap(&["cli-reference"]);
+    let page = repository().join("docs/cli.md");
+    if std::env::var_os("VOLMAP_BLESS").is_some() {
+        fs::write(&page, &generated).unwrap();
+    }
+    let committed = fs::read_to_string(&page).unwrap_or_default();
+    assert!(
+        committed == generated,
+        "docs/cli.md differs from what `volmap cli-reference` prints; after a change to the \
+         command line, write it again with VOLMAP_BLESS=1 cargo test docs"
+    );
+}
+
+/// The Markdown files of the documentation: the README and every page under `docs/`.
+fn markdown_files() -> Vec<PathBuf> {
+    let root = repository();
+    let mut files = vec![root.join("README.md")];
+    let mut folders = vec![root.join("docs")];
+    while let Some(folder) = folders.pop() {
+        for entry in fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                folders.push(path);
+            } else if path.extension().is_some_and(|e| e == "md") {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// The lines of a Markdown text outside fenced code blocks, with their numbers from 1.
+fn prose_lines(text: &str) -> Vec<(usize, &str)> {
+    let mut fence: Option<&str> = None;
+    let mut lines = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let trimmed = line.trim_start();
+        let marker = ["```", "~~~"].into_iter().find(|m| trimmed.starts_with(m));
+        match (fence, marker) {
+            (None, Some(m)) => fence = Some(m),
+            (Some(open), Some(m)) if open == m => fence = None,
+            (None, None) => lines.push((n + 1, line)),
+            _ => {}
+        }
+    }
+    lines
+}
+
+/// A line without its inline code spans (`` `…` ``), so a `[x](y)` in code is no link.
+fn without_code(line: &str) -> String {
+    let mut out = String::new();
+    let mut in_code = false;
+    for c in line.chars() {
+        if c == '`' {
+            in_code = !in_code;
+        } else if !in_code {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// The targets of the inline links and images of a line: what stands between `](` and `)`.
+fn link_targets(line: &str) -> Vec<String> {
+    let line = without_code(line);
+    let mut targets = Vec::new();
+    let mut rest = line.as_str();
+    while let Some(start) = rest.find("](") {
+        let after = &rest[start + 2..];
+        let Some(end) = after.find(')') else { break };
+        targets.push(after[..end].trim().to_string());
+        rest = &after[end..];
+    }
+    targets
+}
+
+/// The anchor GitHub gives a heading: lower case, letters, digits, `-` and `_` kept, spaces
+/// turned into `-`, everything else (punctuation, backticks, symbols) dropped; a heading met
+/// before gets `-1`, `-2`, … after it.
+fn slug(heading: &str) -> String {
+    let mut slug = String::new();
+    for c in heading.trim().chars() {
+        if c.is_alphanumeric() || c == '-' || c == '_' {
+            slug.extend(c.to_lowercase());
+        } else if c == ' ' {
+            slug.push('-');
+        }
+    }
+    slug
+}
+
+/// The anchors of a Markdown file's headings, as GitHub numbers repeated ones. A link in a
+/// heading counts by its text.
+fn anchors(text: &str) -> Vec<String> {
+    let mut seen: HashMap<String, usize> = HashMap::new();
+    let mut anchors = Vec::new();
+    for (_, line) in prose_lines(text) {
+        let hashes = line.chars().take_while(|&c| c == '#').count();
+        if !(1..=6).contains(&hashes) || !line[hashes..].starts_with(' ') {
+            continue;
+        }
+        let mut heading = line[hashes..].trim().to_string();
+        while let (Some(open), Some(mid)) = (heading.find('['), heading.find("](")) {
+            let Some(close) = heading[mid..].find(')') else {
+                break;
+            };
+            heading = format!(
+                "{}{}{}",
+                &heading[..open],
+                &heading[open + 1..mid],
+                &heading[mid + close + 1..]
+            );
+        }
+        let base = slug(&heading);
+        let count = seen.entry(base.clone()).or_insert(0);
+        anchors.push(if *count == 0 {
+            base.clone()
+        } else {
+            format!("{base}-{count}")
+        });
+        *count += 1;
+    }
+    anchors
+}
+
+/// `file:line: target: what is wrong` for every relative link of `files` that does not resolve.
+fn broken_links(root: &Path, files: &[PathBuf]) -> Vec<String> {
+    let mut broken = Vec::new();
+    for file in files {
+        let text = fs::read_to_string(file).unwrap();
+        let shown = file
+            .strip_prefix(root)
+            .unwrap_or(file)
+            .display()
+            .to_string();
+        for (n, line) in prose_lines(&text) {
+            for target in link_targets(line) {
+                let target = target.split_whitespace().next().unwrap_or("").to_string();
+                if target.is_empty() || target.contains("://") || target.starts_with("mailto:") {
+                    continue;
+                }
+                let (path, anchor) = match target.split_once('#') {
+                    Some((path, anchor)) => (path, Some(anchor)),
+                    None => (target.as_str(), None),
+                };
+                let linked = if path.is_empty() {
+                    file.clone()
+                } else {
+                    file.parent().unwrap().join(path)
+                };
+                let mut problem = None;
+                if !linked.exists() {
+                    problem = Some("no such file".to_string());
+                } else if let Some(anchor) = anchor {
+                    let heads = fs::read_to_string(&linked).map(|t| anchors(&t));
+                    if !heads.is_ok_and(|h| h.iter().any(|a| a == anchor)) {
+                        problem = Some(format!("no heading #{anchor} in it"));
+                    }
+                }
+                if let Some(problem) = problem {
+                    broken.push(format!("{shown}:{n}: {target}: {problem}"));
+                }
+            }
+        }
+    }
+    broken
+}
+
+#[test]
+fn every_relative_link_resolves_to_a_file_and_a_heading() {
+    let root = repository();
+    let broken = broken_links(&root, &markdown_files());
+    assert!(broken.is_empty(), "broken links:\n{}", broken.join("\n"));
+}
+
+#[test]
+fn the_link_check_finds_planted_breaks_and_reads_headings_as_github_does() {
+    assert_eq!(
+        slug("`grid-csv`: the generic 3-D correction grid"),
+        "grid-csv-the-generic-3-d-correction-grid"
+    );
+    assert_eq!(
+        slug("The probability that a part conforms: `features --tolerances`"),
+        "the-probability-that-a-part-conforms-features---tolerances"
+    );
+    assert_eq!(
+        slug("The encoders: volmap's, not the `exr` crate's"),
+        "the-encoders-volmaps-not-the-exr-crates"
+    );
+    assert_eq!(
+        anchors("# A\n```\n# not a heading\n```\n## A\n## [B](x.md) c\n"),
+        ["a", "a-1", "b-c"]
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    fs::write(root.join("b.md"), "# Here\n\n## There and back\n").unwrap();
+    fs::write(
+        root.join("a.md"),
+        "[ok](b.md) [ok](b.md#there-and-back) [ok](#top) [web](https://example.org/x)\n\
+         `[in code](nowhere.md)`\n\n# Top\n\n[gone](c.md) [no anchor](b.md#elsewhere)\n\
+         ```\n[in a block](nowhere.md)\n```\n",
+    )
+    .unwrap();
+    let found = broken_links(root, &[root.join("a.md")]);
+    assert_eq!(
+        found,
+        [
+            "a.md:6: c.md: no such file",
+            "a.md:6: b.md#elsewhere: no heading #elsewhere in it"
+        ]
+    );
+}
+
+/// The subcommands `volmap --help` lists, `help` aside.
+fn subcommands() -> Vec<String> {
+    let help = volmap(&["--help"]);
+    let listed = help
+        .split("Commands:")
+        .nth(1)
+        .expect("volmap --help lists its commands");
+    listed
+        .lines()
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .filter_map(|l| l.split_whitespace().next())
+        .filter(|name| *name != "help")
+        .map(str::to_string)
+        .collect()
+}
+
+/// The README's command table: its rows under `## Commands`.
+fn readme_command_table() -> Vec<String> {
+    let readme = fs::read_to_string(repository().join("README.md")).unwrap();
+    let section = readme
+        .split("\n## Commands\n")
+        .nth(1)
+        .expect("the README has a section `## Commands`");
+    let section = section.split("\n## ").next().unwrap();
+    section
+        .lines()
+        .filter(|l| l.starts_with('|'))
+        .map(str::to_string)
+        .collect()
+}
+
+/// Whether `text` holds `word` as a word of its own: `fanuc` is not found in `fanuc-3d`.
+fn has_word(text: &str, word: &str) -> bool {
+    let inside = |c: char| c.is_ascii_alphanumeric() || c == '-' || c == '_';
+    text.match_indices(word).any(|(at, _)| {
+        let before = text[..at].chars().next_back();
+        let after = text[at + word.len()..].chars().next();
+        !before.is_some_and(inside) && !after.is_some_and(inside)
+    })
+}
+
+#[test]
+fn every_command_and_export_format_is_in_the_readme_table_and_the_reference() {
+    let commands = subcommands();
+    assert!(commands.len() >= 14, "{commands:?}");
+    let table = readme_command_table();
+    let reference = fs::read_to_string(repository().join("docs/cli.md")).unwrap();
+    for command in &commands {
+        assert!(
+            table
+                .iter()
+                .any(|row| row.starts_with(&format!("| `{command}` |"))),
+            "the README's command table has no row for `{command}`"
+        );
+        assert!(
+            reference.contains(&format!("\n## volmap {command}\n")),
+            "docs/cli.md has no section for `volmap {command}`"
+        );
+    }
+    let export_row = table
+        .iter()
+        .find(|row| row.starts_with("| `export` |"))
+        .unwrap();
+    let export_section = reference
+        .split("\n## volmap export\n")
+        .nth(1)
+        .unwrap()
+        .split("\n## ")
+        .next()
+        .unwrap();
+    for format in volmap::export::FORMATS {
+        let name = format.name();
+        assert!(
+            has_word(export_row, &format!("`{name}`")),
+            "the README's export row does not list --format {name}"
+        );
+        assert!(
+            has_word(export_section, name),
+            "docs/cli.md's export section does not list --format {name}"
+        );
+    }
+}
+
+#[test]
+fn the_readme_is_short() {
+    let readme = fs::read_to_string(repository().join("README.md")).unwrap();
+    let lines = readme.lines().count();
+    assert!(
+        lines <= README_MOST_LINES,
+        "README.md has {lines} lines, at most {README_MOST_LINES}: move the details into docs/"
+    );
+}
