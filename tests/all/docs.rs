@@ -313,8 +313,8 @@ fn every_command_and_export_format_is_in_the_readme_table_and_the_reference() {
         .split("\n## ")
         .next()
         .unwrap();
-    for format in volmap::export::FORMATS {
-        let name = format.name();
+    for format in volmap::export::formats::FORMATS {
+        let name = format.spec().name;
         assert!(
             has_word(export_row, &format!("`{name}`")),
             "the README's export row does not list --format {name}"
