@@ -1,4 +1,4 @@
-//! The documented limits on what an input may ask for (README, "Limits"). Every count an input
+//! The documented limits on what an input may ask for (docs/inputs-and-limits.md). Every count an input
 //! implies (the points a feature is sampled at, the points of a test, its runs, the machines
 //! drawn, the decimals written, the points of a drawing) is checked against one of these before
 //! anything is allocated or looped: a value far beyond any use is bad input naming its key or

@@ -1,4 +1,4 @@
-//! What the fuzzing campaigns found in calibration (`fit` and `build`, README "Fuzzing"), each
+//! What the fuzzing campaigns found in calibration (`fit` and `build`, docs/testing.md, "Fuzzing"), each
 //! kept as the input that showed it (`tests/fuzz-regressions/`) or a hand-made one like it, with
 //! the error volmap now gives.
 

@@ -1,6 +1,6 @@
 //! The residual of each embedded machine against the size of its table (grid-csv points per
 //! axis, LinuxCNC entries per joint, SINUMERIK, HEIDENHAIN and ISG points per table): the
-//! README's figure `docs/export-residual.svg`, from the values in
+//! export chapter's figure `docs/export-residual.svg`, from the values in
 //! `tests/golden/export-residual.csv`. `VOLMAP_BLESS=1 cargo test export_figure` recomputes every
 //! size and redraws the figure; without it a few sizes are recomputed and must equal the stored
 //! values, so the figure shows what volmap computes.

@@ -1,4 +1,4 @@
-//! What the fuzzing campaigns found in field files (README "Fuzzing"), each kept as the file
+//! What the fuzzing campaigns found in field files (docs/testing.md, "Fuzzing"), each kept as the file
 //! that showed it (`tests/fuzz-regressions/`), with the error volmap now gives.
 
 use super::common::fuzz_regression as regression;

@@ -1,6 +1,6 @@
 //! Compressed and HALF fields (`--compression none|zip|pxr24`, `--half`): written by the
 //! pipeline in many chunks, read back by volmap, by the `exr` crate, by OpenEXR's exrheader,
-//! Python's OpenEXR and OpenImageIO's oiiotool, each value within the precision the README
+//! Python's OpenEXR and OpenImageIO's oiiotool, each value within the precision docs/field-file.md
 //! states: exact for none and zip, within 2^-16 of itself for PXR24, within 2^-11 of itself (or
 //! 2^-25 below HALF's normal range) for HALF.
 
@@ -25,7 +25,7 @@ fn storages() -> Vec<Storage> {
     all
 }
 
-/// How far a value `want` may move when it is stored as `storage` (the README's bounds).
+/// How far a value `want` may move when it is stored as `storage` (docs/field-file.md's bounds).
 fn bound(storage: Storage, want: f64) -> f64 {
     if storage.half {
         (want.abs() * 2f64.powi(-11)).max(2f64.powi(-25))
@@ -180,7 +180,7 @@ fn a_compressed_multi_chunk_map_equals_the_uncompressed_one_within_its_precision
         }
         match compression {
             Compression::Zip => assert_eq!(worst, 0.0),
-            // The README's bound relative to the field's largest value, and not lossless.
+            // docs/field-file.md's bound relative to the field's largest value, and not lossless.
             _ => assert!(worst > 0.0 && worst <= largest * 2f64.powi(-16), "{worst}"),
         }
     }

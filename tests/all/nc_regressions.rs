@@ -1,4 +1,4 @@
-//! What the fuzzing campaigns found in NC programs (README "Fuzzing"): canned cycles and
+//! What the fuzzing campaigns found in NC programs (docs/testing.md, "Fuzzing"): canned cycles and
 //! subprogram calls as the reader expands them, and compensated programs that must read back;
 //! each kept as the input that showed it (`tests/fuzz-regressions/`) or a hand-made one like it,
 //! with what volmap does now.
@@ -200,7 +200,7 @@ fn centre_words_after_a_reference_return_are_numbers() {
 
 /// `G28 G91 Z0.` then moves in G91 before the program names Z again: the compensator added an
 /// incremental `Z-0.0005` to `G91 G1 X5 Y5`, for a Z at the reference point that the reader
-/// (rightly) does not know a start of. The rule README states holds now: an axis sent home gets
+/// (rightly) does not know a start of. The rule docs/nc.md states holds now: an axis sent home gets
 /// no word until a block names it.
 #[test]
 fn a_homed_axis_gets_no_word_before_the_program_names_it_again() {

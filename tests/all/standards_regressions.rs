@@ -1,4 +1,4 @@
-//! What the fuzzing campaigns found in the measured results of the standard tests (README
+//! What the fuzzing campaigns found in the measured results of the standard tests (docs/testing.md,
 //! "Fuzzing"), each kept as the input that showed it (`tests/fuzz-regressions/`) or a hand-made
 //! one like it, with the error volmap now gives.
 

@@ -33,7 +33,7 @@ pub type Verdict = Result<Outcome, String>;
 /// One parser or reader under test.
 pub struct Target {
     pub name: &'static str,
-    /// What it reads and how, for `--list` and the README.
+    /// What it reads and how, for `--list` and docs/testing.md.
     pub about: &'static str,
     pub grammar: Grammar,
     /// Words of the format beyond those of its corpus.
@@ -172,7 +172,7 @@ macro_rules! read {
 }
 pub(crate) use read;
 
-/// Every target, in the order of the README.
+/// Every target, in the order of docs/testing.md.
 pub const TARGETS: &[Target] = &[
     machine::MACHINE,
     machine::TOLERANCE,

@@ -1,4 +1,4 @@
-//! Short fuzzing campaigns of every parser and reader, run on every change (README "Fuzzing"):
+//! Short fuzzing campaigns of every parser and reader, run on every change (docs/testing.md, "Fuzzing"):
 //! the harness of this crate (the one the long campaigns run), a few thousand executions per
 //! target from a fixed seed (`VOLMAP_FUZZ_SEED` picks another), each failing the test with the
 //! finding and the saved input; the corpus read as it is; and the harness's own checks (a

@@ -63,7 +63,7 @@ pub struct Tiling {
 
 /// The tiling on a CPU adapter, which runs an invocation's points one after another and every
 /// store and gather lane by lane: long runs and four lines per invocation (the fastest of the
-/// tilings measured on lavapipe, see the README's performance section).
+/// tilings measured on lavapipe, see docs/performance.md).
 pub const SOFTWARE_TILING: Tiling = Tiling {
     points_per_lane: 64,
     lines_per_lane: 4,
