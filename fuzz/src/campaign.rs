@@ -11,7 +11,8 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, Once};
 use std::time::{Duration, Instant};
 
-use super::mutate::{self, Material};
+use super::material::Material;
+use super::mutate;
 use super::rng::Rng;
 use super::targets::{Context, Outcome, Target, Verdict};
 use super::watch::{self, ThreadClock, Usage, MEMORY_LIMIT_BYTES};

@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 pub mod campaign;
 pub mod corpus;
 pub mod grammar;
+pub mod material;
 pub mod mutate;
 pub mod rng;
 pub mod targets;

@@ -27,10 +27,11 @@ use crate::io::machine_file::{
 };
 use crate::model::inputs::Inputs;
 use crate::model::Machine;
-use crate::standards::iso230_2::{positioning_with, PositioningData};
+use crate::standards::iso230_2::PositioningData;
 use crate::standards::iso230_4::{circular_with, read_circular};
 use crate::standards::iso230_6::{diagonal_with, read_diagonal};
 use crate::standards::measured::Measured;
+use crate::standards::positioning::positioning_with;
 use crate::standards::rtest::{read_rtest, rtest_with};
 use crate::standards::{
     least_squares_circle, read_positioning_of, CircularSpec, DiagonalSpec, PositioningSpec,

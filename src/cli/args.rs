@@ -12,6 +12,7 @@ use volmap::io::field::FieldFile;
 use volmap::io::source::Reach;
 use volmap::model::grid::{self, Grid};
 use volmap::model::inputs::Inputs;
+use volmap::model::poses;
 use volmap::model::{Command, Machine};
 use volmap::query::{self, QueryError};
 
@@ -137,7 +138,7 @@ pub struct PoseArg {
 impl PoseArg {
     /// The pose on `machine`.
     pub fn on(&self, machine: &Machine) -> Result<Command, Failure> {
-        grid::parse_pose(&self.pose, machine).flag("--pose")
+        poses::parse_pose(&self.pose, machine).flag("--pose")
     }
 }
 

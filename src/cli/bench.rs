@@ -5,7 +5,8 @@ use std::process::ExitCode;
 use volmap::bench::{self, BenchReport};
 use volmap::engine::Engine;
 use volmap::io::atomic::ScratchDir;
-use volmap::model::grid::{self, Grid};
+use volmap::model::grid::Grid;
+use volmap::model::poses;
 use volmap::model::AxisLetter;
 
 use super::args::{load_machine_flag, DeviceArg, GridArg, JsonArg, PoseArg, ReachArg};
@@ -59,7 +60,7 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
                     .is_some_and(|l| machine.chain.contains(l))
             })
             .collect();
-        let pose = grid::parse_pose(&pose_text.join(","), &machine).flag("--pose")?;
+        let pose = poses::parse_pose(&pose_text.join(","), &machine).flag("--pose")?;
         let grid = Grid::full_travel(&machine, args.grid.grid, pose).flag("--grid")?;
         machines.push((machine, grid));
     }

@@ -5,12 +5,10 @@
 
 use nalgebra::Matrix4;
 
+use super::CPU_CHUNK_POINTS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
 use crate::reference::{self, Twin};
-
-/// Lines per CPU chunk are chosen so a chunk holds about this many points.
-pub const CPU_CHUNK_POINTS: u64 = 1 << 18;
 
 type Transform = Matrix4<f64>;
 

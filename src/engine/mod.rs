@@ -93,7 +93,7 @@ impl Engine {
     pub fn chunk_points(&self) -> u64 {
         match self {
             Engine::Gpu(g) => g.max_chunk_points(),
-            Engine::Cpu | Engine::Reference => cpu::CPU_CHUNK_POINTS,
+            Engine::Cpu | Engine::Reference => CPU_CHUNK_POINTS,
         }
     }
 
@@ -114,6 +114,10 @@ impl Engine {
         }
     }
 }
+
+/// Lines per chunk of the engines that compute on the host (the CPU engine, the reference) are
+/// chosen so a chunk holds about this many points.
+pub const CPU_CHUNK_POINTS: u64 = 1 << 18;
 
 /// Fills the lines `first_line .. first_line + lines` of `out` in parallel, in the chunk layout
 /// (per line, `nx` values of each channel in turn): `line([j, k], values)` writes line `(j, k)`.

@@ -1,7 +1,7 @@
 //! The f64 reference at every point of a grid, in the engines' chunk layout: ground truth for the
 //! tests, the spot check of a map and the benchmarks' baseline.
 
-use super::cpu::CPU_CHUNK_POINTS;
+use super::CPU_CHUNK_POINTS;
 use crate::model::grid::Grid;
 use crate::model::Machine;
 use crate::reference::Twin;

@@ -7,9 +7,9 @@ use std::convert::Infallible;
 
 use rayon::prelude::*;
 
-use super::cpu::{CpuPlan, CPU_CHUNK_POINTS};
+use super::cpu::CpuPlan;
 use super::reference::reference_lines;
-use super::{run_in_chunks, Engine, EngineError};
+use super::{run_in_chunks, Engine, EngineError, CPU_CHUNK_POINTS};
 use crate::model::channels::Sample;
 use crate::model::grid::Grid;
 use crate::model::perturbation::Perturbation;

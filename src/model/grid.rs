@@ -5,7 +5,6 @@
 //! `Z = origin_z + k·spacing_z`. Points are numbered `p = i + nx·(j + ny·k)`; a *line* is the
 //! `nx` points of one `(j, k)`, numbered `line = j + ny·k` (the EXR scanline of that line).
 
-use super::poses;
 use crate::error::input_errors;
 use crate::model::{AxisLetter, Command, Machine};
 
@@ -159,27 +158,4 @@ pub fn parse_dims(text: &str) -> Result<[usize; 3], GridError> {
         [nx, ny, nz] if nx > 0 && ny > 0 && nz > 0 => Ok([nx, ny, nz]),
         _ => Err(GridError::Syntax(text.to_string())),
     }
-}
-
-/// Parses `A=..,B=..,C=..` (degrees) against the machine's rotary axes and their ranges.
-/// Rotary axes not named stay at 0.
-pub fn parse_pose(text: &str, machine: &Machine) -> Result<Command, GridError> {
-    let mut pose = [0.0; 6];
-    let mut named = [false; 6];
-    for (name, value) in poses::named_values(text, || GridError::PoseSyntax(text.to_string()))? {
-        let letter = poses::rotary_letter(name, machine)?;
-        if std::mem::replace(&mut named[letter.index()], true) {
-            return Err(poses::axis_error(name, "named twice"));
-        }
-        let range = machine.axis(letter).map_or([0.0, 0.0], |a| a.range);
-        let degrees = poses::degrees(value).map_err(|what| poses::axis_error(name, what))?;
-        if degrees < range[0] || degrees > range[1] {
-            return Err(poses::axis_error(
-                name,
-                format!("{degrees}°, outside its range [{}, {}]", range[0], range[1]),
-            ));
-        }
-        pose[letter.index()] = degrees;
-    }
-    Ok(pose)
 }

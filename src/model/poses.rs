@@ -61,7 +61,7 @@ pub fn parse_sweep(text: &str, machine: &Machine) -> Result<Vec<Command>, GridEr
 
 /// The `NAME=VALUE` pairs of a comma-separated list, each trimmed; `syntax` is the error for an
 /// item without `=` (an empty item among them). An empty list has no pairs.
-pub(super) fn named_values(
+fn named_values(
     text: &str,
     syntax: impl Fn() -> GridError,
 ) -> Result<Vec<(&str, &str)>, GridError> {
@@ -79,7 +79,7 @@ pub(super) fn named_values(
 }
 
 /// The error of axis `name`.
-pub(super) fn axis_error(name: &str, what: impl Into<String>) -> GridError {
+fn axis_error(name: &str, what: impl Into<String>) -> GridError {
     GridError::PoseAxis {
         axis: crate::error::excerpt(name).into_owned(),
         what: what.into(),
@@ -103,7 +103,7 @@ fn rotary_letter_of(name: &str) -> Result<AxisLetter, GridError> {
 }
 
 /// The rotary axis of `machine` a sweep or pose names.
-pub(super) fn rotary_letter(name: &str, machine: &Machine) -> Result<AxisLetter, GridError> {
+fn rotary_letter(name: &str, machine: &Machine) -> Result<AxisLetter, GridError> {
     let letter = rotary_letter_of(name)?;
     if machine.axis(letter).is_none() {
         return Err(axis_error(
@@ -118,7 +118,7 @@ pub(super) fn rotary_letter(name: &str, machine: &Machine) -> Result<AxisLetter,
 }
 
 /// A number of degrees.
-pub(super) fn degrees(text: &str) -> Result<f64, String> {
+fn degrees(text: &str) -> Result<f64, String> {
     text.trim()
         .parse::<f64>()
         .ok()
@@ -197,6 +197,29 @@ pub fn name_of(degrees: [f64; 3], axes: &[AxisLetter]) -> String {
         .map(|l| format!("{l}={}", crate::error::shown(degrees[l.index() - 3])))
         .collect::<Vec<_>>()
         .join(",")
+}
+
+/// Parses `A=..,B=..,C=..` (degrees) against the machine's rotary axes and their ranges.
+/// Rotary axes not named stay at 0.
+pub fn parse_pose(text: &str, machine: &Machine) -> Result<Command, GridError> {
+    let mut pose = [0.0; 6];
+    let mut named = [false; 6];
+    for (name, value) in named_values(text, || GridError::PoseSyntax(text.to_string()))? {
+        let letter = rotary_letter(name, machine)?;
+        if std::mem::replace(&mut named[letter.index()], true) {
+            return Err(axis_error(name, "named twice"));
+        }
+        let range = machine.axis(letter).map_or([0.0, 0.0], |a| a.range);
+        let degrees = degrees(value).map_err(|what| axis_error(name, what))?;
+        if degrees < range[0] || degrees > range[1] {
+            return Err(axis_error(
+                name,
+                format!("{degrees}°, outside its range [{}, {}]", range[0], range[1]),
+            ));
+        }
+        pose[letter.index()] = degrees;
+    }
+    Ok(pose)
 }
 
 /// Parses a pose `A=..,B=..,C=..` (degrees) where no machine is at hand (a pose asked of a field

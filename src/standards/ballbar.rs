@@ -18,7 +18,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::iso230_4::circle_directions;
+use super::direction_of;
 use crate::model::inputs::Approach;
 
 /// The figures of one run.
@@ -172,4 +172,19 @@ pub fn diagnose(angles_deg: &[f64], radial_mm: &[f64], circle: &Circle) -> Optio
         cyclic_um: cyclic,
         residual_um: (residual.norm_squared() / n as f64).sqrt() * 1e3,
     })
+}
+
+/// The directions of the plane's first and second axes at angle `t_deg` of a circle run in
+/// `sense` (+1 counter-clockwise): the signs of the velocity `sense·(−sin θ, cos θ)`; at a
+/// turning point (an axis at the end of its diameter, velocity zero) the axis keeps the
+/// direction it arrived in, towards that end: `+` at θ = 0° for the first axis and at 90° for
+/// the second, `−` at 180° and 270°, whichever the sense.
+pub fn circle_directions(t_deg: f64, sense: f64) -> (Approach, Approach) {
+    let (s, c) = t_deg.to_radians().sin_cos();
+    // sin and cos of a multiple of 90° in f64 leave a residue near 1e-16.
+    let zero = |x: f64| if x.abs() < 1e-12 { 0.0 } else { x };
+    (
+        direction_of(-sense * zero(s), c),
+        direction_of(sense * zero(c), s),
+    )
 }

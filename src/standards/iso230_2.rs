@@ -191,7 +191,7 @@ fn default_runs() -> usize {
 }
 
 /// The axis under test: linear (X Y Z) or rotary (A B C).
-fn parse_axis(name: &str) -> Result<AxisLetter, StandardsError> {
+pub(super) fn parse_axis(name: &str) -> Result<AxisLetter, StandardsError> {
     let mut chars = name.trim().chars();
     match (chars.next().map(|c| c.to_ascii_uppercase()), chars.next()) {
         (Some(c), None) => AxisLetter::from_char(c),
@@ -218,21 +218,6 @@ pub fn read_positioning(path: &Path) -> Result<PositioningData, StandardsError> 
         ],
     )?;
     positioning_from(&m)
-}
-
-/// The measured runs a spec names, read in the units of its axis: [`read_positioning`] for a
-/// linear axis, `target_deg, direction, run, deviation_arcsec` for a rotary one.
-pub fn read_positioning_of(
-    spec: &PositioningSpec,
-) -> Result<Option<PositioningData>, StandardsError> {
-    let Some(path) = spec.csv.as_deref() else {
-        return Ok(None);
-    };
-    if !parse_axis(&spec.axis)?.is_linear() {
-        super::iso230_2_rotary::read_rotary_positioning(path).map(Some)
-    } else {
-        read_positioning(path).map(Some)
-    }
 }
 
 /// One run of a positioning test: its direction (`true`: positive), its label and its
@@ -340,21 +325,13 @@ pub(super) fn positioning_from(m: &Measured) -> Result<PositioningData, Standard
     })
 }
 
-pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, StandardsError> {
-    let measured = read_positioning_of(spec)?;
-    positioning_with(setup, spec, measured.as_ref())?.finite()
-}
-
-/// [`positioning`] with the measured runs already read (a fit runs the test many times).
-pub(crate) fn positioning_with(
+/// The test of linear axis `letter` (see [`super::positioning::positioning_with`]).
+pub(super) fn linear_positioning_with(
     setup: &Setup,
     spec: &PositioningSpec,
+    letter: AxisLetter,
     measured: Option<&PositioningData>,
 ) -> Result<TestResult, StandardsError> {
-    let letter = parse_axis(&spec.axis)?;
-    if !letter.is_linear() {
-        return super::iso230_2_rotary::rotary_positioning_with(setup, spec, letter, measured);
-    }
     let axis = setup.linear_axis(letter)?;
     let d = letter.direction_index();
     let (lo, hi) = setup.travel_box()?;

@@ -9,14 +9,12 @@ use std::path::PathBuf;
 use nalgebra::{Matrix3, Vector2, Vector3};
 use serde::Deserialize;
 
-use super::ballbar::{diagnose, BallbarReport, Circle};
+use super::ballbar::{circle_directions, diagnose, BallbarReport, Circle};
 use super::measured::{Measured, Unit};
 use super::{
-    check_count, default_pose, direction_of, figure, parameter, range_of, Setup, StandardsError,
-    TestResult,
+    check_count, default_pose, figure, parameter, range_of, Setup, StandardsError, TestResult,
 };
 use crate::limits::MAX_TEST_POINTS;
-use crate::model::inputs::Approach;
 use crate::model::AxisLetter;
 
 /// ISO 230-4 circular test (ballbar) in one plane.
@@ -161,21 +159,6 @@ fn sense_of(spec: &CircularSpec) -> Result<f64, StandardsError> {
             "direction `{other}`: ccw (counter-clockwise, G3) or cw (clockwise, G2)"
         ))),
     }
-}
-
-/// The directions of the plane's first and second axes at angle `t_deg` of a circle run in
-/// `sense` (+1 counter-clockwise): the signs of the velocity `sense·(−sin θ, cos θ)`; at a
-/// turning point (an axis at the end of its diameter, velocity zero) the axis keeps the
-/// direction it arrived in, towards that end: `+` at θ = 0° for the first axis and at 90° for
-/// the second, `−` at 180° and 270°, whichever the sense.
-pub fn circle_directions(t_deg: f64, sense: f64) -> (Approach, Approach) {
-    let (s, c) = t_deg.to_radians().sin_cos();
-    // sin and cos of a multiple of 90° in f64 leave a residue near 1e-16.
-    let zero = |x: f64| if x.abs() < 1e-12 { 0.0 } else { x };
-    (
-        direction_of(-sense * zero(s), c),
-        direction_of(sense * zero(c), s),
-    )
 }
 
 /// A circle's measured results, where the spec names a file: angles in the order of the run.

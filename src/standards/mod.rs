@@ -44,11 +44,13 @@ mod iso230_2_rotary;
 pub mod iso230_4;
 pub mod iso230_6;
 pub mod measured;
+pub mod positioning;
 pub mod rtest;
 
-pub use iso230_2::{positioning, read_positioning, read_positioning_of, PositioningSpec};
+pub use iso230_2::{read_positioning, PositioningSpec};
 pub use iso230_4::{circular, geometric_circle, least_squares_circle, plane_axes, CircularSpec};
 pub use iso230_6::{diagonal, diagonal_ends, read_profile, DiagonalSpec};
+pub use positioning::{positioning, read_positioning_of};
 pub use rtest::{rtest, RTestSpec};
 
 use std::cell::OnceCell;
@@ -59,9 +61,10 @@ use crate::error::input_errors;
 use crate::io::csv::CsvError;
 use crate::io::FileError;
 use crate::limits;
-use crate::model::grid::{self, GridError};
+use crate::model::grid::GridError;
 use crate::model::inputs::{Approach, Inputs};
 use crate::model::perturbation::ErrorTarget;
+use crate::model::poses;
 use crate::model::{AxisLetter, Command, Machine};
 use crate::reference::{Deviation, Twin};
 
@@ -176,7 +179,7 @@ impl Setup {
         reversing.sort();
         reversing.dedup();
         Ok(Setup {
-            pose: grid::parse_pose(pose, machine)?,
+            pose: poses::parse_pose(pose, machine)?,
             twins: (0..1usize << reversing.len())
                 .map(|_| OnceCell::new())
                 .collect(),

@@ -7,7 +7,8 @@ use volmap::engine::Engine;
 use volmap::io::embedded;
 use volmap::io::field::{FieldReader, FieldWriter};
 use volmap::model::channels::CHANNELS;
-use volmap::model::grid::{parse_pose, Grid};
+use volmap::model::grid::Grid;
+use volmap::model::poses::parse_pose;
 
 /// What the CPU engine computes for the grid: the field file must hold exactly these values.
 pub(crate) fn engine_values(

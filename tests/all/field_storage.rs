@@ -10,7 +10,8 @@ use volmap::engine::Engine;
 use volmap::io::embedded;
 use volmap::io::field::{Compression, FieldReader, Storage};
 use volmap::model::channels::CHANNELS;
-use volmap::model::grid::{parse_pose, Grid};
+use volmap::model::grid::Grid;
+use volmap::model::poses::parse_pose;
 
 use super::field::{engine_values, tool_available};
 

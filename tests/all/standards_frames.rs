@@ -8,7 +8,7 @@ use volmap::io::embedded;
 use volmap::model::inputs::Approach;
 use volmap::model::{AxisLetter, ErrorFunction, Machine};
 use volmap::reference::tool_pose;
-use volmap::standards::iso230_4::circle_directions;
+use volmap::standards::ballbar::circle_directions;
 use volmap::standards::{self, CircularSpec, DiagonalSpec, PositioningSpec, Setup};
 use AxisLetter::*;
 

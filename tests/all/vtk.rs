@@ -10,7 +10,8 @@ use volmap::engine::Engine;
 use volmap::io::embedded;
 use volmap::io::field::FieldReader;
 use volmap::model::channels::CHANNELS;
-use volmap::model::grid::{parse_pose, Grid};
+use volmap::model::grid::Grid;
+use volmap::model::poses::parse_pose;
 
 /// Runs `tests/python/SCRIPT FILE` and parses what it prints; `None` (the test skips) where the
 /// Python package `package` (`vtk` or `plyfile`) is missing, unless `VOLMAP_REQUIRE_EXR_TOOLS`

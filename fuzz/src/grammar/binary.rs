@@ -2,7 +2,7 @@
 //! break readers, triangles repeated or made degenerate, OpenEXR attributes renamed, retyped,
 //! resized, dropped or repeated, offsets out of the file.
 
-use crate::mutate::{interesting_number, lines, range, with_line_end};
+use crate::material::{interesting_number, lines, range, with_line_end};
 use crate::rng::Rng;
 
 const INTERESTING_U32: &[u32] = &[

@@ -4,15 +4,8 @@
 mod binary;
 mod text;
 
-use super::mutate::{Grammar, Material};
+use super::material::{looks_like_text, Grammar, Material};
 use super::rng::Rng;
-
-/// Whether `data` reads as text (ASCII STL, not binary): valid UTF-8 with no NUL in its start.
-pub fn looks_like_text(data: &[u8]) -> bool {
-    let head = &data[..data.len().min(512)];
-    !head.contains(&0)
-        && std::str::from_utf8(head).map_or_else(|e| e.error_len().is_none(), |_| true)
-}
 
 pub fn mutation(data: &mut Vec<u8>, material: &Material, rng: &mut Rng) {
     match material.grammar {

@@ -1,6 +1,6 @@
 //! The mutations of the text formats: TOML, CSV, G-code.
 
-use crate::mutate::{interesting_number, lines, with_line_end, Material};
+use crate::material::{interesting_number, lines, with_line_end, Material};
 use crate::rng::Rng;
 
 /// Where the value of a random `key = value` line starts and ends (the line end excluded).

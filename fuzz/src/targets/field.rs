@@ -3,7 +3,7 @@
 use volmap::io::field::{FieldFile, LoadedField};
 
 use super::{read, Context, Outcome, Target, Verdict};
-use crate::mutate::Grammar;
+use crate::material::Grammar;
 
 pub const FIELD: Target = Target {
     name: "field",

@@ -9,7 +9,7 @@ use volmap::model::{AxisLetter, Command, Machine};
 use volmap::reference::Twin;
 
 use super::{read, Context, Outcome, Target, Verdict};
-use crate::mutate::Grammar;
+use crate::material::Grammar;
 
 /// Keys and values of machine files, beyond those the corpus holds.
 const MACHINE_WORDS: &[&str] = &[
@@ -184,7 +184,7 @@ fn tolerance(cx: &mut Context, input: &[u8]) -> Verdict {
     let text = read!(volmap::io::read_text(&paths[0]), &["tolerances.toml"]);
     // Against the machine the seed names (`# machine:`), else every machine; accepted where one
     // of them takes it (a file is written for one machine).
-    let named = super::measured::directive(input, "machine");
+    let named = super::directive(input, "machine");
     let mut outcome = None;
     for (_, machine) in cx
         .machines()

@@ -11,22 +11,8 @@ use volmap::standards::{
 };
 
 use super::machine::{as_strs, names};
-use super::{read, Context, Outcome, Target, Verdict};
-use crate::mutate::Grammar;
-
-/// The value of the first comment line `# KEY: VALUE` (or `(KEY: VALUE)`) of an input: what a
-/// seed says the target should run it with.
-pub(super) fn directive<'a>(input: &'a [u8], key: &str) -> Option<&'a str> {
-    let text = std::str::from_utf8(&input[..input.len().min(4096)]).ok()?;
-    text.lines().find_map(|line| {
-        let line = line.trim();
-        let inner = line
-            .strip_prefix('#')
-            .or_else(|| line.strip_prefix('(').and_then(|l| l.strip_suffix(')')))?;
-        let (k, v) = inner.split_once(':')?;
-        (k.trim() == key).then(|| v.trim())
-    })
-}
+use super::{directive, read, Context, Outcome, Target, Verdict};
+use crate::material::Grammar;
 
 /// The embedded machine an input names with `# machine: NAME`, or `default`.
 pub(super) fn machine_of<'a>(cx: &'a Context, input: &[u8], default: &str) -> &'a Machine {

@@ -16,7 +16,7 @@ use volmap::error::{Classify, ErrorKind};
 use volmap::model::Machine;
 
 use super::corpus::Scratch;
-use super::mutate::Grammar;
+use super::material::Grammar;
 
 /// What an execution came to, when it held every check.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -93,6 +93,20 @@ impl Context {
 /// The most bytes a message may have: messages quote at most 80 characters of any input, so
 /// a longer one echoes input (or a list no reader needs).
 pub const MAX_MESSAGE_BYTES: usize = 1200;
+
+/// The value of the first comment line `# KEY: VALUE` (or `(KEY: VALUE)`) of an input: what a
+/// seed says the target should run it with.
+pub(crate) fn directive<'a>(input: &'a [u8], key: &str) -> Option<&'a str> {
+    let text = std::str::from_utf8(&input[..input.len().min(4096)]).ok()?;
+    text.lines().find_map(|line| {
+        let line = line.trim();
+        let inner = line
+            .strip_prefix('#')
+            .or_else(|| line.strip_prefix('(').and_then(|l| l.strip_suffix(')')))?;
+        let (k, v) = inner.split_once(':')?;
+        (k.trim() == key).then(|| v.trim())
+    })
+}
 
 /// Judges an error of the library: bad input is [`ErrorKind::Input`], and its message as the
 /// command line shows it (through [`volmap::error::capped`], which cuts what it quotes) names

@@ -2,9 +2,10 @@
 
 use volmap::nc::{self, Options, ToolLengths};
 
-use super::measured::{directive, machine_of};
+use super::directive;
+use super::measured::machine_of;
 use super::{read, Context, Outcome, Target, Verdict};
-use crate::mutate::Grammar;
+use crate::material::Grammar;
 
 const GCODE_WORDS: &[&str] = &[
     "G0", "G00", "G1", "G01", "G2", "G3", "G4", "G17", "G18", "G19", "G20", "G21", "G28", "G40",

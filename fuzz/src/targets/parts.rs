@@ -9,7 +9,7 @@ use volmap::query::{sample_exact_within, Outside};
 
 use super::machine::{as_strs, names};
 use super::{read, Context, Outcome, Target, Verdict};
-use crate::mutate::Grammar;
+use crate::material::Grammar;
 
 const PART_WORDS: &[&str] = &[
     "name",

@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use volmap_fuzz::campaign::{self, Kind, Plan, Report};
-use volmap_fuzz::mutate::Grammar;
+use volmap_fuzz::material::Grammar;
 use volmap_fuzz::targets::{self, Context, Outcome, Target, Verdict, TARGETS};
 use volmap_fuzz::watch::ThreadClock;
 
