@@ -205,9 +205,7 @@ pub fn pose_list(names: &[String]) -> String {
 }
 
 pub(crate) const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
-pub(crate) const VERSION: u32 = 2;
 pub(crate) const FLAG_TILED: u32 = 0x200;
-pub(crate) const FLAG_LONG_NAMES: u32 = 0x400;
 pub(crate) const FLAG_DEEP: u32 = 0x800;
 pub(crate) const FLAG_MULTIPART: u32 = 0x1000;
 pub(crate) const PIXEL_UINT: i32 = 0;
