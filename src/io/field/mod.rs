@@ -204,14 +204,6 @@ pub fn pose_list(names: &[String]) -> String {
     text
 }
 
-pub(crate) const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
-pub(crate) const FLAG_TILED: u32 = 0x200;
-pub(crate) const FLAG_DEEP: u32 = 0x800;
-pub(crate) const FLAG_MULTIPART: u32 = 0x1000;
-pub(crate) const PIXEL_UINT: i32 = 0;
-pub(crate) const PIXEL_HALF: i32 = 1;
-pub(crate) const PIXEL_FLOAT: i32 = 2;
-
 /// The grid and pose in words, exact (shortest round-trip decimals).
 pub fn grid_text(info: &FieldInfo) -> String {
     let mut parts: Vec<String> = (0..3)
