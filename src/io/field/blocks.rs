@@ -9,10 +9,12 @@
 
 use exr::compression::Compression as ExrCompression;
 use exr::math::Vec2;
-use exr::meta::attribute::{ChannelDescription, IntegerBounds, LineOrder, SampleType, Text};
+use exr::meta::attribute::{
+    ChannelDescription, ChannelList, IntegerBounds, LineOrder, SampleType, Text,
+};
 use exr::meta::header::Header;
 use exr::meta::BlockDescription;
-use exr::prelude::{f16, SmallVec};
+use exr::prelude::f16;
 
 use super::prepare;
 use crate::model::channels::CHANNELS;
@@ -48,7 +50,8 @@ impl Compression {
             .find(|c| c.name().eq_ignore_ascii_case(text.trim()))
     }
 
-    fn exr(self) -> ExrCompression {
+    /// The `exr` crate's name of the compression.
+    pub(super) fn exr(self) -> ExrCompression {
         match self {
             Compression::None => ExrCompression::Uncompressed,
             Compression::Zip => ExrCompression::ZIP16,
@@ -110,6 +113,21 @@ pub(super) fn compression_name(code: u8) -> String {
         .map_or(format!("code {code}"), |(_, name)| name.to_string())
 }
 
+/// The six channels of a field, HALF or FLOAT, as the header's `channels` lists them.
+pub(super) fn channel_list(half: bool) -> ChannelList {
+    let sample = if half {
+        SampleType::F16
+    } else {
+        SampleType::F32
+    };
+    ChannelList::new(
+        CHANNELS
+            .iter()
+            .map(|name| ChannelDescription::new(Text::from(*name), sample, false))
+            .collect(),
+    )
+}
+
 /// Encodes and decodes the blocks of one field (a part of a file): lines `nx` long.
 pub(super) struct BlockCodec {
     header: Header,
@@ -125,19 +143,10 @@ impl BlockCodec {
     /// FLOAT channels; `None` for a code the `exr` crate does not decompress.
     pub fn new(nx: usize, lines: u64, code: u8, half: bool) -> Option<BlockCodec> {
         let (compression, _) = *EXR_COMPRESSIONS.get(code as usize)?;
-        let sample = if half {
-            SampleType::F16
-        } else {
-            SampleType::F32
-        };
-        let channels: SmallVec<[ChannelDescription; 5]> = CHANNELS
-            .iter()
-            .map(|name| ChannelDescription::new(Text::from(*name), sample, false))
-            .collect();
         let header = Header::new(
             Text::from("field"),
             Vec2(nx, lines.min(i32::MAX as u64) as usize),
-            channels,
+            channel_list(half).list,
         )
         .with_encoding(
             compression,

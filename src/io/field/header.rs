@@ -7,10 +7,18 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufReader, Read};
 
+use exr::io::Data;
+
 use super::blocks::{compression_name, BlockCodec};
 use super::inputs::{self, RawInputs};
-use super::{FieldError, FieldInfo, PIXEL_FLOAT, PIXEL_HALF, PIXEL_UINT};
+use super::{FieldError, FieldInfo};
 use crate::model::channels::CHANNELS;
+
+/// OpenEXR's pixel types as a channel list stores them. The crate's `SampleType::read` refuses
+/// any other number, where volmap names it in its message.
+const PIXEL_UINT: i32 = 0;
+const PIXEL_HALF: i32 = 1;
+const PIXEL_FLOAT: i32 = 2;
 
 /// The CSV tables of a header as read: `volmap.csvPath.N` and `volmap.csvText.N` by `N`.
 #[derive(Default)]
@@ -24,8 +32,11 @@ pub(super) struct Cursor<'a> {
     pub reader: &'a mut BufReader<File>,
 }
 
-fn f64s<const N: usize>(b: &[u8]) -> [f64; N] {
-    std::array::from_fn(|n| f64::from_le_bytes(b[8 * n..8 * n + 8].try_into().unwrap_or([0; 8])))
+/// `N` numbers of type `T` from the start of `value`, which holds them (its size checked).
+fn numbers<T: Data + Copy, const N: usize>(value: &[u8]) -> [T; N] {
+    let mut out = [T::default(); N];
+    let _ = T::read_slice_le(&mut &value[..], &mut out);
+    out
 }
 
 /// The header attributes volmap checks besides its own: the channels with their pixel types, the
@@ -60,15 +71,15 @@ impl Cursor<'_> {
         Ok(buf)
     }
 
-    pub fn u32(&mut self) -> Result<u32, FieldError> {
-        let b = self.bytes(4)?;
-        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    /// The next number of type `T`, little-endian.
+    pub fn number<T: Data>(&mut self) -> Result<T, FieldError> {
+        T::read_le(&mut *self.reader).map_err(|_| self.format("the file ends inside its header"))
     }
 
     fn text(&mut self) -> Result<String, FieldError> {
         let mut s = Vec::new();
         loop {
-            let b = self.bytes(1)?[0];
+            let b: u8 = self.number()?;
             if b == 0 {
                 break;
             }
@@ -101,7 +112,7 @@ impl Cursor<'_> {
             }
             empty = false;
             let kind = self.text()?;
-            let size = self.u32()? as usize;
+            let size = self.number::<u32>()? as usize;
             if size > 1 << 30 {
                 return Err(self.format(format!("attribute {name} claims {size} bytes")));
             }
@@ -196,8 +207,6 @@ impl Cursor<'_> {
                 )))
             }
         };
-        let i32_at =
-            |k: usize| i32::from_le_bytes(value[4 * k..4 * k + 4].try_into().unwrap_or([0; 4]));
         match (name, kind) {
             ("channels", "chlist") => {
                 let mut rest = value;
@@ -206,9 +215,8 @@ impl Cursor<'_> {
                         break;
                     }
                     let channel = String::from_utf8_lossy(&rest[..end]).into_owned();
-                    let pixel = rest
-                        .get(end + 1..end + 5)
-                        .map(|b| i32::from_le_bytes(b.try_into().unwrap_or([0; 4])));
+                    let pixel = rest.get(end + 1..end + 5).map(numbers::<i32, 1>);
+                    let pixel = pixel.map(|[p]| p);
                     image.channels.push((channel, pixel));
                     rest = rest.get(end + 17..).unwrap_or(&[]);
                 }
@@ -216,29 +224,29 @@ impl Cursor<'_> {
             ("compression", "compression") => image.compression = value.first().copied(),
             ("dataWindow", "box2i") => {
                 need(16)?;
-                image.window = Some(std::array::from_fn(i32_at));
+                image.window = Some(numbers(value));
             }
             ("name", "string") => image.name = Some(string()),
             ("type", "string") => image.kind = Some(string()),
             ("chunkCount", "int") => {
                 need(4)?;
-                image.chunk_count = Some(i32_at(0));
+                image.chunk_count = Some(numbers::<i32, 1>(value)[0]);
             }
             ("volmap.dims", "v3i") => {
                 need(12)?;
-                info.dims = std::array::from_fn(|d| i32_at(d).max(0) as usize);
+                info.dims = numbers::<i32, 3>(value).map(|d| d.max(0) as usize);
             }
             ("volmap.origin", "v3d") => {
                 need(24)?;
-                info.origin_mm = f64s::<3>(value);
+                info.origin_mm = numbers(value);
             }
             ("volmap.spacing", "v3d") => {
                 need(24)?;
-                info.spacing_mm = f64s::<3>(value);
+                info.spacing_mm = numbers(value);
             }
             ("volmap.pose", "v3d") => {
                 need(24)?;
-                info.pose_deg = f64s::<3>(value);
+                info.pose_deg = numbers(value);
             }
             ("volmap.poseAxes", _) => info.pose_axes = string(),
             ("volmap.machine", _) => info.machine_name = string(),
@@ -249,7 +257,7 @@ impl Cursor<'_> {
             (inputs::TEMPERATURES, _) => raw.temperatures = Some(string()),
             (inputs::REFERENCE, "double") => {
                 need(8)?;
-                raw.reference_c = Some(f64s::<1>(value)[0]);
+                raw.reference_c = Some(numbers::<f64, 1>(value)[0]);
             }
             (n, _) if n.starts_with("volmap.csv.") => info
                 .csv_files

@@ -11,6 +11,28 @@
 //! line is written and synced, so an interrupted run never leaves a truncated field. The readers
 //! read any scanline compression the `exr` crate decodes, block by block, with the offset tables
 //! read a window at a time: memory does not grow with the grid.
+//!
+//! What is the `exr` crate's and what is volmap's:
+//! - The crate encodes the container: the magic number and version flags, every header
+//!   attribute (its `AttributeValue`s; volmap's own as custom attributes, `v3d` among them), the
+//!   end of the headers, the chunks' numbers and the offsets (`encode`); it decodes every
+//!   number volmap reads, and decompresses the blocks (`blocks`).
+//! - volmap puts the attributes in its order itself: the crate's `Header::write` writes its own
+//!   attributes in its own order and the custom ones in a `HashMap`'s, which differs from run to
+//!   run (the same field would not be the same file twice).
+//! - volmap keeps the offset tables and the chunks' placement (`pipeline`): the crate's
+//!   `ChunkWriter` writes the headers through `Header::write` and holds every offset table in
+//!   memory until the end (8 bytes a block, growing with the grid and the sweep), where volmap
+//!   writes the tables first as zeros and fills each piece's offsets in as its blocks land. The
+//!   chunks are laid out as `Chunk::write` lays them out, but that function writes a part number
+//!   only in a file of several headers (a sweep of one pose is multi-part too) and takes each
+//!   block as an owned copy.
+//! - The readers stay volmap's (`header`, `read`): the crate's `MetaData` and
+//!   `block::reader` read every header and offset table whole before anything is checked against
+//!   the file's length (a table of a chunk per line is as large as the grid), offer no block
+//!   read at random, and refuse damaged files with their own messages, or accept some that volmap
+//!   refuses (a data window with its corners swapped), where volmap names what is wrong: the
+//!   channels found, an unknown compression's code, the chunk header that does not match.
 
 mod blocks;
 mod encode;
@@ -203,16 +225,6 @@ pub fn pose_list(names: &[String]) -> String {
     }
     text
 }
-
-pub(crate) const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
-pub(crate) const VERSION: u32 = 2;
-pub(crate) const FLAG_TILED: u32 = 0x200;
-pub(crate) const FLAG_LONG_NAMES: u32 = 0x400;
-pub(crate) const FLAG_DEEP: u32 = 0x800;
-pub(crate) const FLAG_MULTIPART: u32 = 0x1000;
-pub(crate) const PIXEL_UINT: i32 = 0;
-pub(crate) const PIXEL_HALF: i32 = 1;
-pub(crate) const PIXEL_FLOAT: i32 = 2;
 
 /// The grid and pose in words, exact (shortest round-trip decimals).
 pub fn grid_text(info: &FieldInfo) -> String {

@@ -16,7 +16,10 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use exr::io::Data;
+
 use super::blocks::{BlockCodec, EncodeError, HALF_MAX};
+use super::encode::{io_error, write_chunk};
 use super::FieldError;
 use crate::io::atomic::AtomicFile;
 use crate::model::channels::CHANNELS;
@@ -60,8 +63,8 @@ struct Piece {
     values: Vec<f32>,
 }
 
-/// A piece's blocks as stored: its values themselves (uncompressed FLOAT on a little-endian
-/// machine) or each block's bytes.
+/// A piece's blocks as stored: its values themselves (uncompressed FLOAT, written as
+/// little-endian bytes) or each block's bytes.
 enum Encoded {
     Raw(Piece),
     Blocks {
@@ -319,7 +322,7 @@ fn compress_loop(
     for piece in pieces {
         let plan = &parts[piece.part];
         let codec = &plan.codec;
-        if codec.is_raw_float() && cfg!(target_endian = "little") {
+        if codec.is_raw_float() {
             if to_write.send(Encoded::Raw(piece)).is_err() {
                 break;
             }
@@ -398,6 +401,12 @@ fn encode_failure(
     }
 }
 
+/// A block as the writing stage has it: values stored as they are, or a block's stored bytes.
+enum Block<'a> {
+    Raw(&'a [f32]),
+    Stored(&'a [u8]),
+}
+
 /// The writing stage: every block after the last, its offset into its part's table.
 fn write_loop(
     mut out: AtomicFile,
@@ -407,7 +416,6 @@ fn write_loop(
     encoded: Receiver<Encoded>,
     recycle: Sender<Vec<f32>>,
 ) -> Written {
-    use std::io::Write;
     let mut position = data_start;
     let mut busy = 0.0;
     let mut offsets = Vec::new();
@@ -421,18 +429,15 @@ fn write_loop(
         };
         let plan = &parts[part];
         let lines_per_block = plan.codec.lines_per_block();
+        let part_number = multipart.then_some(part);
         offsets.clear();
-        let mut write_block = |out: &mut AtomicFile, n: usize, bytes: &[u8]| {
-            offsets.extend_from_slice(&position.to_le_bytes());
+        let mut write_block = |out: &mut AtomicFile, n: usize, bytes: Block| {
+            position.write_le(&mut offsets).map_err(io_error)?;
             let y = first_line + n as u64 * lines_per_block;
-            if multipart {
-                out.write_all(&(part as u32).to_le_bytes())?;
-                position += 4;
-            }
-            out.write_all(&(y as i32).to_le_bytes())?;
-            out.write_all(&(bytes.len() as i32).to_le_bytes())?;
-            out.write_all(bytes)?;
-            position += 8 + bytes.len() as u64;
+            position += match bytes {
+                Block::Raw(values) => write_chunk(out, part_number, y, values)?,
+                Block::Stored(bytes) => write_chunk(out, part_number, y, bytes)?,
+            };
             Ok::<(), std::io::Error>(())
         };
         let written = match &piece {
@@ -440,11 +445,11 @@ fn write_loop(
                 .values
                 .chunks(plan.codec.values_per_line() * lines_per_block as usize)
                 .enumerate()
-                .try_for_each(|(n, values)| write_block(&mut out, n, bytemuck::cast_slice(values))),
+                .try_for_each(|(n, values)| write_block(&mut out, n, Block::Raw(values))),
             Encoded::Blocks { blocks, .. } => blocks
                 .iter()
                 .enumerate()
-                .try_for_each(|(n, bytes)| write_block(&mut out, n, bytes)),
+                .try_for_each(|(n, bytes)| write_block(&mut out, n, Block::Stored(bytes))),
         };
         let first_block = first_line / lines_per_block;
         let table = written.and_then(|()| out.write_at(&offsets, plan.table + 8 * first_block));

@@ -7,15 +7,22 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
+use exr::io::Data;
+use exr::meta::magic_number;
+
 use super::blocks::{compression_name, BlockCodec};
 use super::header::Cursor;
-use super::{
-    pose_list, FieldError, FieldInfo, FLAG_DEEP, FLAG_MULTIPART, FLAG_TILED, MAGIC,
-    POSE_TOLERANCE_DEG,
-};
+use super::{pose_list, FieldError, FieldInfo, POSE_TOLERANCE_DEG};
 use crate::io::FileError;
 use crate::model::channels::CHANNELS;
 use crate::model::inputs::InputsRecord;
+
+/// The flags of the version field volmap checks. The crate's `Requirements::read` decodes them
+/// too, but refuses flags it does not know and takes the version from four bits, not eight:
+/// volmap reads the field as it always has, for the same files and messages.
+const FLAG_TILED: u32 = 0x200;
+const FLAG_DEEP: u32 = 0x800;
+const FLAG_MULTIPART: u32 = 0x1000;
 
 /// One part of a field file: its name (empty in a single-part file), its header, how its blocks
 /// are stored and where its offset table starts.
@@ -52,10 +59,10 @@ impl FieldFile {
             path: &display,
             reader: &mut reader,
         };
-        if c.bytes(4).map_err(|_| c.format("too short"))? != MAGIC {
+        if c.bytes(4).map_err(|_| c.format("too short"))? != magic_number::BYTES {
             return Err(c.format("not an OpenEXR file (wrong magic number)"));
         }
-        let version = c.u32()?;
+        let version: u32 = c.number()?;
         if version & 0xff != 2 || version & (FLAG_TILED | FLAG_DEEP) != 0 {
             return Err(c.format("not a scanline OpenEXR file"));
         }
@@ -336,15 +343,13 @@ impl FieldReader {
         if !held.contains(&block) {
             let count = OFFSET_WINDOW.min(self.blocks - block);
             self.seek(self.table + 8 * block)?;
-            let mut bytes = vec![0u8; 8 * count as usize];
-            self.file
-                .read_exact(&mut bytes)
-                .map_err(|_| self.format("the file ends inside its offset tables".into()))?;
+            self.offsets.clear();
+            self.offsets.resize(count as usize, 0);
+            if u64::read_slice_le(&mut self.file, &mut self.offsets).is_err() {
+                self.offsets.clear();
+                return Err(self.format("the file ends inside its offset tables".into()));
+            }
             self.position = Some(self.table + 8 * (block + count));
-            self.offsets = bytes
-                .chunks_exact(8)
-                .map(|b| u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
-                .collect();
             self.offsets_first = block;
         }
         let offset = self.offsets[(block - self.offsets_first) as usize];
@@ -368,18 +373,14 @@ impl FieldReader {
         let first_line = block * per_block;
         let lines = per_block.min(self.lines - first_line);
         let head_bytes = if self.part.is_some() { 12 } else { 8 };
-        let mut head = [0u8; 12];
         let truncated = |r: &Self| r.format(format!("the block of line {first_line} is truncated"));
-        self.file
-            .read_exact(&mut head[..head_bytes])
-            .map_err(|_| truncated(self))?;
-        let word = |at: usize| [head[at], head[at + 1], head[at + 2], head[at + 3]];
-        let (y, size) = (
-            i32::from_le_bytes(word(head_bytes - 8)),
-            i32::from_le_bytes(word(head_bytes - 4)),
-        );
-        if let Some(part) = self.part {
-            let got = u32::from_le_bytes(word(0));
+        let number = |r: &mut Self| i32::read_le(&mut r.file).map_err(|_| truncated(r));
+        let got = match self.part {
+            Some(_) => Some(number(self)? as u32),
+            None => None,
+        };
+        let (y, size) = (number(self)?, number(self)?);
+        if let (Some(part), Some(got)) = (self.part, got) {
             if got != part {
                 return Err(self.format(format!(
                     "the block of line {first_line} of part {part}: its chunk header says part {got}"

@@ -1,13 +1,13 @@
-//! Writing a field: the headers and the offset tables first (zeros, filled in as blocks are
-//! written), then the lines as they arrive, handed to the pipeline ([`super::pipeline`]) that
-//! compresses and writes them behind the computation; a multi-part field (a sweep of poses) the
-//! same way, every header and offset table first.
+//! Writing a field: the headers ([`super::encode`]) and the offset tables first (zeros, filled
+//! in as blocks are written), then the lines as they arrive, handed to the pipeline
+//! ([`super::pipeline`]) that compresses and writes them behind the computation; a multi-part
+//! field (a sweep of poses) the same way, every header and offset table first.
 
 use std::io::{Read, Write};
 use std::path::Path;
 
 use super::blocks::{BlockCodec, Storage};
-use super::encode::{file_start, header_attributes, PartAttributes};
+use super::encode::{header_attributes, write_file_start, write_headers_end, PartAttributes};
 use super::pipeline::{PartPlan, Pipeline, WriteTimes};
 use super::{FieldError, FieldInfo};
 use crate::io::atomic::AtomicFile;
@@ -37,7 +37,8 @@ fn start(
             info,
             storage,
             name.as_deref().map(|name| PartAttributes { name, chunks }),
-        );
+        )
+        .map_err(|e| out.error(e))?;
         headers.push(header);
         plans.push(PartPlan {
             codec,
@@ -49,14 +50,13 @@ fn start(
     let long_names = headers.iter().any(|h| h.long_names);
     let mut at = 8u64;
     let written = (|| -> std::io::Result<u64> {
-        out.write_all(&file_start(multipart, long_names))?;
+        write_file_start(&mut out, multipart, long_names)?;
         for h in &headers {
             out.write_all(&h.bytes)?;
             at += h.bytes.len() as u64;
         }
         if multipart {
-            // The empty header that ends the headers.
-            out.write_all(&[0])?;
+            write_headers_end(&mut out)?;
             at += 1;
         }
         for plan in &mut plans {
