@@ -1,7 +1,7 @@
 //! The bytes of a compressed block before they are deflated, as OpenEXR lays them out (its
 //! `ImfZip.cpp` and `ImfPxr24Compressor.cpp`), so that the deflate level is volmap's choice: the
 //! `exr` crate's encoders deflate at level 4, which measured 2 to 3 times slower a core than
-//! level 1 for files 10 to 20% smaller (README, "Performance"). Every reader decodes them as any
+//! level 1 for files 10 to 20% smaller (docs/performance.md). Every reader decodes them as any
 //! ZIP or PXR24 block (the `exr` crate decodes volmap's own).
 //!
 //! A block's values arrive per line, per channel, `nx` values each: the layout of the block.
