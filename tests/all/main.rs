@@ -50,5 +50,6 @@ mod standards_frames;
 mod standards_inputs;
 mod standards_regressions;
 mod standards_rotary;
+mod tour;
 mod variants;
 mod vtk;
