@@ -39,6 +39,12 @@ pub struct CompensateArgs {
     /// path, rad.
     #[arg(long, default_value_t = nc::DEFAULT_ANGULAR_TOLERANCE_RAD, requires = "orientation")]
     angular_tolerance: f64,
+    /// With --orientation: largest turn of the rotary axes from their programmed positions, the
+    /// two as a vector, degrees. Near a singular pose (the tool along a rotary axis, e.g. B0 on a
+    /// C table) the full correction would turn them further; the part of the tool axis's error
+    /// the bound leaves is reported per line.
+    #[arg(long, default_value_t = nc::DEFAULT_MAX_ROTARY_CORRECTION_DEG, requires = "orientation")]
+    max_rotary_correction: f64,
     // `--temperatures` hold for the whole program; `--approach` gives the directions of the
     // axes at its start (each axis then approaches in the direction of its programmed motion).
     #[command(flatten)]
@@ -121,6 +127,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         decimals: args.decimals,
         pass_unknown: args.pass_unknown,
         orientation_tolerance_rad: args.orientation.then_some(args.angular_tolerance),
+        max_rotary_correction_deg: args.max_rotary_correction,
         ..args.setup.options(&machine, inputs)?
     };
     let program =
@@ -189,6 +196,21 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
             "  largest tool orientation error along the feed moves: {:.3e} rad before, {:.3e} rad after (angular tolerance {tolerance:e} rad)",
             report.largest_orientation_error_before_rad, report.largest_orientation_error_after_rad
         );
+        outln!(
+            "  largest rotary correction   {:.4}° (at most {}°)",
+            report.largest_rotary_correction_deg,
+            options.max_rotary_correction_deg
+        );
+        if let Some(worst) = report.largest_orientation_left() {
+            outln!(
+                "  orientation left            {} line{} near a singular pose, where the rotary axes cannot turn the tool axis within {}°: largest {:.3e} rad at line {} (the tip is compensated)",
+                report.orientation_left.len(),
+                if report.orientation_left.len() == 1 { "" } else { "s" },
+                options.max_rotary_correction_deg,
+                worst.left_rad,
+                worst.line
+            );
+        }
     }
     if report.take_ups > 0 {
         outln!(
@@ -216,6 +238,7 @@ fn flag_of(option: NcOption) -> &'static str {
         NcOption::ChordTolerance => "--chord-tolerance",
         NcOption::Orientation => "--orientation",
         NcOption::AngularTolerance => "--angular-tolerance",
+        NcOption::MaxRotaryCorrection => "--max-rotary-correction",
         NcOption::Decimals => "--decimals",
         NcOption::TraceStep => "--step",
     }
@@ -236,6 +259,7 @@ pub(super) fn option_failure(error: NcError) -> Failure {
                 NcOption::ChordTolerance => "0.001",
                 NcOption::Orientation => "",
                 NcOption::AngularTolerance => "1e-5",
+                NcOption::MaxRotaryCorrection => "1",
                 NcOption::Decimals => "4",
                 NcOption::TraceStep => "0.5",
             };

@@ -7,8 +7,8 @@ use std::cell::Cell;
 use super::error::NcError;
 use super::kinematics::{beyond_travel, Kinematics};
 use super::options::Options;
-use super::orientation::PoseFailure;
 use super::program::modal::Directions;
+use super::report::{OrientationLeft, Report};
 use super::write::as_written;
 use crate::model::Command;
 
@@ -33,6 +33,11 @@ pub(super) struct Block<'a> {
     /// directions they were compensated for.
     pub(super) take_ups: Cell<usize>,
     pub(super) against: Cell<usize>,
+    /// Where the bound on the rotary correction held back a point's orientation correction:
+    /// the largest angle it left between the real and the intended tool axis (rad).
+    pub(super) orientation_left: Cell<Option<f64>>,
+    /// The largest rotary correction made so far (degrees, the two axes as a vector).
+    pub(super) largest_rotary_correction: Cell<f64>,
 }
 
 /// Why a move could not be split: too many pieces, or a point that does not compensate.
@@ -65,6 +70,8 @@ impl<'a> Block<'a> {
             largest_correction: Cell::new(0.0),
             take_ups: Cell::new(0),
             against: Cell::new(0),
+            orientation_left: Cell::new(None),
+            largest_rotary_correction: Cell::new(0.0),
         }
     }
 
@@ -142,22 +149,78 @@ impl<'a> Block<'a> {
         Ok(compensated)
     }
 
-    /// The compensated command of a programmed command `q` with its rotary axes solved too.
+    /// The compensated command of a programmed command `q` with its rotary axes solved too (as
+    /// far as the bound on the rotary correction reaches; what it leaves is kept).
     pub(super) fn compensate_pose(
         &self,
         q: &Command,
         directions: &Directions,
     ) -> Result<Command, NcError> {
-        self.kin
-            .compensate_pose(q, directions)
-            .map_err(|failure| match failure {
-                PoseFailure::Singular(message) => NcError::line(self.path, self.line, message),
-                PoseFailure::NoConvergence => NcError::line(
+        let pose = self
+            .kin
+            .compensate_pose(q, directions, self.options.max_rotary_correction_deg)
+            .map_err(|_| {
+                NcError::line(
                     self.path,
                     self.line,
                     "the tool tip and axis cannot both be reached here: the orientation compensation does not converge".into(),
-                ),
-            })
+                )
+            })?;
+        if pose.bounded {
+            let left = self.orientation_left.get().unwrap_or(0.0);
+            self.orientation_left.set(Some(left.max(pose.left_rad)));
+        }
+        self.largest_rotary_correction.set(
+            self.largest_rotary_correction
+                .get()
+                .max(pose.rotary_correction_deg),
+        );
+        Ok(pose.command)
+    }
+
+    /// Adds what the orientation compensation of this block did to `report`: its rotary
+    /// correction, and the orientation the bound left on its line.
+    pub(super) fn report_orientation(&self, report: &mut Report) {
+        report.largest_rotary_correction_deg = report
+            .largest_rotary_correction_deg
+            .max(self.largest_rotary_correction.get());
+        let Some(left_rad) = self.orientation_left.get() else {
+            return;
+        };
+        match report.orientation_left.last_mut() {
+            // A line run again (a subprogram, a cycle's repeat) keeps its largest.
+            Some(last) if last.line == self.line => last.left_rad = last.left_rad.max(left_rad),
+            _ => report.orientation_left.push(OrientationLeft {
+                line: self.line,
+                left_rad,
+            }),
+        }
+    }
+
+    /// The largest angle between the real and the intended tool axis a piece from `a` to `b`
+    /// (compensated points) may have, for the intended points `ia`, `ib` at its ends: the
+    /// angular tolerance, plus, where the bound on the rotary correction left part of this
+    /// block's orientation error, the smaller angle left at its ends (no piece gets closer than
+    /// its ends; the smaller, so a piece from a reachable pose into an unreachable one is split
+    /// until the correction is reachable along it).
+    pub(super) fn angle_allowed(
+        &self,
+        (a, b): ([f64; 6], [f64; 6]),
+        (ia, ib): ([f64; 6], [f64; 6]),
+        directions: &Directions,
+    ) -> f64 {
+        let tolerance = self.angular_tolerance().unwrap_or(0.0);
+        if self.orientation_left.get().is_none() {
+            return tolerance;
+        }
+        let left = |p: &[f64; 6], i: &[f64; 6]| {
+            self.kin.axis_miss(
+                &self.command(&self.written(p)),
+                &self.command(i),
+                directions,
+            )
+        };
+        tolerance + left(&a, &ia).min(left(&b, &ib))
     }
 
     /// The angular tolerance where the orientation is compensated.

@@ -243,6 +243,7 @@ fn process_line(
     report.against_direction += block.against.get();
     report.points += pieces.len();
     report.largest_correction_mm = report.largest_correction_mm.max(block.largest_correction());
+    block.report_orientation(report);
     state.position = end;
     write_block(line, state, &from, &pieces, &arcs, out, options)
 }
@@ -369,7 +370,8 @@ impl Block<'_> {
         let worst = self.path_error(intended, (0.0, 1.0), &commanded, directions);
         let turn = (3..6).map(|d| (to[d] - from[d]).abs()).fold(0.0, f64::max);
         let angle = self.angle_along(&|t| commanded.at(t), &|t| intended.at(t), turn, directions);
-        (worst <= self.tolerance && angle <= self.angular_tolerance().unwrap_or(0.0)).then(|| {
+        let allowed = self.angle_allowed((from, to), (start, end), directions);
+        (worst <= self.tolerance && angle <= allowed).then(|| {
             report.largest_error_after_mm = report.largest_error_after_mm.max(worst);
             report.largest_orientation_error_after_rad =
                 report.largest_orientation_error_after_rad.max(angle);

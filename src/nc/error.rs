@@ -11,6 +11,8 @@ pub enum NcOption {
     ChordTolerance,
     Orientation,
     AngularTolerance,
+    /// The bound on the rotary correction of the orientation compensation.
+    MaxRotaryCorrection,
     Decimals,
     /// The distance between the samples of a trace.
     TraceStep,
@@ -24,6 +26,7 @@ impl std::fmt::Display for NcOption {
             NcOption::ChordTolerance => "chord tolerance",
             NcOption::Orientation => "orientation compensation",
             NcOption::AngularTolerance => "angular tolerance",
+            NcOption::MaxRotaryCorrection => "largest rotary correction",
             NcOption::Decimals => "decimals",
             NcOption::TraceStep => "sampling step",
         })

@@ -59,10 +59,11 @@ pub use compensate::{compensate, compensate_with_progress};
 pub use error::{NcError, NcOption};
 pub use options::{
     check_work_offsets, parse_work_offset, read_work_offsets, Options, ToolLengths,
-    DEFAULT_ANGULAR_TOLERANCE_RAD, MAX_CHORD_TOLERANCE_MM,
+    DEFAULT_ANGULAR_TOLERANCE_RAD, DEFAULT_MAX_ROTARY_CORRECTION_DEG, MAX_CHORD_TOLERANCE_MM,
+    MAX_ROTARY_CORRECTION_DEG,
 };
 pub use program::{parse, MAX_EXPANDED_WORDS, MAX_PECKS};
-pub use report::{Compensated, PassedBlock, Report, ReportInputs};
+pub use report::{Compensated, OrientationLeft, PassedBlock, Report, ReportInputs};
 pub use trace::{per_block, trace, trace_compensated, trace_path, TracePoint, TraceSample};
 pub use write::with_note;
 

@@ -85,6 +85,10 @@ pub struct Options {
     /// Where given, the tool orientation is compensated too (five-axis machines): the largest
     /// angle between the real and the intended tool axis along the path, rad.
     pub orientation_tolerance_rad: Option<f64>,
+    /// Where the orientation is compensated: the largest turn of the rotary axes from their
+    /// programmed positions (the two as a vector), degrees. Near a singular pose the full
+    /// correction would turn them by far more; what it leaves of the axis error is reported.
+    pub max_rotary_correction_deg: f64,
 }
 
 /// The largest chord tolerance, mm: a kilometre, the largest length a machine file holds.
@@ -92,6 +96,14 @@ pub const MAX_CHORD_TOLERANCE_MM: f64 = 1e6;
 
 /// The default angular tolerance of the orientation compensation, rad.
 pub const DEFAULT_ANGULAR_TOLERANCE_RAD: f64 = 1e-5;
+
+/// The default bound on the rotary correction of the orientation compensation, degrees: at
+/// B = 0.3° a 4e-5 rad axis error needs C to turn 0.44°.
+pub const DEFAULT_MAX_ROTARY_CORRECTION_DEG: f64 = 1.0;
+
+/// The largest bound on the rotary correction, degrees: beyond it the rotary words would no
+/// longer be a correction of the programmed ones.
+pub const MAX_ROTARY_CORRECTION_DEG: f64 = 10.0;
 
 impl Default for Options {
     fn default() -> Options {
@@ -103,6 +115,7 @@ impl Default for Options {
             pass_unknown: false,
             inputs: Inputs::default(),
             orientation_tolerance_rad: None,
+            max_rotary_correction_deg: DEFAULT_MAX_ROTARY_CORRECTION_DEG,
         }
     }
 }

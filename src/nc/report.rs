@@ -34,6 +34,12 @@ pub struct Report {
     /// words as written), rad.
     pub largest_orientation_error_before_rad: f64,
     pub largest_orientation_error_after_rad: f64,
+    /// Where the orientation is compensated: the largest turn of the rotary axes from their
+    /// programmed positions (the two as a vector), degrees.
+    pub largest_rotary_correction_deg: f64,
+    /// The lines where the bound on the rotary correction left part of the tool axis's error
+    /// (near a singular pose, where the rotary axes hardly turn the tool axis), in order.
+    pub orientation_left: Vec<OrientationLeft>,
     /// Take-up pieces added where an axis with a reversal error reverses (at the start of a
     /// move or at an arc's turning point).
     pub take_ups: usize,
@@ -56,6 +62,23 @@ pub struct Report {
 pub struct PassedBlock {
     pub line: usize,
     pub code: String,
+}
+
+/// A line where the bound on the rotary correction left part of the tool axis's error: the
+/// largest angle left between the real and the intended tool axis at its compensated points.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct OrientationLeft {
+    pub line: usize,
+    pub left_rad: f64,
+}
+
+impl Report {
+    /// The line where the bound left the largest orientation error, with it.
+    pub fn largest_orientation_left(&self) -> Option<&OrientationLeft> {
+        self.orientation_left
+            .iter()
+            .max_by(|a, b| a.left_rad.total_cmp(&b.left_rad))
+    }
 }
 
 /// The evaluation inputs of a compensation as a report records them.

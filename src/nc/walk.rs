@@ -180,7 +180,12 @@ impl Block<'_> {
                 (start, piece.end),
                 &piece.directions,
             );
-            let within_angle = angle <= self.angular_tolerance().unwrap_or(0.0);
+            let within_angle = angle
+                <= self.angle_allowed(
+                    (start, piece.end),
+                    (along.at(ta), along.at(tb)),
+                    &piece.directions,
+                );
             if (worst <= self.tolerance && within_angle) || tb - ta <= finest {
                 report.largest_error_after_mm = report.largest_error_after_mm.max(worst);
                 report.largest_orientation_error_after_rad =

@@ -67,12 +67,24 @@ fn orientation_rewrites_the_rotary_words_and_reports_the_orientation_error() {
     run(&[]).success();
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.contains("B20. C90."), "{text}");
-    // A singular pose names its line; a machine without two rotary axes names the flag.
+    // A singular pose (B0: the tool along C) compensates; the orientation the bound on the
+    // rotary correction leaves is reported with its line, and the bound is the flag's.
     std::fs::write(&program, "G0 X400. Y300. Z300. B30. C45.\nG1 B0. F500\n").unwrap();
-    run(&["--orientation"]).code(2).stderr(
-        predicate::str::contains("p.nc: line 2: singular pose")
-            .and(predicate::str::contains("along the C axis")),
-    );
+    run(&["--orientation", "--max-rotary-correction", "0.5"])
+        .success()
+        .stdout(
+            predicate::str::contains("(at most 0.5°)").and(predicate::str::contains(
+                "orientation left            1 line near a singular pose, where the rotary axes cannot turn the tool axis within 0.5°",
+            ).and(predicate::str::contains("rad at line 2"))),
+        );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["orientation_left"][0]["line"], 2, "{report}");
+    assert!(report["largest_rotary_correction_deg"].as_f64().unwrap() <= 0.5);
+    run(&["--orientation", "--max-rotary-correction", "0"])
+        .code(2)
+        .stderr(predicate::str::contains("--max-rotary-correction"));
+    // A machine without two rotary axes names the flag.
     std::fs::write(&program, "G0 X10. Y10. Z10.\n").unwrap();
     volmap()
         .args([
