@@ -12,8 +12,10 @@
 //! where it belongs with the rotary axes where the program has them; the tool's orientation error
 //! is not corrected (rotary words are never changed) unless the orientation is compensated too
 //! (`orientation_tolerance_rad`, see `orientation`): then X, Y, Z and the two rotary axes are
-//! solved together so that the real tool tip and tool axis are the ideal ones, and the rotary
-//! words are rewritten (with at least 6 decimals of a degree, 9e-9 rad).
+//! solved together so that the real tool tip is the ideal one and the real tool axis is the ideal
+//! one as far as a bounded turn of the rotary axes reaches (`max_rotary_correction_deg`; near a
+//! singular pose what it leaves is reported, never refused), and the rotary words are rewritten
+//! (with at least 6 decimals of a degree, 9e-9 rad).
 //!
 //! Between points the control interpolates the compensated commands. A feed move (G1, G2, G3) is
 //! split until the real tool tip along every piece stays within the chord tolerance of the

@@ -43,7 +43,7 @@ EBZ = { poly = [-9.0e-6] }
 "#;
 
 /// A head-head machine: the C head on Z carries the A head, which carries the tool.
-const HEAD_HEAD: &str = r#"
+pub const HEAD_HEAD: &str = r#"
 name = "head-head"
 chain = "FFXYZCA"
 [tool]

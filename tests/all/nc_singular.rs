@@ -64,7 +64,16 @@ fn options(bound_deg: f64) -> Options {
 /// `from`–`to` in the B–C plane: the least over the segment, so at most the turn from the
 /// programmed point at the same fraction.
 fn turn_from_segment(point: &[f64; 6], from: &[f64; 6], to: &[f64; 6]) -> f64 {
-    let (p, a, b) = ([point[4], point[5]], [from[4], from[5]], [to[4], to[5]]);
+    turn_about(point, from, to, [4, 5])
+}
+
+/// [`turn_from_segment`] for the rotary axes `[r0, r1]` (program axes 3..6).
+fn turn_about(point: &[f64; 6], from: &[f64; 6], to: &[f64; 6], [r0, r1]: [usize; 2]) -> f64 {
+    let (p, a, b) = (
+        [point[r0], point[r1]],
+        [from[r0], from[r1]],
+        [to[r0], to[r1]],
+    );
     let ab = [b[0] - a[0], b[1] - a[1]];
     let length2 = ab[0] * ab[0] + ab[1] * ab[1];
     let t = if length2 > 0.0 {
@@ -137,16 +146,48 @@ fn at_b0_the_error_c_cannot_turn_stays_and_is_reported() {
 /// dense sampling of the ideal machine's tip along the programmed move); a tighter bound binds.
 #[test]
 fn a_move_through_b0_compensates_within_the_bound() {
-    let machine = hwang();
-    let ideal = machine.without_errors();
-    let real = machine.at(&Inputs::default());
     let program = "G90 G0 X400. Y300. Z300. B15. C30.\nG1 B-20. C75. F500\n";
     let (from, to) = (
         [400.0, 300.0, 300.0, 0.0, 15.0, 30.0],
         [400.0, 300.0, 300.0, 0.0, -20.0, 75.0],
     );
-    // The intended path: the ideal tip along the programmed move, every 1/40000 (its length is
-    // about 400 mm: 0.01 mm apart, so the polyline is within 1e-7 mm of the curve).
+    for bound in [1.0, 0.3] {
+        check_through(&hwang(), program, (from, to), [4, 5], bound);
+    }
+}
+
+/// The same through A0 on a table-table (A/C trunnion) and a head-head (C head carrying an A
+/// head) machine: there too the tool lies along C.
+#[test]
+fn moves_through_a0_compensate_on_table_table_and_head_head_machines() {
+    let table_table =
+        Machine::from_toml(crate::nc_orientation::TABLE_TABLE, "tt.toml", None).unwrap();
+    let head_head = Machine::from_toml(crate::nc_orientation::HEAD_HEAD, "hh.toml", None).unwrap();
+    for machine in [table_table, head_head] {
+        let program = "G90 G0 X50. Y20. Z100. A-10. C10.\nG1 A12. C40. F500\n";
+        let (from, to) = (
+            [50.0, 20.0, 100.0, -10.0, 0.0, 10.0],
+            [50.0, 20.0, 100.0, 12.0, 0.0, 40.0],
+        );
+        check_through(&machine, program, (from, to), [3, 5], 1.0);
+    }
+}
+
+/// `program` (a rapid to `from`, then a feed move to `to` on line 2, through the singular pose)
+/// compensated with `bound` (degrees) on the rotary axes `rotary`: see
+/// `a_move_through_b0_compensates_within_the_bound`.
+fn check_through(
+    machine: &Machine,
+    program: &str,
+    (from, to): ([f64; 6], [f64; 6]),
+    rotary: [usize; 2],
+    bound: f64,
+) {
+    let ideal = machine.without_errors();
+    let real = machine.at(&Inputs::default());
+    let name = &machine.name;
+    // The intended path: the ideal tip along the programmed move, every 1/40000 (a few hundred
+    // mm at most: 0.01 mm apart, so the polyline is within 1e-7 mm of the curve).
     let n = 40_000;
     let intended: Vec<Vector3<f64>> = (0..=n)
         .map(|k| {
@@ -165,45 +206,54 @@ fn a_move_through_b0_compensates_within_the_bound() {
             })
             .fold(f64::INFINITY, f64::min)
     };
-    for bound in [1.0, 0.3] {
-        let options = options(bound);
-        let out = nc::compensate(&machine, program.as_bytes(), "cross.nc", &options)
-            .unwrap_or_else(|e| panic!("bound {bound}: {e}"));
-        let written = positions(&out.text);
-        for (programmed, point) in [(from, written[0]), (to, *written.last().unwrap())] {
-            let miss = (pose(&real, &point).0 - pose(&ideal, &programmed).0).norm();
-            assert!(miss < 1e-6, "bound {bound}: tip {miss} at {point:?}");
-        }
-        for point in &written {
-            let turn = turn_from_segment(point, &from, &to);
-            assert!(turn <= bound + 1e-9, "bound {bound}: {turn}° at {point:?}");
-        }
-        // Along every written piece, 20 samples (rounding at 12 decimals is negligible).
-        let mut worst = 0.0f64;
-        for w in written.windows(2) {
-            for k in 1..20 {
-                let s = k as f64 / 20.0;
-                let c: [f64; 6] = std::array::from_fn(|d| w[0][d] + (w[1][d] - w[0][d]) * s);
-                worst = worst.max(distance(&pose(&real, &c).0));
-            }
-        }
-        // Chord tolerance plus the polyline's 1e-7 mm.
+    let options = options(bound);
+    let out = nc::compensate(machine, program.as_bytes(), "cross.nc", &options)
+        .unwrap_or_else(|e| panic!("{name}, bound {bound}: {e}"));
+    // Axes the program never names are at 0 (no work offset).
+    let written: Vec<[f64; 6]> = positions(&out.text)
+        .into_iter()
+        .map(|p| p.map(|v| if v.is_nan() { 0.0 } else { v }))
+        .collect();
+    for (programmed, point) in [(from, written[0]), (to, *written.last().unwrap())] {
+        let miss = (pose(&real, &point).0 - pose(&ideal, &programmed).0).norm();
         assert!(
-            worst <= options.chord_tolerance_mm + 1e-6,
-            "bound {bound}: {worst}"
+            miss < 1e-6,
+            "{name}, bound {bound}: tip {miss} at {point:?}"
         );
-        let report = &out.report;
-        assert_eq!(
-            report
-                .orientation_left
-                .iter()
-                .map(|l| l.line)
-                .collect::<Vec<_>>(),
-            [2],
-            "bound {bound}"
-        );
-        assert!(report.largest_rotary_correction_deg <= bound + 1e-12);
     }
+    for point in &written {
+        let turn = turn_about(point, &from, &to, rotary);
+        assert!(
+            turn <= bound + 1e-9,
+            "{name}, bound {bound}: {turn}° at {point:?}"
+        );
+    }
+    // Along every written piece, 20 samples (rounding at 12 decimals is negligible).
+    let mut worst = 0.0f64;
+    for w in written.windows(2) {
+        for k in 1..20 {
+            let s = k as f64 / 20.0;
+            let c: [f64; 6] = std::array::from_fn(|d| w[0][d] + (w[1][d] - w[0][d]) * s);
+            worst = worst.max(distance(&pose(&real, &c).0));
+        }
+    }
+    // Chord tolerance plus the polyline's 1e-7 mm.
+    assert!(
+        worst <= options.chord_tolerance_mm + 1e-6,
+        "{name}, bound {bound}: {worst}\n{}",
+        out.text
+    );
+    let report = &out.report;
+    assert_eq!(
+        report
+            .orientation_left
+            .iter()
+            .map(|l| l.line)
+            .collect::<Vec<_>>(),
+        [2],
+        "{name}, bound {bound}"
+    );
+    assert!(report.largest_rotary_correction_deg <= bound + 1e-12);
 }
 
 /// Near, not at, the singular pose the full correction is within the bound and is made. The
