@@ -202,10 +202,17 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
             options.max_rotary_correction_deg
         );
         if let Some(worst) = report.largest_orientation_left() {
+            // The lines, the first ten (`--json` has them all, each with its angle).
+            let left = &report.orientation_left;
+            let mut lines: Vec<String> = left.iter().take(10).map(|l| l.line.to_string()).collect();
+            if left.len() > 10 {
+                lines.push("…".into());
+            }
             outln!(
-                "  orientation left            {} line{} near a singular pose, where the rotary axes cannot turn the tool axis within {}°: largest {:.3e} rad at line {} (the tip is compensated)",
-                report.orientation_left.len(),
-                if report.orientation_left.len() == 1 { "" } else { "s" },
+                "  orientation left            {} line{} ({}) near a singular pose, where the rotary axes cannot turn the tool axis within {}°: largest {:.3e} rad at line {} (the tip is compensated)",
+                left.len(),
+                if left.len() == 1 { "" } else { "s" },
+                lines.join(", "),
                 options.max_rotary_correction_deg,
                 worst.left_rad,
                 worst.line

@@ -74,7 +74,7 @@ fn orientation_rewrites_the_rotary_words_and_reports_the_orientation_error() {
         .success()
         .stdout(
             predicate::str::contains("(at most 0.5°)").and(predicate::str::contains(
-                "orientation left            1 line near a singular pose, where the rotary axes cannot turn the tool axis within 0.5°",
+                "orientation left            1 line (2) near a singular pose, where the rotary axes cannot turn the tool axis within 0.5°",
             ).and(predicate::str::contains("rad at line 2"))),
         );
     let report: serde_json::Value =
