@@ -51,6 +51,7 @@ mod options;
 mod orientation;
 mod program;
 mod report;
+mod tcpm;
 mod trace;
 mod walk;
 mod write;

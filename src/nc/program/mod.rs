@@ -22,6 +22,7 @@ pub mod parse;
 pub(super) mod reader;
 mod rotation;
 mod subprograms;
+pub(super) mod tcpm;
 pub(super) mod toolpath;
 
 pub use cycles::MAX_PECKS;
@@ -44,11 +45,8 @@ pub(super) fn as_run(
     let own_blocks = read.len();
     // What calls and cycles together may add, and what rotating the blocks they add takes.
     let mut room = Room::new();
-    let (lines, holes) = expand_cycles(
-        expand_subprograms(read, path, pass_unknown, &mut room)?,
-        path,
-        pass_unknown,
-        &mut room,
-    )?;
+    let lines = expand_subprograms(read, path, pass_unknown, &mut room)?;
+    tcpm::check_program(&lines, path)?;
+    let (lines, holes) = expand_cycles(lines, path, pass_unknown, &mut room)?;
     Ok((apply_rotations(lines, path, own_blocks, &mut room)?, holes))
 }

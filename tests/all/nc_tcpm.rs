@@ -1,0 +1,317 @@
+//! Programs written for tool-centre-point control (G43.4, G234, G43.5): X Y Z are the tool tip in
+//! the workpiece frame and the control solves the axes with its nominal kinematics. The
+//! compensated program, solved here by an independent nominal inverse (Newton steps on the
+//! reference model's ideal machine, or the hand-solved chain of the embedded `5axis-hwang2014`)
+//! and run on the real model, puts the tip and the tool axis where the program says.
+
+use nalgebra::{Matrix3, Vector3};
+use volmap::io::embedded;
+use volmap::model::inputs::Inputs;
+use volmap::model::Machine;
+use volmap::nc::{self, Options};
+use volmap::reference::tool_pose;
+
+use crate::common::fixture;
+
+/// The tool tip and unit tool axis of `machine` at `command`.
+fn pose(machine: &Machine, command: &[f64; 6]) -> (Vector3<f64>, Vector3<f64>) {
+    let (tip, r) = tool_pose(machine, command);
+    (tip, r.column(2).into_owned())
+}
+
+fn angle(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    a.cross(b).norm().atan2(a.dot(b))
+}
+
+/// The control's nominal inverse, solved here without volmap's compensation: the rotary axes at
+/// `p`'s, X Y Z such that the ideal machine's tip is where it is with the rotary axes at 0 and
+/// the linear axes at `p + offset` (the workpiece frame of the README: at rotary 0 a TCPM program
+/// and an ordinary one say the same). The ideal tip is affine in X Y Z at fixed rotary positions
+/// (docs/model.md), so two Newton steps with a unit-step Jacobian are exact to rounding.
+fn nominal_command(ideal: &Machine, p: &[f64; 6], offset: &[f64; 3]) -> [f64; 6] {
+    let mut at_zero = [0.0; 6];
+    for d in 0..3 {
+        at_zero[d] = p[d] + offset[d];
+    }
+    let target = pose(ideal, &at_zero).0;
+    let mut q = *p;
+    for d in 0..3 {
+        q[d] += offset[d];
+    }
+    for _ in 0..2 {
+        let base = pose(ideal, &q).0;
+        let column = |d: usize| {
+            let mut s = q;
+            s[d] += 1.0;
+            pose(ideal, &s).0 - base
+        };
+        let j = Matrix3::from_columns(&[column(0), column(1), column(2)]);
+        let step = j.lu().solve(&(target - base)).unwrap();
+        for d in 0..3 {
+            q[d] += step[d];
+        }
+    }
+    q
+}
+
+/// The words X Y Z A B C standing after every line of `text` that names one, once all of
+/// `letters` have been named (modal: the last value stands); `None` for the other lines.
+fn points(text: &str, letters: &str) -> Vec<Option<[f64; 6]>> {
+    let mut at = [f64::NAN; 6];
+    let mut out = Vec::new();
+    for line in text.lines() {
+        let code = line.split('(').next().unwrap();
+        let mut moved = false;
+        for word in code.split_whitespace() {
+            let (letter, value) = word.split_at(1);
+            if let Some(d) = "XYZABC".find(letter) {
+                at[d] = value.parse().unwrap();
+                moved = true;
+            }
+        }
+        let all = letters
+            .chars()
+            .all(|l| !at["XYZABC".find(l).unwrap()].is_nan());
+        out.push((moved && all).then_some(at));
+    }
+    out
+}
+
+/// Runs every block of `input` with a point from the output (its last block for that line: a
+/// split move's last piece) on the real model at the nominal inverse of the written words, and
+/// compares it with the ideal machine at the nominal inverse of the input's words: the largest
+/// tip miss (mm) and axis miss (rad), after and before.
+fn landing(
+    machine: &Machine,
+    input: &str,
+    output: &nc::Compensated,
+    offset: &[f64; 3],
+    letters: &str,
+) -> [f64; 4] {
+    let ideal = machine.without_errors();
+    let real = machine.at(&Inputs::default());
+    let landed = points(&output.text, letters);
+    let [mut tip, mut axis, mut tip_before, mut axis_before] = [0.0f64; 4];
+    let mut compared = 0;
+    for (index, meant) in points(input, letters).into_iter().enumerate() {
+        let Some(p) = meant else { continue };
+        let last = output
+            .origins
+            .iter()
+            .rposition(|&o| o == index + 1)
+            .unwrap();
+        let w = landed[last].unwrap_or_else(|| panic!("line {}: {}", index + 1, output.text));
+        let (want_tip, want_axis) = pose(&ideal, &nominal_command(&ideal, &p, offset));
+        let (got_tip, got_axis) = pose(&real, &nominal_command(&ideal, &w, offset));
+        tip = tip.max((got_tip - want_tip).norm());
+        axis = axis.max(angle(&got_axis, &want_axis));
+        let (was_tip, was_axis) = pose(&real, &nominal_command(&ideal, &p, offset));
+        tip_before = tip_before.max((was_tip - want_tip).norm());
+        axis_before = axis_before.max(angle(&was_axis, &want_axis));
+        compared += 1;
+    }
+    assert!(compared >= 3, "{compared} points compared");
+    [tip, axis, tip_before, axis_before]
+}
+
+fn tcpm_options(decimals: usize, offset: [f64; 3]) -> Options {
+    Options {
+        decimals: Some(decimals),
+        orientation_tolerance_rad: Some(1e-5),
+        work_offsets: [(54, [offset[0], offset[1], offset[2], 0.0, 0.0, 0.0])]
+            .into_iter()
+            .collect(),
+        ..Options::default()
+    }
+}
+
+/// A five-axis program as a post writes it for the head-table `5axis-hwang2014` (B head, C
+/// table), under G43.4 with the tool length of the machine file.
+const HWANG_PROGRAM: &str = "%
+O1000 (TCPM)
+G90 G21 G17 G54
+G0 B30. C45.
+G43.4 H1
+G0 X0. Y0. Z50.
+G1 Z10. F500.
+X20. Y10. B35. C30.
+X30. Y-10. Z5. B20. C60.
+G0 Z50.
+G49
+M30
+%
+";
+
+/// Compensates `program` with the orientation at 12 decimals (the solve itself) and 7 (the
+/// rounding of the words: 0.5e-7 mm on three axes, 2 × 0.5e-7° = 1.7e-9 rad of turn over at most
+/// 500 mm from the rotary axes, 0.9e-6 mm in all), and checks every programmed point: the tip
+/// within 2e-6 mm and the tool axis within 1e-7 rad of the program's, a thousand times closer
+/// than before (the machines' errors put the tip tens of µm and the axis tens of µrad off).
+fn check_lands(machine: &Machine, program: &str, offset: [f64; 3], letters: &str) {
+    for decimals in [12, 7] {
+        let options = tcpm_options(decimals, offset);
+        let out = nc::compensate(machine, program.as_bytes(), "t.nc", &options)
+            .unwrap_or_else(|e| panic!("{}: {e}", machine.name));
+        let [tip, axis, tip_before, axis_before] =
+            landing(machine, program, &out, &offset, letters);
+        let name = &machine.name;
+        assert!(tip < 2e-6, "{name}: tip {tip}\n{}", out.text);
+        assert!(axis < 1e-7, "{name}: axis {axis}\n{}", out.text);
+        assert!(
+            tip_before > 1e-3 && tip_before > 1e3 * tip,
+            "{name}: {tip_before}"
+        );
+        assert!(
+            axis_before > 1e-5 && axis_before > 1e2 * axis,
+            "{name}: {axis_before}"
+        );
+        // Between the points the control moves the tip straight and the rotary axes linearly:
+        // the library's own check of the pieces against that stays within the tolerances.
+        let report = &out.report;
+        assert!(report.largest_error_after_mm <= options.chord_tolerance_mm);
+        assert!(report.largest_orientation_error_after_rad <= 1e-5);
+    }
+}
+
+#[test]
+fn g43_4_on_the_head_table_machine_lands_tip_and_axis() {
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    check_lands(&machine, HWANG_PROGRAM, [100.0, 400.0, 200.0], "XYZBC");
+}
+
+/// The same program shape on the table-table (A trunnion, C table) and head-head (C head, A
+/// head) fixtures, under G43.4 and Haas's G234.
+#[test]
+fn tcpm_lands_tip_and_axis_on_table_table_and_head_head() {
+    let body = |code: &str, a: [&str; 3]| {
+        format!(
+            "G90 G21 G17 G54\nG0 A{} C10.\n{code}\nG0 X20. Y10. Z40.\nG1 Z5. F500.\nX40. A{} C40.\nX-20. Y-10. Z10. A{} C75.\nG0 Z60.\nG49\nM30\n",
+            a[0], a[1], a[2]
+        )
+    };
+    let table_table = Machine::from_toml(&fixture("table-table-ac"), "tt.toml", None).unwrap();
+    let head_head = Machine::from_toml(&fixture("head-head-ca"), "hh.toml", None).unwrap();
+    for code in ["G43.4 H1", "G234"] {
+        check_lands(
+            &table_table,
+            &body(code, ["-30.", "-45.", "-40."]),
+            [0.0, 0.0, 50.0],
+            "XYZAC",
+        );
+        check_lands(
+            &head_head,
+            &body(code, ["30.", "45.", "40."]),
+            [0.0, 0.0, 200.0],
+            "XYZAC",
+        );
+    }
+}
+
+/// The nominal inverse solved by hand for one pose of `5axis-hwang2014` (FYXCFZB, docs/model.md):
+/// `E_rel = Trans(0, 0, 150) · Rz(C) · Trans(X, Y, Z) · Ry(B) · Trans(0, 0, -250)`, so with the
+/// rotary axes at 0 the tip is `(X, Y, Z - 100)`, and the TCPM point P (work offset o) at B, C
+/// needs `(X, Y, Z) = Rz(-C)·(P + o - (0, 0, 250)) + (250 sin B, 0, 250 cos B)`. P = (20, 10,
+/// 10), o = (100, 400, 200), B30 C60: `Rz(-60)·(120, 410, -40) = (60 + 355.0704156,
+/// -103.9230485 + 205, -40)`, plus (125, 0, 216.5063509): X 540.0704156, Y 101.0769515, Z
+/// 176.5063509. The tool axis `Rz(C)·(sin B, 0, cos B)` = (0.25, 0.4330127, 0.8660254); under
+/// G43.5 that vector is solved back to B30 C60 from near it, and to B-30 C240 (the same axis)
+/// from near that one: the solution nearest the previous pose.
+#[test]
+fn the_nominal_inverse_matches_a_pose_solved_by_hand() {
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let options = Options {
+        work_offsets: [(54, [100.0, 400.0, 200.0, 0.0, 0.0, 0.0])]
+            .into_iter()
+            .collect(),
+        ..Options::default()
+    };
+    let expected = [540.0704155516198, 101.07695154586736, 176.50635094610965];
+    let end = |program: &str| {
+        let points = nc::trace(&machine, program.as_bytes(), "h.nc", &options)
+            .unwrap_or_else(|e| panic!("{e}"));
+        points.last().unwrap().command
+    };
+    // The arithmetic above is exact to 1e-12 mm; the solve, one exact step, to rounding.
+    for code in ["G43.4", "G234"] {
+        let c = end(&format!(
+            "G90 G54\nG0 B30. C60.\n{code}\nG0 X20. Y10. Z10.\n"
+        ));
+        for d in 0..3 {
+            assert!((c[d] - expected[d]).abs() < 1e-9, "{code}: {c:?}");
+        }
+        assert_eq!([c[4], c[5]], [30.0, 60.0]);
+    }
+    // G43.5: the same tip with the tool vector; the rotary axes solved nearest where they stand
+    // (to 1e-9°: the vector is given to 10 digits).
+    let vector = "I0.25 J0.4330127019 K0.8660254038";
+    for (from, b, c_deg) in [("B25. C50.", 30.0, 60.0), ("B-25. C230.", -30.0, 240.0)] {
+        let c = end(&format!(
+            "G90 G54\nG0 {from}\nG43.5\nG0 X20. Y10. Z10. {vector}\n"
+        ));
+        assert!(
+            (c[4] - b).abs() < 1e-7 && (c[5] - c_deg).abs() < 1e-7,
+            "{from}: {c:?}"
+        );
+        if b > 0.0 {
+            for d in 0..3 {
+                assert!((c[d] - expected[d]).abs() < 1e-6, "{c:?}");
+            }
+        }
+    }
+}
+
+/// What volmap does not follow under tool-centre-point control is refused naming the line
+/// (README: cancel with G49 first); the same block after G49 is read.
+#[test]
+fn what_tcpm_does_not_follow_is_refused_naming_the_line() {
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let options = tcpm_options(4, [100.0, 400.0, 200.0]);
+    let start = "G90 G54\nG0 B30. C45.\nG43.4\nG0 X0. Y0. Z50.\n";
+    for (block, says) in [
+        ("G53 G0 Z0.", "G53, a move to a machine position, under"),
+        ("G28 Z0.", "G28, a move to a machine position, under"),
+        ("G81 Z-5. R2. F100.", "G81, a canned cycle, under"),
+        ("G68 X0 Y0 R30.", "G68, a coordinate rotation, under"),
+        ("T2 M6", "a tool change (M6) under"),
+        ("G55", "G55, a change of work offset, under"),
+    ] {
+        let program = format!("{start}{block}\n");
+        let error = nc::compensate(&machine, program.as_bytes(), "r.nc", &options)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.starts_with("r.nc: line 5: ") && error.contains(says),
+            "{block}: {error}"
+        );
+    }
+    // G43.5 gives the orientation by the vector: a rotary word, an incomplete vector, one no pose
+    // reaches within the travels (B ±110°: the tool cannot point down), refused.
+    let start = "G90 G54\nG0 B30. C45.\nG43.5\nG0 X0. Y0. Z50. I0.5 J0 K0.8660254038\n";
+    for (block, says) in [
+        ("G1 X5. B20. F100.", "B20., a rotary word"),
+        ("G1 X5. I0.5 J0 F100.", "needs all of I J K"),
+        ("G1 X5. I0 J0 K-1 F100.", "outside their travels"),
+    ] {
+        let program = format!("{start}{block}\n");
+        let error = nc::compensate(&machine, program.as_bytes(), "v.nc", &options)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.starts_with("v.nc: line 5: ") && error.contains(says),
+            "{block}: {error}"
+        );
+    }
+    // A G49 before the tip was given: where the axes stand is not known.
+    let error = nc::compensate(
+        &machine,
+        b"G90 G54\nG0 B30. C45.\nG43.4\nG49\nG0 X0. Y0. Z50.\n",
+        "c.nc",
+        &options,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(error.starts_with("c.nc: line 4: "), "{error}");
+    // After G49 a tool change is an ordinary block again.
+    let program = "G90 G54\nG0 B30. C45.\nG43.4\nG0 X0. Y0. Z50.\nG49\nT2 M6\nG0 X10.\n";
+    nc::compensate(&machine, program.as_bytes(), "ok.nc", &options).unwrap();
+}
