@@ -124,6 +124,15 @@ impl Style {
         (a - b).abs() > half
     }
 
+    /// Whether axis `d`'s word is written for `a` where `b` was written: under G43.5 the tool
+    /// vector is written whole (a control reads I J K together).
+    fn changed(&self, a: &[f64; 6], b: &[f64; 6], d: usize) -> bool {
+        if d >= 3 && self.letters[3] == 'I' {
+            return (3..6).any(|k| self.changes(a[k], b[k], k));
+        }
+        self.changes(a[d], b[d], d)
+    }
+
     /// The text of axis `d`'s word for `target`, absolute or an increment from `written`.
     fn value_text(&self, target: f64, d: usize, written: &[f64; 6]) -> String {
         let v = if self.absolute {
@@ -263,7 +272,7 @@ fn axis_edits(
     }
     let mut added = String::new();
     for (d, &letter) in style.letters.iter().enumerate() {
-        if !line.has(letter) && style.changes(first_written[d], state.written[d], d) {
+        if !line.has(letter) && style.changed(first_written, &state.written, d) {
             added += style.separator;
             added += &style.axis_word(d, first_written[d], &state.written);
         }
@@ -401,7 +410,7 @@ fn write_pieces(
             words += &motion_word;
         }
         for (d, &target) in piece_written.iter().enumerate() {
-            if style.changes(target, state.written[d], d) {
+            if style.changed(&piece_written, &state.written, d) {
                 if !words.is_empty() {
                     words += style.separator;
                 }

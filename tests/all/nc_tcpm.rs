@@ -55,19 +55,34 @@ fn nominal_command(ideal: &Machine, p: &[f64; 6], offset: &[f64; 3]) -> [f64; 6]
 }
 
 /// The words X Y Z A B C standing after every line of `text` that names one, once all of
-/// `letters` have been named (modal: the last value stands); `None` for the other lines.
-fn points(text: &str, letters: &str) -> Vec<Option<[f64; 6]>> {
+/// `letters` have been named (modal: the last value stands); `None` for the other lines. With
+/// `vector` (the ideal machine and its two rotary axes), a tool vector I J K (G43.5) sets the
+/// rotary axes as the control solves it: Gauss-Newton steps on the two rotary positions from where
+/// they stand, which end on the solution nearest them.
+fn points(
+    text: &str,
+    letters: &str,
+    vector: Option<(&Machine, [usize; 2])>,
+) -> Vec<Option<[f64; 6]>> {
     let mut at = [f64::NAN; 6];
     let mut out = Vec::new();
     for line in text.lines() {
         let code = line.split('(').next().unwrap();
         let mut moved = false;
+        let mut v = Vector3::from_element(f64::NAN);
         for word in code.split_whitespace() {
             let (letter, value) = word.split_at(1);
             if let Some(d) = "XYZABC".find(letter) {
                 at[d] = value.parse().unwrap();
                 moved = true;
             }
+            if let Some(k) = "IJK".find(letter).filter(|_| vector.is_some()) {
+                v[k] = value.parse().unwrap();
+                moved = true;
+            }
+        }
+        if let (Some((ideal, axes)), false) = (vector, v[0].is_nan()) {
+            at = solve_vector(ideal, axes, &v.normalize(), at);
         }
         let all = letters
             .chars()
@@ -75,6 +90,34 @@ fn points(text: &str, letters: &str) -> Vec<Option<[f64; 6]>> {
         out.push((moved && all).then_some(at));
     }
     out
+}
+
+/// `from` with its rotary axes `axes` where the ideal tool axis is `v` (Gauss-Newton from
+/// `from`'s, central differences of 1e-4°, to 1e-12°).
+fn solve_vector(ideal: &Machine, axes: [usize; 2], v: &Vector3<f64>, from: [f64; 6]) -> [f64; 6] {
+    let axis = |q: &[f64; 6]| pose(ideal, q).1;
+    let mut q = from;
+    for _ in 0..50 {
+        let r = axis(&q) - v;
+        let column = |d: usize| {
+            let (mut plus, mut minus) = (q, q);
+            plus[d] += 1e-4;
+            minus[d] -= 1e-4;
+            (axis(&plus) - axis(&minus)) / 2e-4
+        };
+        let j = nalgebra::Matrix3x2::from_columns(&[column(axes[0]), column(axes[1])]);
+        let step = (j.transpose() * j)
+            .lu()
+            .solve(&(j.transpose() * r))
+            .unwrap();
+        q[axes[0]] -= step[0];
+        q[axes[1]] -= step[1];
+        if step.norm() < 1e-12 {
+            break;
+        }
+    }
+    assert!(angle(&axis(&q), v) < 1e-12, "{v:?} not reached: {q:?}");
+    q
 }
 
 /// Runs every block of `input` with a point from the output (its last block for that line: a
@@ -87,13 +130,15 @@ fn landing(
     output: &nc::Compensated,
     offset: &[f64; 3],
     letters: &str,
+    vector: Option<[usize; 2]>,
 ) -> [f64; 4] {
     let ideal = machine.without_errors();
     let real = machine.at(&Inputs::default());
-    let landed = points(&output.text, letters);
+    let vector = vector.map(|axes| (&ideal, axes));
+    let landed = points(&output.text, letters, vector);
     let [mut tip, mut axis, mut tip_before, mut axis_before] = [0.0f64; 4];
     let mut compared = 0;
-    for (index, meant) in points(input, letters).into_iter().enumerate() {
+    for (index, meant) in points(input, letters, vector).into_iter().enumerate() {
         let Some(p) = meant else { continue };
         let last = output
             .origins
@@ -148,12 +193,23 @@ M30
 /// within 2e-6 mm and the tool axis within 1e-7 rad of the program's, a thousand times closer
 /// than before (the machines' errors put the tip tens of µm and the axis tens of µrad off).
 fn check_lands(machine: &Machine, program: &str, offset: [f64; 3], letters: &str) {
+    check_lands_with(machine, program, offset, letters, None)
+}
+
+/// [`check_lands`], the tool vectors of G43.5 solved for the rotary axes `vector`.
+fn check_lands_with(
+    machine: &Machine,
+    program: &str,
+    offset: [f64; 3],
+    letters: &str,
+    vector: Option<[usize; 2]>,
+) {
     for decimals in [12, 7] {
         let options = tcpm_options(decimals, offset);
         let out = nc::compensate(machine, program.as_bytes(), "t.nc", &options)
             .unwrap_or_else(|e| panic!("{}: {e}", machine.name));
         let [tip, axis, tip_before, axis_before] =
-            landing(machine, program, &out, &offset, letters);
+            landing(machine, program, &out, &offset, letters, vector);
         let name = &machine.name;
         assert!(tip < 2e-6, "{name}: tip {tip}\n{}", out.text);
         assert!(axis < 1e-7, "{name}: axis {axis}\n{}", out.text);
@@ -314,4 +370,50 @@ fn what_tcpm_does_not_follow_is_refused_naming_the_line() {
     // After G49 a tool change is an ordinary block again.
     let program = "G90 G54\nG0 B30. C45.\nG43.4\nG0 X0. Y0. Z50.\nG49\nT2 M6\nG0 X10.\n";
     nc::compensate(&machine, program.as_bytes(), "ok.nc", &options).unwrap();
+}
+
+/// G43.5 on the table-table and head-head fixtures: the tool vectors are those of the ideal
+/// machine at the rotary positions of the G43.4 test (the reference model's tool axis); the
+/// output's I J K, solved here for the rotary axes nearest where they stand, put the tip and the
+/// axis where the program says, within the same tolerances (the vector's 9 decimals turn the axis
+/// by at most 1e-9 rad).
+#[test]
+fn g43_5_tool_vectors_land_tip_and_axis() {
+    let table_table = Machine::from_toml(&fixture("table-table-ac"), "tt.toml", None).unwrap();
+    let head_head = Machine::from_toml(&fixture("head-head-ca"), "hh.toml", None).unwrap();
+    for (machine, a, offset) in [
+        (&table_table, [-30.0, -45.0, -40.0], [0.0, 0.0, 50.0]),
+        (&head_head, [30.0, 45.0, 40.0], [0.0, 0.0, 200.0]),
+    ] {
+        let ideal = machine.without_errors();
+        let ijk = |a: f64, c: f64| {
+            let v = pose(&ideal, &[0.0, 0.0, 0.0, a, 0.0, c]).1;
+            format!("I{:.10} J{:.10} K{:.10}", v.x, v.y, v.z)
+        };
+        let program = format!(
+            "G90 G21 G17 G54\nG0 A{} C10.\nG43.5\nG0 X20. Y10. Z40. {}\nG1 Z5. F500.\nX40. {}\nX-20. Y-10. Z10. {}\nG0 Z60.\nG49\nM30\n",
+            a[0],
+            ijk(a[0], 10.0),
+            ijk(a[1], 40.0),
+            ijk(a[2], 75.0)
+        );
+        check_lands_with(machine, &program, offset, "XYZAC", Some([3, 5]));
+        // The output gives the orientation by whole vectors only, as G43.5 needs (at 12 decimals
+        // too, where one component may change alone), and volmap reads it back.
+        for decimals in [12, 7] {
+            let options = tcpm_options(decimals, offset);
+            let out = nc::compensate(machine, program.as_bytes(), "v.nc", &options).unwrap();
+            let after: Vec<&str> = out.text.lines().skip_while(|l| *l != "G43.5").collect();
+            let words = |l: &str, of: &str| l.chars().filter(|c| of.contains(*c)).count();
+            assert!(
+                after
+                    .iter()
+                    .all(|l| words(l, "AC") == 0 && words(l, "IJK") % 3 == 0)
+                    && after.iter().filter(|l| l.contains('I')).count() >= 3,
+                "{}",
+                out.text
+            );
+            nc::trace(machine, out.text.as_bytes(), "v-out.nc", &options).unwrap();
+        }
+    }
 }
