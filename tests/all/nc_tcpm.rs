@@ -448,6 +448,24 @@ fn what_tcpm_does_not_follow_is_refused_naming_the_line() {
     .unwrap_err()
     .to_string();
     assert!(error.starts_with("c.nc: line 4: "), "{error}");
+    // A G43.5 program that never says where the rotary axes stand: the control solves the vector
+    // nearest where they are, which volmap cannot know.
+    let plain = Options {
+        orientation_tolerance_rad: None,
+        ..options.clone()
+    };
+    let error = nc::compensate(
+        &machine,
+        b"G90 G54\nG43.5\nG0 X0. Y0. Z50. I0.5 J0 K0.8660254038\n",
+        "n.nc",
+        &plain,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        error.starts_with("n.nc: line 3: ") && error.contains("is not known here"),
+        "{error}"
+    );
     // After G49 a tool change is an ordinary block again.
     let program = "G90 G54\nG0 B30. C45.\nG43.4\nG0 X0. Y0. Z50.\nG49\nT2 M6\nG0 X10.\n";
     nc::compensate(&machine, program.as_bytes(), "ok.nc", &options).unwrap();
@@ -496,5 +514,58 @@ fn g43_5_tool_vectors_land_tip_and_axis() {
             );
             nc::trace(machine, out.text.as_bytes(), "v-out.nc", &options).unwrap();
         }
+    }
+}
+
+/// `trace` follows a TCPM program as the control runs it: at every programmed point the ideal tip
+/// is the program's (the workpiece frame at rotary 0) and the real tip is the real model's at the
+/// nominal inverse solved here; without `--orientation` `compensate` puts the tip back (within
+/// 2e-6 mm at 7 decimals, as above) and leaves the rotary words as programmed.
+#[test]
+fn trace_and_compensate_without_orientation_follow_tcpm() {
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let offset = [100.0, 400.0, 200.0];
+    let options = Options {
+        orientation_tolerance_rad: None,
+        ..tcpm_options(7, offset)
+    };
+    let ideal = machine.without_errors();
+    let real = machine.at(&Inputs::default());
+    let traced = nc::trace(&machine, HWANG_PROGRAM.as_bytes(), "t.nc", &options).unwrap();
+    let meant = points(HWANG_PROGRAM, "XYZBC", None);
+    let mut compared = 0;
+    for t in &traced {
+        let Some(p) = meant[t.line - 1] else { continue };
+        let q = nominal_command(&ideal, &p, &offset);
+        // One exact step each, so agreeing to the rounding of 1e-9 mm.
+        assert!(
+            (t.ideal - pose(&ideal, &q).0).norm() < 1e-9,
+            "line {}",
+            t.line
+        );
+        assert!(
+            (t.real - pose(&real, &q).0).norm() < 1e-9,
+            "line {}",
+            t.line
+        );
+        assert!((t.real - t.ideal).norm() > 1e-3, "line {}", t.line);
+        compared += 1;
+    }
+    assert!(compared >= 5, "{compared}");
+    let out = nc::compensate(&machine, HWANG_PROGRAM.as_bytes(), "t.nc", &options).unwrap();
+    let landed = points(&out.text, "XYZBC", None);
+    for (index, p) in meant.iter().enumerate() {
+        let Some(p) = p else { continue };
+        let last = out.origins.iter().rposition(|&o| o == index + 1).unwrap();
+        let w = landed[last].unwrap();
+        let tip = pose(&real, &nominal_command(&ideal, &w, &offset)).0;
+        let want = pose(&ideal, &nominal_command(&ideal, p, &offset)).0;
+        assert!(
+            (tip - want).norm() < 2e-6,
+            "line {}: {}",
+            index + 1,
+            out.text
+        );
+        assert_eq!([w[4], w[5]], [p[4], p[5]], "{}", out.text);
     }
 }
