@@ -569,3 +569,31 @@ fn trace_and_compensate_without_orientation_follow_tcpm() {
         assert_eq!([w[4], w[5]], [p[4], p[5]], "{}", out.text);
     }
 }
+
+/// With `--tool-length`, G43.4 H1 applies the length as G43 does (README): the control stands the
+/// axes at the TCPM solution for the work offset plus the length along Z, with the tool of that
+/// length. Solved here with the machine's tool replaced by 200 mm and 200 mm added to the offset's
+/// Z, the compensated program lands within the same tolerances.
+#[test]
+fn g43_4_applies_the_tool_length() {
+    let machine = embedded::load("5axis-hwang2014").unwrap();
+    let offset = [100.0, 400.0, 200.0];
+    let options = Options {
+        tool_lengths: nc::ToolLengths {
+            all: Some(200.0),
+            ..Default::default()
+        },
+        ..tcpm_options(7, offset)
+    };
+    let out = nc::compensate(&machine, HWANG_PROGRAM.as_bytes(), "t.nc", &options).unwrap();
+    let mut with_tool = machine.clone();
+    with_tool.tool_offset_mm = [0.0, 0.0, -200.0];
+    let lengthened = [offset[0], offset[1], offset[2] + 200.0];
+    let [tip, axis, tip_before, _] =
+        landing(&with_tool, HWANG_PROGRAM, &out, &lengthened, "XYZBC", None);
+    assert!(tip < 2e-6 && axis < 1e-7, "{tip} {axis}\n{}", out.text);
+    assert!(tip_before > 1e-3, "{tip_before}");
+    // Without the length in the solve, the output misses by far more: the check can fail.
+    let [off, ..] = landing(&machine, HWANG_PROGRAM, &out, &offset, "XYZBC", None);
+    assert!(off > 1e-3, "{off}");
+}
