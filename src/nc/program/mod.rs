@@ -4,7 +4,8 @@
 //! - the blocks the control runs ([`as_run`]): the file's blocks read into words (`parse`),
 //!   subprogram calls whose body is in the file run in place (`subprograms`), canned drilling
 //!   cycles turned into their rapid and feed moves (`cycles`) and coordinate rotations (G68)
-//!   applied to the moves they turn (`rotation`);
+//!   applied to the moves they turn (`rotation`); what volmap does not follow under
+//!   tool-centre-point control (G43.4, G43.5, G234) refused (`tcpm`);
 //! - the modal state before the first block and after each block (`modal`, `reader`): motion,
 //!   plane, distance, units, work offset and tool, where the program has the tool, and whether
 //!   the block moves it and where to;
