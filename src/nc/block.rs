@@ -9,6 +9,8 @@ use super::kinematics::{beyond_travel, Kinematics};
 use super::options::Options;
 use super::program::modal::Directions;
 use super::report::{OrientationLeft, Report};
+use super::program::tcpm::Tcpm;
+use super::tcpm;
 use super::write::as_written;
 use crate::model::Command;
 
@@ -38,6 +40,9 @@ pub(super) struct Block<'a> {
     pub(super) orientation_left: Cell<Option<f64>>,
     /// The largest rotary correction made so far (degrees, the two axes as a vector).
     pub(super) largest_rotary_correction: Cell<f64>,
+    /// Tool-centre-point control in force: program points are tool tips the control solves with
+    /// its nominal kinematics (`tcpm`).
+    pub(super) tcpm: Option<Tcpm>,
 }
 
 /// Why a move could not be split: too many pieces, or a point that does not compensate.
@@ -72,6 +77,7 @@ impl<'a> Block<'a> {
             against: Cell::new(0),
             orientation_left: Cell::new(None),
             largest_rotary_correction: Cell::new(0.0),
+            tcpm: None,
         }
     }
 
@@ -82,12 +88,17 @@ impl<'a> Block<'a> {
 
     /// A point as the output writes it (rounded).
     pub(super) fn written(&self, p: &[f64; 6]) -> [f64; 6] {
-        std::array::from_fn(|d| as_written(p[d], d, self.inch, self.options))
+        let w = std::array::from_fn(|d| as_written(p[d], d, self.inch, self.options));
+        if self.tcpm != Some(Tcpm::Vector) {
+            return w;
+        }
+        let solved = tcpm::written_rotaries(self.kin, p, self.options);
+        std::array::from_fn(|d| if d < 3 { w[d] } else { solved[d] })
     }
 
     /// The machine command of a point in program coordinates.
     pub(super) fn command(&self, p: &[f64; 6]) -> Command {
-        std::array::from_fn(|d| p[d] + self.offset[d])
+        tcpm::command_of(self.kin, self.tcpm.is_some(), &self.offset, p)
     }
 
     /// Every axis of the command of `p` within its travel.
@@ -136,9 +147,11 @@ impl<'a> Block<'a> {
             3
         };
         let mut compensated = *p;
-        for d in 0..solved {
-            compensated[d] = c[d] - self.offset[d];
-        }
+        let point = match self.tcpm {
+            Some(_) => self.kin.tcpm_point(&c, &self.offset),
+            None => std::array::from_fn(|d| c[d] - self.offset[d]),
+        };
+        compensated[..solved].copy_from_slice(&point[..solved]);
         self.check_travel(&compensated, "the compensated point")?;
         let correction = (0..3)
             .map(|d| (compensated[d] - p[d]).powi(2))

@@ -12,11 +12,11 @@ use super::program::approach::{line_directions, segment_at, segments, Segment};
 use super::program::as_run;
 use super::program::modal::{Directions, Motion, State, AXIS_LETTERS};
 use super::program::parse::Line;
-use super::program::reader::{end_position, first_state, take_line, unknown_code, Step};
+use super::program::reader::{first_state, take_line, unknown_code, Step};
+use super::program::tcpm;
 use super::program::toolpath::{arc_path, Toolpath};
 use super::report::{Compensated, PassedBlock, Report, ReportInputs};
 use super::walk::Walk;
-use super::write::write_block;
 use crate::limits::MAX_DECIMALS;
 use crate::model::Machine;
 
@@ -146,7 +146,10 @@ fn process_line(
 ) -> Result<usize, NcError> {
     let line = &lines[index];
     let (path, options) = (comp.path, comp.options);
-    if take_line(lines, index, state, path, options.pass_unknown)? == Step::Pass {
+    let before = tcpm::switches(line).then(|| state.clone());
+    let step = take_line(lines, index, state, path, options.pass_unknown)?;
+    super::tcpm::follow(line, before, state, comp)?;
+    if step == Step::Pass {
         out.push_str(&line.text);
         out.push_str(&line.ending);
         return Ok(1);
@@ -162,7 +165,8 @@ fn process_line(
             ),
         });
     }
-    let block = Block::new(
+    let end = super::tcpm::move_end(line, state, comp)?;
+    let mut block = Block::new(
         path,
         line.number,
         comp.offset(state, line.number)?,
@@ -171,6 +175,7 @@ fn process_line(
         line.word('R').is_some(),
         options,
     );
+    block.tcpm = state.tcpm;
     if !*start_compensated {
         // The output starts where the compensated start of the program is, for the axes it
         // does not leave unwritten (see `begin`).
@@ -184,7 +189,7 @@ fn process_line(
         });
         *start_compensated = true;
     }
-    let (start, end, motion) = (state.position, end_position(line, state), state.motion);
+    let (start, motion) = (state.position, state.motion);
     let mut pieces: Vec<[f64; 6]> = Vec::new();
     let mut arcs = ArcPieces::new();
     // Where the output has the tool at the start (see `written_start`).
@@ -245,7 +250,7 @@ fn process_line(
     report.largest_correction_mm = report.largest_correction_mm.max(block.largest_correction());
     block.report_orientation(report);
     state.position = end;
-    write_block(line, state, &from, &pieces, &arcs, out, options)
+    super::tcpm::write(&block, line, state, &from, &pieces, &arcs, out)
 }
 
 /// Points sampled along an intended move of `length` mm: every 0.5 mm, from 8 to 256.

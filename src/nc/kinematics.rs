@@ -80,7 +80,7 @@ impl Kinematics {
 
     /// The inverse of the ideal tip's derivative in X, Y, Z at `q` (constant at fixed rotary
     /// positions, so kept until they change); `None` where the linear axes do not span X, Y, Z.
-    fn inverse_jacobian(&self, q: &Command) -> Option<Matrix3<f64>> {
+    pub(super) fn inverse_jacobian(&self, q: &Command) -> Option<Matrix3<f64>> {
         let rotary = [q[3], q[4], q[5]];
         let mut cache = self.inverse.borrow_mut();
         match *cache {

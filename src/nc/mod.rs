@@ -39,7 +39,9 @@
 //!
 //! Layout: `program` reads programs and knows nothing of the compensation; the compensation
 //! builds on it, each file on those below it: `kinematics` (the machine per tool), `orientation`
-//! (the tool axis solved with the rotary axes), `write` (the output's words), `block` (one
+//! (the tool axis solved with the rotary axes), `tcpm` (the nominal kinematics of programs written
+//! for tool-centre-point control: their points as machine commands and back, G43.5's tool vector
+//! solved for the rotary axes), `write` (the output's words), `block` (one
 //! block's points compensated), `walk` (the pieces of a move), `arcs` (arcs kept or split into compensated arcs),
 //! `compensate` (the run over the program), `trace` (the model along a program). `error`,
 //! `options` and `report` hold what the whole module shares.
@@ -53,6 +55,7 @@ mod options;
 mod orientation;
 mod program;
 mod report;
+mod tcpm;
 mod trace;
 mod walk;
 mod write;

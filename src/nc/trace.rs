@@ -15,9 +15,11 @@ use super::options::Options;
 use super::program::approach::{line_directions, segment_at, segments, Segment};
 use super::program::modal::{Motion, State};
 use super::program::parse::Line;
-use super::program::reader::{end_position, take_line, Step};
+use super::program::reader::{take_line, Step};
+use super::program::tcpm;
 use super::program::toolpath::{arc_path, Toolpath};
 use super::report::Compensated;
+use super::tcpm::{command_of, follow, move_end};
 use crate::limits::{self, number_words, MAX_TRACE_SAMPLES};
 use crate::model::inputs::Approach;
 use crate::model::{Command, Machine};
@@ -52,10 +54,13 @@ pub fn trace(
     let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
     let mut points = Vec::new();
     for (index, line) in lines.iter().enumerate() {
-        if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {
+        let before = tcpm::switches(line).then(|| state.clone());
+        let step = take_line(&lines, index, &mut state, path, options.pass_unknown)?;
+        follow(line, before, &mut state, &mut compensator)?;
+        if step == Step::Pass {
             continue;
         }
-        let end = end_position(line, &state);
+        let end = move_end(line, &mut state, &mut compensator)?;
         let approach = if matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise) {
             let arc = arc_path(line, &state, state.position, end, path)?;
             let segments = segments(&arc, &state.approach, &[true; 6]);
@@ -64,8 +69,8 @@ pub fn trace(
             line_directions(&state.position, &end, &state.approach)
         };
         let offset = compensator.offset(&state, line.number)?;
-        let command: Command = std::array::from_fn(|d| end[d] + offset[d]);
         let kin = compensator.kinematics(state.tool, line.number)?;
+        let command = command_of(kin, state.tcpm.is_some(), &offset, &end);
         points.push(TracePoint {
             line: line.number,
             program: end,
@@ -131,10 +136,13 @@ pub fn trace_path(
     let mut samples = Vec::new();
     let mut travelled = 0.0;
     for (index, line) in lines.iter().enumerate() {
-        if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {
+        let before = tcpm::switches(line).then(|| state.clone());
+        let step = take_line(&lines, index, &mut state, path, options.pass_unknown)?;
+        follow(line, before, &mut state, &mut compensator)?;
+        if step == Step::Pass {
             continue;
         }
-        let end = end_position(line, &state);
+        let end = move_end(line, &mut state, &mut compensator)?;
         let intended = move_path(line, &state, end, path)?;
         let segments = match state.motion {
             Motion::Rapid => vec![Segment {
@@ -168,7 +176,7 @@ pub fn trace_path(
         for k in 1..=n {
             let t = k as f64 / n as f64;
             let p = intended.at(t);
-            let command: Command = std::array::from_fn(|d| p[d] + offset[d]);
+            let command = command_of(kin, state.tcpm.is_some(), &offset, &p);
             // Where the machine cannot go, the model says nothing (as compensate and sample).
             if let Some((axis, value)) = beyond_travel(machine, &command) {
                 return Err(NcError::Line {

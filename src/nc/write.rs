@@ -6,6 +6,8 @@ use super::error::NcError;
 use super::options::Options;
 use super::program::modal::{Motion, State, AXIS_LETTERS, MM_PER_INCH};
 use super::program::parse::{Line, Word};
+use super::program::tcpm::Tcpm;
+use super::tcpm::vector_decimals;
 
 /// Formats a value in program units with `decimals`, trailing zeros trimmed to one.
 pub(super) fn format_value(value: f64, decimals: usize) -> String {
@@ -33,6 +35,8 @@ struct Style {
     lower: bool,
     separator: &'static str,
     absolute: bool,
+    /// The letters of the six values: A B C, or under G43.5 the tool vector's I J K.
+    letters: [char; 6],
 }
 
 /// A value of axis `d` (mm, degrees) as the output writes it, in inch where `inch`.
@@ -47,6 +51,19 @@ impl Style {
             separator: if line.spaced { " " } else { "" },
             absolute: state.absolute,
             ..Style::numbers(state.inch, options)
+        }
+        .with_vector(state, options)
+    }
+
+    /// Under G43.5 the last three values are the tool vector (see `tcpm::write`).
+    fn with_vector(self, state: &State, options: &Options) -> Style {
+        if state.tcpm != Some(Tcpm::Vector) {
+            return self;
+        }
+        Style {
+            letters: ['X', 'Y', 'Z', 'I', 'J', 'K'],
+            rotary_decimals: vector_decimals(options),
+            ..self
         }
     }
 
@@ -66,6 +83,7 @@ impl Style {
             lower: false,
             separator: "",
             absolute: true,
+            letters: AXIS_LETTERS,
         }
     }
 
@@ -106,6 +124,15 @@ impl Style {
         (a - b).abs() > half
     }
 
+    /// Whether axis `d`'s word is written for `a` where `b` was written: under G43.5 the tool
+    /// vector is written whole (a control reads I J K together).
+    fn changed(&self, a: &[f64; 6], b: &[f64; 6], d: usize) -> bool {
+        if d >= 3 && self.letters[3] == 'I' {
+            return (3..6).any(|k| self.changes(a[k], b[k], k));
+        }
+        self.changes(a[d], b[d], d)
+    }
+
     /// The text of axis `d`'s word for `target`, absolute or an increment from `written`.
     fn value_text(&self, target: f64, d: usize, written: &[f64; 6]) -> String {
         let v = if self.absolute {
@@ -124,7 +151,7 @@ impl Style {
     fn axis_word(&self, d: usize, target: f64, written: &[f64; 6]) -> String {
         format!(
             "{}{}",
-            self.letter(AXIS_LETTERS[d]),
+            self.letter(self.letters[d]),
             self.value_text(target, d, written)
         )
     }
@@ -197,7 +224,7 @@ pub(super) fn write_block(
     });
     // An axis sent to its reference point stays unwritten until a block names it.
     let unwritten: [bool; 6] =
-        std::array::from_fn(|d| state.written[d].is_nan() && !line.has(AXIS_LETTERS[d]));
+        std::array::from_fn(|d| state.written[d].is_nan() && !line.has(style.letters[d]));
     state.written = std::array::from_fn(|d| {
         if unwritten[d] {
             f64::NAN
@@ -233,7 +260,7 @@ fn axis_edits(
     let mut edits = Vec::new();
     let mut last_axis_end = None;
     for w in &line.words {
-        if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {
+        if let Some(d) = style.letters.iter().position(|&a| a == w.letter) {
             last_axis_end = Some(w.number.end);
             if d < 3 || split || style.rotary_compensated {
                 edits.push((
@@ -244,8 +271,8 @@ fn axis_edits(
         }
     }
     let mut added = String::new();
-    for d in 0..6 {
-        if !line.has(AXIS_LETTERS[d]) && style.changes(first_written[d], state.written[d], d) {
+    for (d, &letter) in style.letters.iter().enumerate() {
+        if !line.has(letter) && style.changed(first_written, &state.written, d) {
             added += style.separator;
             added += &style.axis_word(d, first_written[d], &state.written);
         }
@@ -383,7 +410,7 @@ fn write_pieces(
             words += &motion_word;
         }
         for (d, &target) in piece_written.iter().enumerate() {
-            if style.changes(target, state.written[d], d) {
+            if style.changed(&piece_written, &state.written, d) {
                 if !words.is_empty() {
                     words += style.separator;
                 }

@@ -39,6 +39,8 @@ mod nc_orientation;
 mod nc_posts;
 mod nc_regressions;
 mod nc_singular;
+mod nc_tcpm;
+mod nc_tcpm_refusals;
 mod plot;
 mod plot_extremes;
 mod plot_looks;

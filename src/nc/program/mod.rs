@@ -4,7 +4,8 @@
 //! - the blocks the control runs ([`as_run`]): the file's blocks read into words (`parse`),
 //!   subprogram calls whose body is in the file run in place (`subprograms`), canned drilling
 //!   cycles turned into their rapid and feed moves (`cycles`) and coordinate rotations (G68)
-//!   applied to the moves they turn (`rotation`);
+//!   applied to the moves they turn (`rotation`); what volmap does not follow under
+//!   tool-centre-point control (G43.4, G43.5, G234) refused (`tcpm`);
 //! - the modal state before the first block and after each block (`modal`, `reader`): motion,
 //!   plane, distance, units, work offset and tool, where the program has the tool, and whether
 //!   the block moves it and where to;
@@ -22,6 +23,7 @@ pub mod parse;
 pub(super) mod reader;
 mod rotation;
 mod subprograms;
+pub(super) mod tcpm;
 pub(super) mod toolpath;
 
 pub use cycles::MAX_PECKS;
@@ -44,11 +46,8 @@ pub(super) fn as_run(
     let own_blocks = read.len();
     // What calls and cycles together may add, and what rotating the blocks they add takes.
     let mut room = Room::new();
-    let (lines, holes) = expand_cycles(
-        expand_subprograms(read, path, pass_unknown, &mut room)?,
-        path,
-        pass_unknown,
-        &mut room,
-    )?;
+    let lines = expand_subprograms(read, path, pass_unknown, &mut room)?;
+    tcpm::check_program(&lines, path)?;
+    let (lines, holes) = expand_cycles(lines, path, pass_unknown, &mut room)?;
     Ok((apply_rotations(lines, path, own_blocks, &mut room)?, holes))
 }

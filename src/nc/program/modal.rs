@@ -77,6 +77,9 @@ pub(in crate::nc) struct State {
     /// Tool length compensation (G43) in force, until G49: the control then stands the axes at
     /// the program position plus the tool length along the spindle axis (Z).
     pub(in crate::nc) tool_length_on: bool,
+    /// Tool-centre-point control in force (G43.4, G43.5, G234), until G49 or G43: X Y Z are the
+    /// tool tip in the workpiece frame (`nc::tcpm`).
+    pub(in crate::nc) tcpm: Option<super::tcpm::Tcpm>,
     /// The options' tool lengths, for the scans ahead.
     pub(in crate::nc) tool_lengths: ToolLengths,
     pub(in crate::nc) pending_tool: Option<u32>,

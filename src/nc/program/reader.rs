@@ -5,6 +5,7 @@
 use super::approach::line_directions;
 use super::modal::{AxisSet, Motion, State, AXIS_LETTERS, MM_PER_INCH, XY, YZ, ZX};
 use super::parse::Line;
+use super::tcpm;
 use crate::error::excerpt;
 use crate::model::{AxisLetter, Machine};
 use crate::nc::error::NcError;
@@ -30,6 +31,7 @@ pub(in crate::nc) fn first_state(
         offset: 54,
         tool: None,
         tool_length_on: false,
+        tcpm: None,
         tool_lengths: options.tool_lengths.clone(),
         pending_tool: None,
         position: start,
@@ -311,7 +313,8 @@ pub(in crate::nc) fn unknown_code(line: &Line) -> Option<String> {
                 let g = w.value;
                 let known = g.fract() == 0.0
                     && matches!(g as u32, 0..=4 | 17..=21 | 28 | 53 | 90 | 91 | 54..=59)
-                    || PASSIVE_G.contains(&(g as u32)) && g.fract() == 0.0;
+                    || PASSIVE_G.contains(&(g as u32)) && g.fract() == 0.0
+                    || tcpm::mode_of(g).is_some();
                 if !known {
                     return Some(format!("G{}", w.text));
                 }
@@ -410,7 +413,9 @@ pub(in crate::nc) fn take_line(
     state.position[2] += change;
     state.written[2] += change;
     let dwell = is_dwell(line);
-    let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter));
+    // Under G43.5 a tool vector alone turns the tool.
+    let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter))
+        || tcpm::has_vector(line, state);
     let has_centre = line
         .words
         .iter()
@@ -437,6 +442,11 @@ pub(in crate::nc) fn take_line(
 fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcError> {
     let mut motions = 0;
     for w in line.words.iter().filter(|w| w.letter == 'G') {
+        if let Some(mode) = tcpm::mode_of(w.value) {
+            state.tcpm = mode;
+            // G43.4, G43.5 and G234 apply the tool length as G43 does.
+            state.tool_length_on |= mode.is_some();
+        }
         match w.value as u32 {
             0 => state.motion = Motion::Rapid,
             1 => state.motion = Motion::Linear,

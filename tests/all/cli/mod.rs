@@ -5,6 +5,7 @@
 
 mod compensate;
 mod compensate_orientation;
+mod compensate_tcpm;
 mod design;
 mod evaluation_inputs;
 mod export;
