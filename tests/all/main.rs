@@ -38,6 +38,7 @@ mod nc_inputs;
 mod nc_orientation;
 mod nc_posts;
 mod nc_regressions;
+mod nc_rs274;
 mod plot;
 mod plot_extremes;
 mod plot_looks;
