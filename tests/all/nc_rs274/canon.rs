@@ -145,7 +145,7 @@ pub fn read(canon: &str) -> Result<Vec<Move>, String> {
         };
         let args = args.trim_end_matches(')');
         let numbers = || -> Vec<f64> {
-            args.split(',')
+            args.split([',', ' '])
                 .filter_map(|a| a.trim().parse::<f64>().ok())
                 .collect()
         };

@@ -127,8 +127,8 @@ fn fits(c: &Move, o: &Move, t_from: f64, bound_mm: f64) -> Result<f64, Miss> {
 /// The compensated moves (a range of `comp`) that make each original move, in order: each
 /// stays within `bound_mm` of the original's path going forward and the last ends within it
 /// of the original's end; a compensated rapid only where the original has a rapid, one at most,
-/// and a feed only where it has a feed (moves no longer than `tiny_mm`, take-ups, aside); no
-/// compensated move left over.
+/// and a feed only where it has a feed (moves no longer than `tiny_mm`, take-ups and the
+/// zero-length rapids of a cycle, aside); no compensated move left over.
 pub fn pair(
     orig: &[Move],
     comp: &[Move],
@@ -168,7 +168,7 @@ pub fn pair(
             match fit {
                 Ok(at) => {
                     t = at;
-                    rapids += usize::from(c.is_rapid());
+                    rapids += usize::from(c.is_rapid() && c.length_mm() > tiny_mm);
                     reached = t >= 1.0 - bound_mm / o.length_mm().max(bound_mm) && near_end(c.end);
                     j += 1;
                 }
@@ -304,7 +304,13 @@ pub fn tips(
                 if s == 1.0 {
                     directions = at;
                 }
-                if !compensated[k] {
+                // A move that stays at the original's start (a take-up, a rapid of no length)
+                // is at the previous original's end: compensated only if that is.
+                let at_start = k > 0
+                    && o.length_mm() > tiny_mm
+                    && (c.end - o.start).norm() <= tiny_mm
+                    && !compensated[k - 1];
+                if !compensated[k] || at_start {
                     continue;
                 }
                 let tip = model.real_tip(c.at(s), at) - shift;
