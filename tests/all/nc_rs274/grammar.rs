@@ -76,6 +76,11 @@ fn num(v: f64) -> String {
 const LETTERS: [char; 3] = ['X', 'Y', 'Z'];
 
 impl Gen<'_> {
+    /// True once in `n` draws.
+    fn one_in(&mut self, n: u64) -> bool {
+        self.rng.next_u64().is_multiple_of(n)
+    }
+
     fn on(&mut self, feature: &'static str) -> bool {
         if self.features.contains(&feature) {
             if !self.used.contains(&feature) {
@@ -131,7 +136,7 @@ impl Gen<'_> {
     }
 
     fn mode_word(&mut self) -> &'static str {
-        if self.on("incremental") && self.rng.next_u64() % 4 == 0 {
+        if self.on("incremental") && self.one_in(4) {
             self.incremental = !self.incremental;
             if self.incremental {
                 "G91 "
@@ -145,7 +150,7 @@ impl Gen<'_> {
 
     fn straight(&mut self) {
         self.on("lines");
-        let rapid = self.rng.next_u64() % 3 == 0;
+        let rapid = self.one_in(3);
         let mut to = self.point(5.0);
         let axes: Vec<usize> = match self.rng.next_u64() % 5 {
             0 => vec![0],
@@ -202,13 +207,13 @@ impl Gen<'_> {
         for d in [a, b] {
             centre[d] = round4(centre[d]);
         }
-        let ccw = self.rng.next_u64() % 2 == 0;
-        let with_r = self.rng.next_u64() % 3 == 0;
-        let full = !with_r && self.rng.next_u64() % 8 == 0;
+        let ccw = self.one_in(2);
+        let with_r = self.one_in(3);
+        let full = !with_r && self.one_in(8);
         let sweep_deg = if full {
             360.0
         } else if with_r {
-            if self.rng.next_u64() % 2 == 0 && self.on("arcs-r-over-180") {
+            if self.one_in(2) && self.on("arcs-r-over-180") {
                 self.rng.uniform(200.0, 340.0)
             } else {
                 self.rng.uniform(20.0, 160.0)
@@ -225,7 +230,7 @@ impl Gen<'_> {
             to[a] = round4(centre[a] + real_radius * (start_angle + turn).cos());
             to[b] = round4(centre[b] + real_radius * (start_angle + turn).sin());
         }
-        if self.on("helices") && self.rng.next_u64() % 2 == 0 {
+        if self.on("helices") && self.one_in(2) {
             let axial = round4(self.rng.uniform(-5.0, 5.0));
             let mut next = to;
             next[normal] += axial;
@@ -288,8 +293,8 @@ impl Gen<'_> {
             self.plane = 2;
             self.push("G90 G17".to_string());
         }
-        let g98 = self.rng.next_u64() % 2 == 0;
-        let peck = self.rng.next_u64() % 2 == 0;
+        let g98 = self.one_in(2);
+        let peck = self.one_in(2);
         let holes = 1 + self.rng.next_u64() % 3;
         for h in 0..holes {
             let p = self.point(5.0);
@@ -346,7 +351,7 @@ impl Gen<'_> {
     }
 
     fn work_offset(&mut self) {
-        let alone = self.rng.next_u64() % 2 == 0;
+        let alone = self.one_in(2);
         if !self.on(if alone {
             "offset-change"
         } else {
@@ -393,7 +398,7 @@ impl Gen<'_> {
     }
 
     fn machine_move(&mut self) {
-        if self.rng.next_u64() % 2 == 0 {
+        if self.one_in(2) {
             if !self.on("g53") {
                 return self.straight();
             }
@@ -405,7 +410,7 @@ impl Gen<'_> {
             if !self.on("g28") {
                 return self.straight();
             }
-            let (words, axes): (&str, &[usize]) = if self.rng.next_u64() % 2 == 0 {
+            let (words, axes): (&str, &[usize]) = if self.one_in(2) {
                 ("Z0.", &[2])
             } else {
                 ("X0. Y0.", &[0, 1])
