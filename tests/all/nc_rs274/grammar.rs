@@ -446,7 +446,7 @@ impl Gen<'_> {
     }
 
     fn passed(&mut self) {
-        match self.rng.next_u64() % 5 {
+        match self.rng.next_u64() % 6 {
             0 if self.on("dwell-g64") => self.push("G4 P0.5".to_string()),
             1 if self.on("dwell-g64") => self.push("G64 P0.01".to_string()),
             2 if self.on("g10") => {
@@ -474,26 +474,23 @@ impl Gen<'_> {
                 self.incremental = false;
                 self.at[1] = p[1];
             }
-            _ => {
-                if self.on("g92") {
-                    // The current point becomes (0, 0, 0) of the shifted coordinates, and is
-                    // left at once; G92.1 ends the shift.
-                    self.push("G92 X0 Y0 Z0".to_string());
-                    let p = self.point(5.0);
-                    let q = p - self.at;
-                    self.incremental = false;
-                    self.push(format!(
-                        "G90 G1 X{} Y{} Z{} F800",
-                        num(q[0]),
-                        num(q[1]),
-                        num(q[2])
-                    ));
-                    self.push("G92.1".to_string());
-                    self.at = p;
-                } else {
-                    self.straight();
-                }
+            5 if self.on("g92") => {
+                // The current point becomes (0, 0, 0) of the shifted coordinates, and is
+                // left at once; G92.1 ends the shift.
+                self.push("G92 X0 Y0 Z0".to_string());
+                let p = self.point(5.0);
+                let q = p - self.at;
+                self.incremental = false;
+                self.push(format!(
+                    "G90 G1 X{} Y{} Z{} F800",
+                    num(q[0]),
+                    num(q[1]),
+                    num(q[2])
+                ));
+                self.push("G92.1".to_string());
+                self.at = p;
             }
+            _ => self.straight(),
         }
     }
 }
