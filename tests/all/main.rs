@@ -41,6 +41,7 @@ mod nc_regressions;
 mod nc_singular;
 mod nc_tcpm;
 mod nc_tcpm_refusals;
+mod nc_rs274;
 mod plot;
 mod plot_extremes;
 mod plot_looks;
