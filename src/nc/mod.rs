@@ -39,11 +39,13 @@
 //! builds on it, each file on those below it: `kinematics` (the machine per tool), `orientation`
 //! (the tool axis solved with the rotary axes), `write` (the output's words), `block` (one
 //! block's points compensated), `walk` (the pieces of a move), `arcs` (arcs kept or split into compensated arcs),
-//! `compensate` (the run over the program), `trace` (the model along a program). `error`,
+//! `compensate` (the run over the program), `trace` (the model along a program), `check`
+//! (the written program read back and walked beside the original, knowing nothing of the rest). `error`,
 //! `options` and `report` hold what the whole module shares.
 
 mod arcs;
 mod block;
+mod check;
 mod compensate;
 mod error;
 mod kinematics;
@@ -55,6 +57,9 @@ mod trace;
 mod walk;
 mod write;
 
+pub use check::{
+    check_written, residual, CheckBounds, CheckError, Residual, ORIENTATION_ROTARY_BOUND_DEG,
+};
 pub use compensate::{compensate, compensate_with_progress};
 pub use error::{NcError, NcOption};
 pub use options::{
