@@ -152,12 +152,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
             machine.name, compensated.report.inputs.description
         ),
     );
-    // Tests corrupt the output on purpose (a move after the last) to see a failed check write
-    // nothing; such an output never passes.
-    let text = match std::env::var_os("VOLMAP_TEST_CORRUPT_OUTPUT") {
-        Some(v) if !v.is_empty() => format!("{text}\nG1 X0 Y0 Z0 F100\n"),
-        _ => text,
-    };
+    let text = corrupted_for_tests(text);
     check(&machine, &program, &text, &compensated, &args, &options)?;
     let report = compensated.report;
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
@@ -217,6 +212,15 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         write_json(path, &report)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Tests corrupt the output on purpose (`VOLMAP_TEST_CORRUPT_OUTPUT`: a move after the last) to
+/// see a failed check write nothing; such an output never passes the check.
+pub(super) fn corrupted_for_tests(text: String) -> String {
+    match std::env::var_os("VOLMAP_TEST_CORRUPT_OUTPUT") {
+        Some(v) if !v.is_empty() => format!("{text}\nG1 X0 Y0 Z0 F100\n"),
+        _ => text,
+    }
 }
 
 /// The written program read back and walked beside the program (exit 1 where it strays: volmap's

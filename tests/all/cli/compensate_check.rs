@@ -95,4 +95,22 @@ fn a_written_program_that_strays_exits_1_and_writes_nothing() {
     assert_eq!(leftovers.len(), 1, "{leftovers:?}");
     run("").success();
     assert!(out.exists());
+    // `trace --compensate` traces what `compensate` would keep, checked the same way.
+    volmap()
+        .env("VOLMAP_TEST_CORRUPT_OUTPUT", "1")
+        .args([
+            "trace",
+            "--compensate",
+            "--machine",
+            "vmc-li2015",
+            "--work-offset",
+        ])
+        .arg("G54=300,200,250")
+        .arg("--program")
+        .arg(&program)
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains(
+            "p.nc: line 3: the compensated program does not follow it",
+        ));
 }
