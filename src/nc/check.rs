@@ -351,27 +351,34 @@ pub fn check_written(
         };
         let m = &programmed[current.index];
         if let Err(why) = fits(m, w, current, &bounds, &passed_text) {
-            // Where it could have been either, both reasons.
-            let message = match tried_next {
-                // Past the end of the current move, it was meant to begin the next.
-                Some((next, why_next)) if current.at_end => {
-                    return Err(strays(
+            // Past the end of the current move (the only time the next is tried): a second move
+            // of a block written as one (a rapid, a move from an unknown axis) is named there,
+            // anything else was meant to begin the next. Both reasons either way.
+            if let Some((next, why_next)) = tried_next {
+                let output = format!("{shown} (line {} of the output)", w.line);
+                let closed = m.rapid || m.unknown.iter().any(Option::is_some);
+                return Err(if closed && current.written > 0 && w.rapid == m.rapid {
+                    strays(
+                        m.line,
+                        format!("{output} {why}; nor does it begin line {next} ({why_next})"),
+                    )
+                } else {
+                    strays(
                         next,
                         format!(
-                            "{shown} (line {} of the output) {why_next}; nor does it continue line {} ({why})",
-                            w.line, m.line
+                            "{output} {why_next}; nor does it continue line {} ({why})",
+                            m.line
                         ),
-                    ))
-                }
-                Some((next, why_next)) => format!(
-                    "{shown} (line {} of the output) neither continues it ({why}) nor begins line {next} ({why_next})",
-                    w.line
-                ),
-                None if current.at_end && current.index + 1 == programmed.len() => format!(
+                    )
+                });
+            }
+            let message = if current.at_end && current.index + 1 == programmed.len() {
+                format!(
                     "{shown} (line {} of the output) comes after the program's last move ({why})",
                     w.line
-                ),
-                None => format!("{shown} (line {} of the output) {why}", w.line),
+                )
+            } else {
+                format!("{shown} (line {} of the output) {why}", w.line)
             };
             return Err(strays(m.line, message));
         }
