@@ -30,6 +30,10 @@ pub struct CompensateArgs {
     /// Pass blocks volmap does not understand through unchanged instead of stopping.
     #[arg(long)]
     pass_unknown: bool,
+    /// Write the program (exit 0, the lines named in a warning) even where the model, run along
+    /// it as written, puts the tool tip beyond the chord tolerance of the intended path.
+    #[arg(long)]
+    allow_residual: bool,
     /// Compensate the tool orientation too (five-axis machines): X, Y, Z and both rotary axes
     /// are solved so the real tool tip and tool axis are the intended ones; rotary words are
     /// rewritten.
@@ -147,15 +151,17 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     );
     bar.finish_and_clear();
     let compensated = compensated.map_err(option_failure)?;
-    let (text, report) = (compensated.text, compensated.report);
     // The program says what it was compensated for (MODEL: every output records its inputs).
     let text = nc::with_note(
-        &text,
+        &compensated.text,
         &format!(
             "compensated by volmap for {} at {}; each axis then approaches in the direction it moves",
-            machine.name, report.inputs.description
+            machine.name, compensated.report.inputs.description
         ),
     );
+    let text = corrupted_for_tests(text);
+    check(&machine, &program, &text, &compensated, &args, &options)?;
+    let report = compensated.report;
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
     outln!("{}: compensated for {}", args.out.display(), machine.name);
     outln!(
@@ -235,6 +241,54 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         write_json(path, &report)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Tests corrupt the output on purpose (`VOLMAP_TEST_CORRUPT_OUTPUT`: a move after the last) to
+/// see a failed check write nothing; such an output never passes the check.
+pub(super) fn corrupted_for_tests(text: String) -> String {
+    match std::env::var_os("VOLMAP_TEST_CORRUPT_OUTPUT") {
+        Some(v) if !v.is_empty() => format!("{text}\nG1 X0 Y0 Z0 F100\n"),
+        _ => text,
+    }
+}
+
+/// The written program read back and walked beside the program (exit 1 where it strays: volmap's
+/// own work is wrong), then the model run along it: beyond the chord tolerance, exit 4 unless
+/// `--allow-residual`. Either way before anything is written.
+fn check(
+    machine: &volmap::model::Machine,
+    program: &[u8],
+    text: &str,
+    compensated: &nc::Compensated,
+    args: &CompensateArgs,
+    options: &Options,
+) -> Result<(), Failure> {
+    let name = args.program.display().to_string();
+    let bounds = nc::CheckBounds::of(compensated.report.largest_correction_mm, options);
+    nc::check_written(machine, program, text.as_bytes(), &name, options, bounds).map_err(|e| {
+        Failure::from(e).context(format!("nothing was written to {}", args.out.display()))
+    })?;
+    let residual =
+        nc::residual(machine, program, compensated, &name, options).map_err(option_failure)?;
+    if residual.lines.is_empty() {
+        return Ok(());
+    }
+    let lines: Vec<String> = residual.lines.iter().map(|l| l.to_string()).collect();
+    let message = format!(
+        "{name}: the model run along the compensated program as written puts the tool tip up to {:.4} mm from the intended path, beyond the chord tolerance of {} mm, on lines {}",
+        residual.largest_mm,
+        options.chord_tolerance_mm,
+        lines.join(", ")
+    );
+    if args.allow_residual {
+        errln!("warning: {message} (written as --allow-residual asks)");
+        return Ok(());
+    }
+    Err(Failure::beyond_tolerance(format!(
+        "{message}; nothing was written to {}",
+        args.out.display()
+    ))
+    .hint("--allow-residual writes it anyway"))
 }
 
 /// The flag of each compensation option.

@@ -1,6 +1,6 @@
 //! The one place that turns an error into what the user sees and the exit code: bad input exits
-//! with 2, a failure while working with 1, by the error's kind (`volmap::error::Classify`),
-//! never by where it was raised. The library's errors say which file, key or value is wrong;
+//! with 2, a failure while working with 1 (a result beyond its tolerance with 4), by the error's
+//! kind (`volmap::error::Classify`), never by where it was raised. The library's errors say which file, key or value is wrong;
 //! here the command line adds which flag it came from.
 
 use std::fmt::Display;
@@ -14,6 +14,8 @@ pub struct Failure {
     kind: ErrorKind,
     error: anyhow::Error,
     hint: Option<String>,
+    /// An exit code other than the kind's (4: a result beyond its tolerance).
+    code: Option<u8>,
 }
 
 /// Every library error becomes a failure of its own kind, so `?` decides the exit code right.
@@ -23,6 +25,7 @@ impl<E: Classify + Send + Sync + 'static> From<E> for Failure {
             kind: error.kind(),
             error: error.into(),
             hint: None,
+            code: None,
         }
     }
 }
@@ -34,6 +37,18 @@ impl Failure {
             kind: ErrorKind::Input,
             error: anyhow::Error::msg(message),
             hint: None,
+            code: None,
+        }
+    }
+
+    /// A result the work produced that fails its own check beyond a tolerance: exit code 4, as
+    /// `map --check` (the work was done; its result is not what it should be).
+    pub fn beyond_tolerance(
+        message: impl Display + std::fmt::Debug + Send + Sync + 'static,
+    ) -> Failure {
+        Failure {
+            code: Some(4),
+            ..Failure::work(anyhow::Error::msg(message))
         }
     }
 
@@ -43,6 +58,7 @@ impl Failure {
             kind: ErrorKind::Work,
             error: error.into(),
             hint: None,
+            code: None,
         }
     }
 
@@ -64,10 +80,10 @@ impl Failure {
     }
 
     pub fn exit_code(&self) -> ExitCode {
-        ExitCode::from(match self.kind {
+        ExitCode::from(self.code.unwrap_or(match self.kind {
             ErrorKind::Input => 2,
             ErrorKind::Work => 1,
-        })
+        }))
     }
 
     /// Writes the failure to standard error: the error and its causes on one line, each cause

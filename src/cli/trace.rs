@@ -9,7 +9,7 @@ use volmap::nc::{self, Options, TraceSample};
 use volmap::plot::{self, Color, Marker, Series};
 
 use super::args::{InputsArg, JsonArg, MachineArg};
-use super::compensate::{option_failure, SetupArgs};
+use super::compensate::{corrupted_for_tests, option_failure, SetupArgs};
 use super::failure::{Failure, FlagContext};
 use super::output::{check_distinct_outputs, check_plot_paths, write_file, write_json, write_plot};
 
@@ -102,8 +102,19 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
         nc::trace_path(&machine, &program, &name, &options, args.step).map_err(option_failure)?,
     )];
     if args.compensate {
-        let compensated =
+        let mut compensated =
             nc::compensate(&machine, &program, &name, &options).map_err(option_failure)?;
+        // What is traced is what `compensate` would keep: checked as it checks it (exit 1).
+        compensated.text = corrupted_for_tests(compensated.text);
+        let bounds = nc::CheckBounds::of(compensated.report.largest_correction_mm, &options);
+        nc::check_written(
+            &machine,
+            &program,
+            compensated.text.as_bytes(),
+            &name,
+            &options,
+            bounds,
+        )?;
         let after = nc::trace_compensated(
             &machine,
             (&program, &compensated),

@@ -43,11 +43,13 @@
 //! for tool-centre-point control: their points as machine commands and back, G43.5's tool vector
 //! solved for the rotary axes), `write` (the output's words), `block` (one
 //! block's points compensated), `walk` (the pieces of a move), `arcs` (arcs kept or split into compensated arcs),
-//! `compensate` (the run over the program), `trace` (the model along a program). `error`,
+//! `compensate` (the run over the program), `trace` (the model along a program), `check`
+//! (the written program read back and walked beside the original, knowing nothing of the rest). `error`,
 //! `options` and `report` hold what the whole module shares.
 
 mod arcs;
 mod block;
+mod check;
 mod compensate;
 mod error;
 mod kinematics;
@@ -60,6 +62,9 @@ mod trace;
 mod walk;
 mod write;
 
+pub use check::{
+    check_written, residual, CheckBounds, CheckError, Residual, ORIENTATION_ROTARY_BOUND_DEG,
+};
 pub use compensate::{compensate, compensate_with_progress};
 pub use error::{NcError, NcOption};
 pub use options::{

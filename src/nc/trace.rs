@@ -155,9 +155,13 @@ pub fn trace_path(
         let offset = compensator.offset(&state, line.number)?;
         let kin = compensator.kinematics(state.tool, line.number)?;
         let length = intended.length();
-        // A move that goes nowhere (a block of modes, a repeated point) is one sample.
-        let n = if length > 0.0 {
-            (length / step_mm).ceil().max(4.0)
+        // A rotary axis swings the tip along a curve: a degree of turn is sampled as a mm of
+        // path. A move that goes nowhere (a block of modes, a repeated point) is one sample.
+        let turn_deg = (3..6)
+            .map(|d| (end[d] - state.position[d]).abs())
+            .fold(0.0, f64::max);
+        let n = if length > 0.0 || turn_deg > 0.0 {
+            (length.max(turn_deg) / step_mm).ceil().max(4.0)
         } else {
             1.0
         };

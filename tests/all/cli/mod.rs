@@ -4,6 +4,7 @@
 //! (`refusals`).
 
 mod compensate;
+mod compensate_check;
 mod compensate_orientation;
 mod compensate_tcpm;
 mod design;
