@@ -26,6 +26,7 @@ use super::report::Compensated;
 use super::trace::trace_compensated;
 use crate::error::{excerpt, Classify, ErrorKind};
 use crate::model::Machine;
+use crate::reference::Twin;
 
 /// How far the written program may stray from the programmed path.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,24 +37,19 @@ pub struct CheckBounds {
     pub rotary_deg: f64,
 }
 
-/// Rotary words may differ by this much where the orientation is compensated (degrees): a
-/// correction of an orientation error is hundredths of a degree; a degree still catches a turn
-/// the program did not ask for.
-pub const ORIENTATION_ROTARY_BOUND_DEG: f64 = 1.0;
-
 impl CheckBounds {
     /// The bounds of a compensation with `options` whose largest correction was
     /// `largest_correction_mm`: that plus the chord tolerance and the rounding of three words at
     /// the output's decimals (in inch where the program is, the larger); rotary words as
-    /// programmed to twice their rounding, or [`ORIENTATION_ROTARY_BOUND_DEG`] where the
-    /// orientation is compensated.
+    /// programmed to twice their rounding, or, where the orientation is compensated, the bound on
+    /// the rotary correction plus the rounding of its six decimals.
     pub fn of(largest_correction_mm: f64, options: &Options) -> CheckBounds {
         let decimals = options.decimals.unwrap_or(4) as i32;
         let rounding_mm = 3f64.sqrt() * 0.5 * 10f64.powi(-decimals) * 25.4;
         CheckBounds {
             linear_mm: largest_correction_mm + options.chord_tolerance_mm + rounding_mm,
             rotary_deg: if options.orientation_tolerance_rad.is_some() {
-                ORIENTATION_ROTARY_BOUND_DEG
+                options.max_rotary_correction_deg + 1e-5
             } else {
                 10f64.powi(-decimals)
             },
@@ -278,6 +274,44 @@ struct OnMove {
 /// Why a written move does not belong to a programmed move.
 type Misfit = String;
 
+/// Where the orientation is compensated the rotary words turn by up to `rotary_deg`, and X Y Z
+/// move with them to keep the tip: by the turn times the tip's distance from the rotary axes.
+/// That distance is the ideal tip's derivative along each rotary axis at the programmed ends
+/// (mm per radian, the largest); the linear bound grows by it times the rotary bound.
+fn with_rotary_lever(
+    bounds: CheckBounds,
+    machine: &Machine,
+    options: &Options,
+    programmed: &[Move],
+) -> CheckBounds {
+    if options.orientation_tolerance_rad.is_none() {
+        return bounds;
+    }
+    let twin = Twin::new(machine.at(&options.inputs));
+    let rotary: Vec<usize> = (3..6)
+        .filter(|&d| machine.axes.iter().any(|a| a.letter.index() == d))
+        .collect();
+    let step_deg = 1e-3;
+    let mut lever_mm_per_rad: f64 = 0.0;
+    for m in programmed {
+        for t in [0.0, 1.0] {
+            let q = m.at(t);
+            for &d in &rotary {
+                let mut plus = q;
+                let mut minus = q;
+                plus[d] += step_deg;
+                minus[d] -= step_deg;
+                let moved = (twin.ideal_tip(&plus) - twin.ideal_tip(&minus)).norm();
+                lever_mm_per_rad = lever_mm_per_rad.max(moved / (2.0 * step_deg.to_radians()));
+            }
+        }
+    }
+    CheckBounds {
+        linear_mm: bounds.linear_mm + lever_mm_per_rad * bounds.rotary_deg.to_radians(),
+        ..bounds
+    }
+}
+
 /// Checks that `written` (the compensated program's text) follows `original` within `bounds`
 /// (see the module's documentation); `path` names the original in errors.
 pub fn check_written(
@@ -292,6 +326,7 @@ pub fn check_written(
         moves(machine, original, path, options).map_err(CheckError::Unreadable)?;
     let (written, _) = moves(machine, written, &format!("{path} (compensated)"), options)
         .map_err(CheckError::Unreadable)?;
+    let bounds = with_rotary_lever(bounds, machine, options, &programmed);
     let strays = |line: usize, message: String| CheckError::Strays {
         path: path.to_string(),
         line,

@@ -62,9 +62,7 @@ mod trace;
 mod walk;
 mod write;
 
-pub use check::{
-    check_written, residual, CheckBounds, CheckError, Residual, ORIENTATION_ROTARY_BOUND_DEG,
-};
+pub use check::{check_written, residual, CheckBounds, CheckError, Residual};
 pub use compensate::{compensate, compensate_with_progress};
 pub use error::{NcError, NcOption};
 pub use options::{
