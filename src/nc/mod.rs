@@ -62,7 +62,7 @@ pub use options::{
     DEFAULT_ANGULAR_TOLERANCE_RAD, MAX_CHORD_TOLERANCE_MM,
 };
 pub use program::{parse, MAX_EXPANDED_WORDS, MAX_PECKS};
-pub use report::{Compensated, PassedBlock, Report, ReportInputs};
+pub use report::{Compensated, LeftMove, PassedBlock, Report, ReportInputs};
 pub use trace::{per_block, trace, trace_compensated, trace_path, TracePoint, TraceSample};
 pub use write::with_note;
 

@@ -38,6 +38,8 @@ mod nc_inputs;
 mod nc_orientation;
 mod nc_posts;
 mod nc_regressions;
+mod nc_unknown;
+mod nc_writing;
 mod plot;
 mod plot_extremes;
 mod plot_looks;

@@ -21,8 +21,10 @@ pub(super) mod modal;
 pub mod parse;
 pub(super) mod reader;
 mod rotation;
+pub(super) mod settings;
 mod subprograms;
 pub(super) mod toolpath;
+mod unknown;
 
 pub use cycles::MAX_PECKS;
 pub use subprograms::MAX_EXPANDED_WORDS;
