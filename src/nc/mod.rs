@@ -39,7 +39,8 @@
 //! builds on it, each file on those below it: `kinematics` (the machine per tool), `orientation`
 //! (the tool axis solved with the rotary axes), `write` (the output's words), `block` (one
 //! block's points compensated), `walk` (the pieces of a move), `arcs` (arcs kept or split into compensated arcs),
-//! `compensate` (the run over the program), `trace` (the model along a program). `error`,
+//! `compensate` (the run over the program), `trace` (the model along a program), `untraced` (the
+//! moves left alone after blocks volmap does not follow). `error`,
 //! `options` and `report` hold what the whole module shares.
 
 mod arcs;
@@ -52,6 +53,7 @@ mod orientation;
 mod program;
 mod report;
 mod trace;
+mod untraced;
 mod walk;
 mod write;
 
@@ -64,6 +66,7 @@ pub use options::{
 pub use program::{parse, MAX_EXPANDED_WORDS, MAX_PECKS};
 pub use report::{Compensated, LeftMove, PassedBlock, Report, ReportInputs};
 pub use trace::{per_block, trace, trace_compensated, trace_path, TracePoint, TraceSample};
+pub use untraced::moves_left_alone;
 pub use write::with_note;
 
 /// The blocks of `program` (its bytes; `path` names it in errors) as the control runs them:

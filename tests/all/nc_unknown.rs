@@ -260,3 +260,22 @@ fn passed_tool_data_leaves_moves_under_g43_alone() {
     assert_eq!(lines, [3, 4]);
     assert_eq!(out.text.lines().nth(3), Some("G1 X10 F100"));
 }
+
+/// `trace` follows the same rule: the moves left alone are not traced, and are listed.
+#[test]
+fn trace_skips_and_lists_the_moves_left_alone() {
+    let program = "G90 G0 X0 Y0 Z5\nG1 X[1+2] F100\nG1 Y10\nG1 X20\nG1 Y0\n";
+    let lines: Vec<usize> = nc::trace(&machine(), program.as_bytes(), "t.nc", &options(true))
+        .unwrap()
+        .iter()
+        .map(|p| p.line)
+        .collect();
+    assert_eq!(lines, [1, 5]);
+    let left: Vec<(usize, String, usize)> =
+        nc::moves_left_alone(&machine(), program.as_bytes(), "t.nc", &options(true))
+            .unwrap()
+            .into_iter()
+            .map(|m| (m.line, m.unknown, m.since_line))
+            .collect();
+    assert_eq!(left, [(3, "X".to_string(), 2), (4, "X".to_string(), 2)]);
+}

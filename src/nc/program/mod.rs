@@ -5,6 +5,8 @@
 //!   subprogram calls whose body is in the file run in place (`subprograms`), canned drilling
 //!   cycles turned into their rapid and feed moves (`cycles`) and coordinate rotations (G68)
 //!   applied to the moves they turn (`rotation`);
+//! - codes that set coordinates and move nothing (G10, G52, G92) applied to the offsets
+//!   (`settings`), and the axes a block volmap does not follow leaves unknown (`unknown`);
 //! - the modal state before the first block and after each block (`modal`, `reader`): motion,
 //!   plane, distance, units, work offset and tool, where the program has the tool, and whether
 //!   the block moves it and where to;

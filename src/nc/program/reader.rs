@@ -527,8 +527,7 @@ fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcErro
 }
 
 /// A change of work offset moves nothing: where both offsets are known, the program's
-/// coordinates of where the axes stand change by their difference (an axis the block does not
-/// name stays where it is on the machine).
+/// coordinates of where the axes stand change by their difference.
 fn change_offset(state: &mut State, to: u32) {
     let of = |n: u32| match state.work_offsets.get(&n) {
         Some(&v) => Some(v),
@@ -536,7 +535,9 @@ fn change_offset(state: &mut State, to: u32) {
         None => None,
     };
     if let (Some(from), Some(new)) = (of(state.offset), of(to)) {
-        for d in 0..6 {
+        // An axis not set yet stands where the program first names it, in the coordinates in
+        // force then (and one sent home where it is next named): neither moves here.
+        for d in (0..6).filter(|&d| state.set[d] == AxisSet::Yes) {
             state.position[d] -= new[d] - from[d];
             state.written[d] -= new[d] - from[d];
         }

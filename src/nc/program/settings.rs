@@ -75,8 +75,12 @@ pub(in crate::nc) fn pass_setting(line: &Line, state: &mut State) {
     }
 }
 
-/// The program's coordinates of where the axes stand move by `-delta` (mm, degrees).
+/// The program's coordinates of where the axes stand move by `-delta` (mm, degrees); an axis not
+/// set yet (or sent home) stands where the program next names it, in the coordinates then.
 fn shift_position(state: &mut State, d: usize, delta: f64) {
+    if state.set[d] != AxisSet::Yes {
+        return;
+    }
     state.position[d] -= delta;
     state.written[d] -= delta;
 }

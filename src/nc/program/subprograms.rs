@@ -118,6 +118,7 @@ pub(super) fn expand_subprograms(
             // Reached through calls only: passes as written.
             out.push(Line {
                 words: Vec::new(),
+                unknown: None,
                 ..line.clone()
             });
         } else {
