@@ -211,10 +211,8 @@ impl MacroWords {
 /// the module's documentation).
 pub(super) fn pass_block(line: &Line, state: &mut State) {
     let axes = unknown_axes(line, state);
-    for d in 0..6 {
-        if axes[d] {
-            state.unknown[d].get_or_insert(line.number);
-        }
+    for (unknown, _) in state.unknown.iter_mut().zip(axes).filter(|(_, a)| *a) {
+        unknown.get_or_insert(line.number);
     }
 }
 
