@@ -197,6 +197,23 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
             lines.join(", ")
         );
     }
+    if !report.moves_not_compensated.is_empty() {
+        let lines: Vec<String> = report
+            .moves_not_compensated
+            .iter()
+            .map(|m| {
+                format!(
+                    "{} ({} not known since line {})",
+                    m.line, m.unknown, m.since_line
+                )
+            })
+            .collect();
+        outln!(
+            "  moves left as they are      {}, lines {}: they depend on what a block volmap does not follow may have moved; no word is added to them",
+            lines.len(),
+            lines.join(", ")
+        );
+    }
     if let Some(tolerance) = options.orientation_tolerance_rad {
         outln!(
             "  largest tool orientation error along the feed moves: {:.3e} rad before, {:.3e} rad after (angular tolerance {tolerance:e} rad)",

@@ -36,6 +36,10 @@ pub struct TraceArgs {
     /// Largest distance between samples along a move, mm (every move gets at least 4).
     #[arg(long, default_value_t = 0.5)]
     step: f64,
+    /// Pass blocks volmap does not understand, as `compensate --pass-unknown` does: the moves
+    /// that depend on what they may move are not traced, and are listed.
+    #[arg(long)]
+    pass_unknown: bool,
     /// The samples as CSV: program (as-programmed or compensated), line, motion (G code),
     /// distance_mm along the path, x_mm y_mm z_mm (program coordinates), deviation_mm.
     #[arg(long)]
@@ -92,6 +96,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
     let options = Options {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
+        pass_unknown: args.pass_unknown,
         ..args.setup.options(&machine, inputs)?
     };
     let program =
@@ -134,6 +139,23 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
             s.largest_mm,
             s.largest_line,
             s.per_block.len()
+        );
+    }
+    let left = nc::moves_left_alone(&machine, &program, &name, &options).map_err(option_failure)?;
+    if !left.is_empty() {
+        let lines: Vec<String> = left
+            .iter()
+            .map(|m| {
+                format!(
+                    "{} ({} not known since line {})",
+                    m.line, m.unknown, m.since_line
+                )
+            })
+            .collect();
+        outln!(
+            "  not traced     {} moves, lines {}: they depend on what a block volmap does not follow may have moved",
+            lines.len(),
+            lines.join(", ")
         );
     }
     outln!("  the blocks with the largest deviation (line: mm):");

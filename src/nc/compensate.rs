@@ -15,7 +15,7 @@ use super::program::parse::Line;
 use super::program::reader::{first_state, take_line, unknown_code, Step};
 use super::program::tcpm;
 use super::program::toolpath::{arc_path, Toolpath};
-use super::report::{Compensated, PassedBlock, Report, ReportInputs};
+use super::report::{Compensated, LeftMove, PassedBlock, Report, ReportInputs};
 use super::walk::Walk;
 use crate::limits::MAX_DECIMALS;
 use crate::model::Machine;
@@ -119,6 +119,13 @@ pub fn compensate_with_progress(
             &mut out,
             &mut start_compensated,
         )?;
+        if let Some(left) = state.left_alone.take() {
+            report.moves_not_compensated.push(LeftMove {
+                line: left.line,
+                unknown: left.axes,
+                since_line: left.since,
+            });
+        }
         if emitted > 1 {
             report.blocks_added += emitted - 1;
         }
@@ -154,7 +161,7 @@ fn process_line(
         out.push_str(&line.ending);
         return Ok(1);
     }
-    if state.offset != 54 && !options.work_offsets.contains_key(&state.offset) {
+    if state.offset != 54 && !state.work_offsets.contains_key(&state.offset) {
         return Err(NcError::Missing {
             path: path.to_string(),
             line: line.number,

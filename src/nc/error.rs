@@ -51,7 +51,7 @@ pub enum NcError {
         message: String,
     },
     /// A block with a code volmap does not follow.
-    #[error("{path}: line {line}: {code} is not supported (volmap follows G0 G1 G2 G3 G4 G17 G18 G19 G20 G21 G28 G40 G43 G43.4 G43.5 G49 G53 G54–G59 G61 G64 G68 G69 G73 G80–G83 G85 G89 G90 G91 G94 G95 G98 G99 G234, M98 and G65 with their body in the file)")]
+    #[error("{path}: line {line}: {code} is not supported (volmap follows G0 G1 G2 G3 G4 G10 L2/L20 G17 G18 G19 G20 G21 G28 G40 G43 G43.4 G43.5 G49 G52 G53 G54–G59 G61 G64 G68 G69 G73 G80–G83 G85 G89 G90 G91 G92 G92.1 G92.2 G94 G95 G98 G99 G234, M98 and G65 with their body in the file)")]
     Unsupported {
         path: String,
         line: usize,

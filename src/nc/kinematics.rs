@@ -145,14 +145,13 @@ impl<'a> Compensator<'a> {
     }
 
     /// Where the machine's axes stand relative to the program (mm, degrees): the active work
-    /// offset, plus with G43 the active tool's length along the spindle axis (Z), as a Fanuc or
+    /// offset (with the program's G10, G52 and G92), plus with G43 the active tool's length along the spindle axis (Z), as a Fanuc or
     /// Haas control applies it, so that the tool tip follows the program.
     pub(super) fn offset(&self, state: &State, line: usize) -> Result<[f64; 6], NcError> {
-        let mut offset = *self
-            .options
-            .work_offsets
-            .get(&state.offset)
-            .unwrap_or(&[0.0; 6]);
+        // The work offset as the program has it (G10 may have set it), shifted by G52 and G92.
+        let work = state.work_offsets.get(&state.offset).unwrap_or(&[0.0; 6]);
+        let mut offset: [f64; 6] =
+            std::array::from_fn(|d| work[d] + state.local_shift[d] + state.g92_shift[d]);
         if state.tool_length_on {
             offset[2] += self.length(state.tool, line)?.unwrap_or(0.0);
         }

@@ -43,8 +43,9 @@
 //! for tool-centre-point control: their points as machine commands and back, G43.5's tool vector
 //! solved for the rotary axes), `write` (the output's words), `block` (one
 //! block's points compensated), `walk` (the pieces of a move), `arcs` (arcs kept or split into compensated arcs),
-//! `compensate` (the run over the program), `trace` (the model along a program), `check`
-//! (the written program read back and walked beside the original, knowing nothing of the rest). `error`,
+//! `compensate` (the run over the program), `trace` (the model along a program), `untraced` (the
+//! moves left alone after blocks volmap does not follow), `check` (the written program read back
+//! and walked beside the original, knowing nothing of the rest). `error`,
 //! `options` and `report` hold what the whole module shares.
 
 mod arcs;
@@ -59,6 +60,7 @@ mod program;
 mod report;
 mod tcpm;
 mod trace;
+mod untraced;
 mod walk;
 mod write;
 
@@ -71,8 +73,9 @@ pub use options::{
     MAX_ROTARY_CORRECTION_DEG,
 };
 pub use program::{parse, MAX_EXPANDED_WORDS, MAX_PECKS};
-pub use report::{Compensated, OrientationLeft, PassedBlock, Report, ReportInputs};
+pub use report::{Compensated, LeftMove, OrientationLeft, PassedBlock, Report, ReportInputs};
 pub use trace::{per_block, trace, trace_compensated, trace_path, TracePoint, TraceSample};
+pub use untraced::moves_left_alone;
 pub use write::with_note;
 
 /// The blocks of `program` (its bytes; `path` names it in errors) as the control runs them:

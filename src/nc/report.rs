@@ -53,6 +53,10 @@ pub struct Report {
     /// Blocks passed as they are with `pass_unknown` (codes volmap does not follow): not
     /// compensated, and outside the error figures above, which cover compensated moves only.
     pub not_compensated: Vec<PassedBlock>,
+    /// Moves passed as they are because they depend on an axis (or a work offset, or tool data)
+    /// a block above left unknown: volmap adds no word to them and they are outside the error
+    /// figures too.
+    pub moves_not_compensated: Vec<LeftMove>,
     /// The evaluation inputs the program was compensated for.
     pub inputs: ReportInputs,
 }
@@ -62,6 +66,15 @@ pub struct Report {
 pub struct PassedBlock {
     pub line: usize,
     pub code: String,
+}
+
+/// A move left as it is: its line, what it depends on that is not known (`X Y`, `G55 work
+/// offset`, `tool length`), and the line of the block that first made it so.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LeftMove {
+    pub line: usize,
+    pub unknown: String,
+    pub since_line: usize,
 }
 
 /// A line where the bound on the rotary correction left part of the tool axis's error: the

@@ -466,9 +466,10 @@ pub(super) fn removal(line: &Line, w: &Word) -> std::ops::Range<usize> {
     start..w.number.end
 }
 
-/// `program` with `note` as a comment of its own line at its head (after a leading `%` line, the
-/// tape delimiter, where there is one): how the program was made. The note is made fit for a
-/// comment: parentheses become brackets, and characters outside printable ASCII are dropped.
+/// `program` with `note` as a comment of its own line at its head: after a leading `%` line
+/// (the tape delimiter) and the program number line (`O1234`, `:1234`) where there are, since
+/// FANUC-family controls expect the program number first. The note is made fit for a comment:
+/// parentheses become brackets, and characters outside printable ASCII are dropped.
 pub fn with_note(program: &str, note: &str) -> String {
     let note: String = note
         .chars()
@@ -480,14 +481,36 @@ pub fn with_note(program: &str, note: &str) -> String {
         .filter(|c| c.is_ascii() && !c.is_ascii_control())
         .collect();
     let comment = format!("({})\n", note.trim());
-    let first_line_end = program.find('\n').map_or(program.len(), |e| e + 1);
-    if program[..first_line_end].trim() == "%" {
-        format!(
-            "{}{comment}{}",
-            &program[..first_line_end],
-            &program[first_line_end..]
-        )
-    } else {
-        format!("{comment}{program}")
+    let mut head = 0;
+    let line_at = |at: usize| {
+        let end = program[at..]
+            .find('\n')
+            .map_or(program.len(), |e| at + e + 1);
+        (&program[at..end], end)
+    };
+    let (first, end) = line_at(head);
+    if first.trim() == "%" {
+        head = end;
     }
+    let (number, end) = line_at(head);
+    if is_program_number(number) {
+        head = end;
+    }
+    let separator = if head > 0 && !program[..head].ends_with('\n') {
+        "\n"
+    } else {
+        ""
+    };
+    format!(
+        "{}{separator}{comment}{}",
+        &program[..head],
+        &program[head..]
+    )
+}
+
+/// `O1234` or `:1234` (with anything after it: a comment, the program's name).
+fn is_program_number(line: &str) -> bool {
+    let mut chars = line.trim_start().chars();
+    matches!(chars.next(), Some('O' | 'o' | ':'))
+        && chars.next().is_some_and(|c| c.is_ascii_digit())
 }

@@ -43,6 +43,8 @@ mod nc_rs274;
 mod nc_singular;
 mod nc_tcpm;
 mod nc_tcpm_refusals;
+mod nc_unknown;
+mod nc_writing;
 mod plot;
 mod plot_extremes;
 mod plot_looks;

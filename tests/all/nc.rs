@@ -324,7 +324,7 @@ fn error_of(program: &[u8], options: &Options) -> String {
 fn bad_programs_name_the_line() {
     let o = options(4);
     let cases: [(&[u8], &str); 9] = [
-        (b"G0 X10 Y10 Z10\nG92 X0\n", "line 2: G92 is not supported"),
+        (b"G0 X10 Y10 Z10\nG92.3\n", "line 2: G92.3 is not supported"),
         (
             b"G0 X10 Y10 Z10\nG2 X20 Y20\n",
             "line 2: an arc (G2) needs its centre",

@@ -16,7 +16,9 @@
 //! cycles in another plane are refused.
 
 use super::parse::{parse_line, Line};
+use super::settings::is_setting;
 use super::subprograms::{Room, BLOCK_WORDS, MAX_EXPANDED_WORDS};
+use super::unknown::unread_names_axis;
 use crate::error::shown;
 use crate::nc::error::NcError;
 
@@ -186,7 +188,14 @@ pub(super) fn expand_cycles(
             scan.cycle = Some(cycle);
             expand_hole(&line, &mut scan, path, room, &mut out)?;
             holes += 1;
-        } else if scan.cycle.is_some() && axis_words {
+        } else if scan.cycle.is_some() && line.unknown.is_some() && unread_names_axis(&line) {
+            // A line volmap cannot read (macro words) may drill a hole of the cycle.
+            return Err(NcError::line(
+                path,
+                line.number,
+                "a block volmap cannot read while a canned cycle is in force: it may drill a hole whose depth is not known".into(),
+            ));
+        } else if scan.cycle.is_some() && axis_words && !is_setting(&line) {
             let cycle = scan.cycle.as_mut().expect("a cycle is in force");
             for (letter, slot) in [('Z', &mut cycle.depth), ('R', &mut cycle.r)] {
                 if let Some(w) = line.word(letter) {
@@ -205,7 +214,7 @@ pub(super) fn expand_cycles(
             if scan.passed_cycle.is_some() && axis_words {
                 line.unknown = scan.passed_cycle.clone();
             }
-            if g_codes(&line).any(|g| g == 28.0 || g == 30.0 || g == 53.0) {
+            if g_codes(&line).any(|g| g == 28.0 || g == 30.0 || g == 53.0) || is_setting(&line) {
                 if line.has('Z') {
                     scan.z = None;
                 }

@@ -6,6 +6,8 @@
 //!   cycles turned into their rapid and feed moves (`cycles`) and coordinate rotations (G68)
 //!   applied to the moves they turn (`rotation`); what volmap does not follow under
 //!   tool-centre-point control (G43.4, G43.5, G234) refused (`tcpm`);
+//! - codes that set coordinates and move nothing (G10, G52, G92) applied to the offsets
+//!   (`settings`), and the axes a block volmap does not follow leaves unknown (`unknown`);
 //! - the modal state before the first block and after each block (`modal`, `reader`): motion,
 //!   plane, distance, units, work offset and tool, where the program has the tool, and whether
 //!   the block moves it and where to;
@@ -22,9 +24,11 @@ pub(super) mod modal;
 pub mod parse;
 pub(super) mod reader;
 mod rotation;
+pub(super) mod settings;
 mod subprograms;
 pub(super) mod tcpm;
 pub(super) mod toolpath;
+mod unknown;
 
 pub use cycles::MAX_PECKS;
 pub use subprograms::MAX_EXPANDED_WORDS;

@@ -3,6 +3,8 @@
 //! have a value, and the direction each axis last moved in. The compensation reads and updates
 //! the same state, so it lies below both the reader and the compensation.
 
+use std::collections::HashMap;
+
 use crate::model::inputs::Approach;
 use crate::nc::options::ToolLengths;
 
@@ -97,6 +99,33 @@ pub(in crate::nc) struct State {
     /// Which axes the program has given a value (by a block naming them) since its start or
     /// their last reference return: an arc needs its start, so both axes of its plane.
     pub(in crate::nc) set: [AxisSet; 6],
+    /// Axes whose position volmap cannot know (a block it does not model may have moved them):
+    /// the line that made each so, until a block sets it absolutely again (see `unknown`).
+    pub(in crate::nc) unknown: [Option<usize>; 6],
+    /// The axes the program names anywhere: a block that may move any axis makes these unknown.
+    pub(in crate::nc) named: [bool; 6],
+    /// The work offsets as the program has them (the options', then as G10 sets them), machine
+    /// mm and degrees; and those a block volmap does not follow has changed (by line).
+    pub(in crate::nc) work_offsets: HashMap<u32, [f64; 6]>,
+    pub(in crate::nc) offsets_unknown: HashMap<u32, usize>,
+    /// The line of a block that set tool data volmap does not follow (G10 L1, L10, L11): moves
+    /// under G43 are not compensated after it.
+    pub(in crate::nc) tool_data_unknown: Option<usize>,
+    /// The shift of the coordinates by G52 and by G92 (machine mm and degrees, added to the work
+    /// offset).
+    pub(in crate::nc) local_shift: [f64; 6],
+    pub(in crate::nc) g92_shift: [f64; 6],
+    /// Set by the reader for a move it leaves uncompensated: its line, the unknown axes and the
+    /// line that made the first of them unknown.
+    pub(in crate::nc) left_alone: Option<LeftAlone>,
+}
+
+/// A move volmap leaves as it is because it depends on an axis it cannot know.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(in crate::nc) struct LeftAlone {
+    pub(in crate::nc) line: usize,
+    pub(in crate::nc) axes: String,
+    pub(in crate::nc) since: usize,
 }
 
 /// Whether the program has given an axis a value.

@@ -88,14 +88,21 @@ pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<
         }
         match parse_line(body, ending, number, path) {
             Ok(line) => lines.push(line),
-            Err(NcError::Line { .. }) if pass_unread => lines.push(Line {
-                number,
-                text: body.into(),
-                ending: ending.into(),
-                words: Vec::new(),
-                spaced: false,
-                unknown: None,
-            }),
+            // Passed as it is: macro words leave the axes they name unknown, anything else every
+            // axis (`unknown`).
+            Err(NcError::Line { .. }) if pass_unread => lines.push(
+                match super::unknown::unread_line(body, ending, number, path)? {
+                    Some(line) => line,
+                    None => Line {
+                        number,
+                        text: body.into(),
+                        ending: ending.into(),
+                        words: Vec::new(),
+                        spaced: false,
+                        unknown: Some(excerpt(body.trim()).into_owned()),
+                    },
+                },
+            ),
             Err(e) => return Err(e),
         }
     }

@@ -2,10 +2,11 @@
 //! words taken into the state (motion, plane, distance, units, work offset, tool), which codes
 //! volmap follows, where each block ends.
 
-use super::approach::line_directions;
 use super::modal::{AxisSet, Motion, State, AXIS_LETTERS, MM_PER_INCH, XY, YZ, ZX};
 use super::parse::Line;
+use super::settings::{is_setting, pass_setting, take_setting, unknown_setting};
 use super::tcpm;
+use super::unknown::{leave_alone, pass_block};
 use crate::error::excerpt;
 use crate::model::{AxisLetter, Machine};
 use crate::nc::error::NcError;
@@ -42,6 +43,14 @@ pub(in crate::nc) fn first_state(
         approach: options.inputs.approach,
         programmed: options.inputs.approach,
         set: [AxisSet::Never; 6],
+        unknown: [None; 6],
+        named,
+        work_offsets: options.work_offsets.clone(),
+        offsets_unknown: Default::default(),
+        tool_data_unknown: None,
+        local_shift: [0.0; 6],
+        g92_shift: [0.0; 6],
+        left_alone: None,
     };
     Ok((state, named))
 }
@@ -73,8 +82,13 @@ fn starting_position(
                 _ => {}
             }
         }
-        if !is_understood(line, options.pass_unknown) {
-            // Named beside a code volmap does not know: said so if nothing else sets it.
+        if is_setting(line) && unknown_code(line).is_none() {
+            // G10, G52, G92: its axis words are values, not a position.
+            continue;
+        }
+        if unknown_code(line).is_some() {
+            // Named beside a code volmap does not know (passed or not, it may be anywhere): said
+            // so if nothing else sets it.
             for w in &line.words {
                 if let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) {
                     if start[d].is_none() && unknown_at[d].is_none() {
@@ -212,7 +226,7 @@ fn next_absolute(
                 _ => {}
             }
         }
-        if is_dwell(line) || is_reference_return(line) {
+        if is_dwell(line) || is_reference_return(line) || is_setting(line) {
             continue;
         }
         if let Some(w) = line.word(AXIS_LETTERS[d]) {
@@ -298,27 +312,29 @@ fn arc_start_known(line: &Line, state: &State, path: &str) -> Result<(), NcError
     Ok(())
 }
 
-/// Whether every G code of the line is one volmap follows (or the user passes unknown ones).
-fn is_understood(line: &Line, pass_unknown: bool) -> bool {
-    pass_unknown || unknown_code(line).is_none()
-}
-
 pub(in crate::nc) fn unknown_code(line: &Line) -> Option<String> {
     if let Some(code) = &line.unknown {
         return Some(code.clone());
     }
+    if let Some(code) = unknown_setting(line) {
+        return Some(code);
+    }
+    let setting = is_setting(line);
     for w in &line.words {
         match w.letter {
             'G' => {
                 let g = w.value;
                 let known = g.fract() == 0.0
-                    && matches!(g as u32, 0..=4 | 17..=21 | 28 | 53 | 90 | 91 | 54..=59)
+                    && matches!(g as u32, 0..=4 | 10 | 17..=21 | 28 | 52 | 53 | 90..=92 | 54..=59)
                     || PASSIVE_G.contains(&(g as u32)) && g.fract() == 0.0
+                    || g == 92.1
+                    || g == 92.2
                     || tcpm::mode_of(g).is_some();
                 if !known {
                     return Some(format!("G{}", w.text));
                 }
             }
+            'L' if setting => {}
             'U' | 'V' | 'W' | 'Q' | 'L' | 'E' => return Some(format!("{}{}", w.letter, w.text)),
             // Subprogram calls and returns: their moves are elsewhere.
             'M' if w.value == 98.0 || w.value == 99.0 => return Some(format!("M{}", w.text)),
@@ -348,7 +364,8 @@ pub(in crate::nc) fn take_line(
     pass_unknown: bool,
 ) -> Result<Step, NcError> {
     let line = &lines[index];
-    if line.words.is_empty() {
+    state.left_alone = None;
+    if line.words.is_empty() && line.unknown.is_none() {
         return Ok(Step::Pass);
     }
     if let Some(code) = cutter_compensation(line) {
@@ -367,12 +384,19 @@ pub(in crate::nc) fn take_line(
             });
         }
         apply_modals(line, state, path)?;
-        let end = end_position(line, state);
-        state.approach = line_directions(&state.position, &end, &state.approach);
-        state.programmed = line_directions(&state.position, &end, &state.programmed);
-        state.position = end;
-        state.written = end;
-        mark_set(line, state);
+        // It moves nothing volmap can place: what it may move becomes unknown (`unknown`).
+        if is_setting(line) {
+            // G10 of tool data or an offset volmap does not follow: it moves nothing, what
+            // depends on it becomes unknown.
+            pass_setting(line, state);
+        } else {
+            pass_block(line, state);
+        }
+        return Ok(Step::Pass);
+    }
+    if is_setting(line) {
+        apply_modals(line, state, path)?;
+        take_setting(line, state, path)?;
         return Ok(Step::Pass);
     }
     let length_before = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
@@ -398,6 +422,11 @@ pub(in crate::nc) fn take_line(
             state.written_motion = state.motion;
         }
         reference_return(lines, index, state, path)?;
+        for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
+            if line.has(letter) {
+                state.unknown[d] = None;
+            }
+        }
         return Ok(Step::Pass);
     }
     if let Some(t) = line.word('T') {
@@ -412,6 +441,18 @@ pub(in crate::nc) fn take_line(
         length_before - length_added(&state.tool_lengths, state.tool, state.tool_length_on);
     state.position[2] += change;
     state.written[2] += change;
+    if let Some(at) = state.tool_data_unknown {
+        // Tool data volmap does not follow: where Z stands after a change of tool or of G43 is
+        // not known.
+        if length_before != length_added(&state.tool_lengths, state.tool, state.tool_length_on)
+            || line.words.iter().any(|w| {
+                (w.letter == 'G' && (w.value == 43.0 || w.value == 49.0))
+                    || (w.letter == 'M' && w.value == 6.0)
+            })
+        {
+            state.unknown[2].get_or_insert(at);
+        }
+    }
     let dwell = is_dwell(line);
     // Under G43.5 a tool vector alone turns the tool.
     let has_axis = line.words.iter().any(|w| AXIS_LETTERS.contains(&w.letter))
@@ -430,6 +471,23 @@ pub(in crate::nc) fn take_line(
         {
             state.written_motion = state.motion;
         }
+        return Ok(Step::Pass);
+    }
+    if let Some(left) = leave_alone(line, state) {
+        if state.written_motion != state.motion
+            && !line
+                .words
+                .iter()
+                .any(|w| w.letter == 'G' && w.value < 4.0 && w.value.fract() == 0.0)
+        {
+            return Err(NcError::line(
+                path,
+                line.number,
+                format!("this move cannot be compensated ({} not known since line {}) and passes as it is, but the output is in G{} here where the program is in G{}: give the motion code on this block", left.axes, left.since, state.written_motion.code(), state.motion.code()),
+            ));
+        }
+        state.written_motion = state.motion;
+        state.left_alone = Some(left);
         return Ok(Step::Pass);
     }
     if arc {
@@ -459,7 +517,7 @@ fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcErro
             21 => state.inch = false,
             90 => state.absolute = true,
             91 => state.absolute = false,
-            g @ 54..=59 => state.offset = g,
+            g @ 54..=59 => change_offset(state, g),
             43 if w.value.fract() == 0.0 => state.tool_length_on = true,
             49 => state.tool_length_on = false,
             _ => {}
@@ -476,6 +534,25 @@ fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcErro
         ));
     }
     Ok(())
+}
+
+/// A change of work offset moves nothing: where both offsets are known, the program's
+/// coordinates of where the axes stand change by their difference.
+fn change_offset(state: &mut State, to: u32) {
+    let of = |n: u32| match state.work_offsets.get(&n) {
+        Some(&v) => Some(v),
+        None if n == 54 => Some([0.0; 6]),
+        None => None,
+    };
+    if let (Some(from), Some(new)) = (of(state.offset), of(to)) {
+        // An axis not set yet stands where the program first names it, in the coordinates in
+        // force then (and one sent home where it is next named): neither moves here.
+        for d in (0..6).filter(|&d| state.set[d] == AxisSet::Yes) {
+            state.position[d] -= new[d] - from[d];
+            state.written[d] -= new[d] - from[d];
+        }
+    }
+    state.offset = to;
 }
 
 /// The block's end point in program coordinates (mm, degrees).

@@ -7,7 +7,8 @@
 //! back); incremental ones (G91) and arc centres I J turn as vectors; R arcs and Z do not change.
 //! The G68 and G69 blocks become comments that say what was applied.
 
-use super::parse::{parse_line, Line};
+use super::parse::{parse_line, Line, Word};
+use super::settings::is_setting;
 use super::subprograms::{Room, MAX_EXPANDED_WORDS};
 use crate::nc::error::NcError;
 
@@ -89,6 +90,16 @@ pub(super) fn apply_rotations(
                     "G68 in incremental distance (G91): program the rotation in G90".into(),
                 ));
             }
+            let axis = [value('I'), value('J'), value('K')];
+            if axis.iter().any(Option::is_some)
+                && !(axis[0].unwrap_or(0.0) == 0.0
+                    && axis[1].unwrap_or(0.0) == 0.0
+                    && axis[2].is_some_and(|k| k > 0.0))
+            {
+                return Err(error(
+                    "G68 with I J K turns about that axis: volmap rotates about the XY plane's axis only (I0 J0 K1)".into(),
+                ));
+            }
             let angle = value('R').ok_or_else(|| error("G68 needs its angle R".into()))?;
             let centre = [value('X').or(scan.at[0]), value('Y').or(scan.at[1])];
             let [Some(cx), Some(cy)] = centre else {
@@ -103,14 +114,22 @@ pub(super) fn apply_rotations(
                 path,
                 "rotation applied to the coordinates below",
             )?);
+            out.extend(kept_words(&line, 68.0, path)?);
             continue;
         }
         if codes.contains(&69.0) {
             scan.rotation = None;
             out.push(comment(&line, path, "rotation ends")?);
+            out.extend(kept_words(&line, 69.0, path)?);
             continue;
         }
-        let machine_coordinates = codes.iter().any(|&g| matches!(g, 28.0 | 30.0 | 53.0));
+        let setting = is_setting(&line);
+        if (setting || line.unknown.is_some()) && scan.rotation.is_some() {
+            return Err(error(
+                "a block that sets coordinates (G10, G52, G92) or that volmap cannot follow while G68 is in force: cancel the rotation (G69) first".into(),
+            ));
+        }
+        let machine_coordinates = setting || codes.iter().any(|&g| matches!(g, 28.0 | 30.0 | 53.0));
         if machine_coordinates {
             // A move in machine coordinates or to a home: the program's point is not known
             // after it.
@@ -213,6 +232,45 @@ pub(super) fn apply_rotations(
         out.push(rotated);
     }
     Ok(out)
+}
+
+/// The words of a G68 (`code` 68) or G69 block that are not the rotation's (spindle, coolant,
+/// tool, feed, other modes), on a block of their own after its comment: the rotation moves
+/// nothing, so they act as they did. A motion (G0–G3) there is refused: its axis words are the
+/// centre's.
+fn kept_words(line: &Line, code: f64, path: &str) -> Result<Option<Line>, NcError> {
+    let own = |w: &&Word| match w.letter {
+        'G' => w.value == code,
+        'X' | 'Y' | 'Z' | 'I' | 'J' | 'K' | 'R' => code == 68.0,
+        'N' => true,
+        _ => false,
+    };
+    if let Some(w) = line
+        .words
+        .iter()
+        .find(|w| w.letter == 'G' && w.value < 4.0 && w.value.fract() == 0.0)
+    {
+        return Err(NcError::line(
+            path,
+            line.number,
+            format!(
+                "G{} in a G{} block: give the motion on a block of its own",
+                w.text, code as u32
+            ),
+        ));
+    }
+    let kept: Vec<&str> = line
+        .words
+        .iter()
+        .filter(|w| !own(w))
+        .map(|w| line.text[w.letter_at..w.number.end].trim())
+        .collect();
+    if kept.is_empty() {
+        return Ok(None);
+    }
+    let mut kept = parse_line(&kept.join(" "), &line.ending, line.number, path)?;
+    kept.spaced = line.spaced;
+    Ok(Some(kept))
 }
 
 /// `line` as a comment saying what was done with it.

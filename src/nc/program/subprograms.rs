@@ -118,6 +118,7 @@ pub(super) fn expand_subprograms(
             // Reached through calls only: passes as written.
             out.push(Line {
                 words: Vec::new(),
+                unknown: None,
                 ..line.clone()
             });
         } else {
@@ -209,6 +210,31 @@ fn expand_line(
         )));
     }
     out.push(comment);
+    // The call's other words (M98: feed, spindle, coolant, tool, a move) act before the body
+    // runs, as FANUC runs them: on a block of their own. G65's other words are the macro's
+    // arguments.
+    if call == "M98" {
+        let kept: Vec<&str> = line
+            .words
+            .iter()
+            .filter(|w| {
+                !matches!(w.letter, 'M' | 'P' | 'L' | 'K' | 'N')
+                    || w.letter == 'M' && w.value != 98.0
+            })
+            .map(|w| line.text[w.letter_at..w.number.end].trim())
+            .collect();
+        if !kept.is_empty() {
+            let mut kept = parse_line(&kept.join(" "), ending, line.number, path)?;
+            // Words volmap adds to it are spaced as the call's were.
+            kept.spaced = line.spaced;
+            if depth > 0 && !room.take(&kept) {
+                return Err(error(format!(
+                    "the calls add more than {MAX_EXPANDED_WORDS} words and blocks to the program"
+                )));
+            }
+            out.push(kept);
+        }
+    }
     for _ in 0..repeats as usize {
         for body_line in &lines[start..end] {
             expand_line(lines, body_line, bodies, path, depth + 1, room, out).map_err(|e| {

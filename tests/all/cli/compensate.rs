@@ -289,3 +289,48 @@ fn the_report_lists_expanded_holes_and_blocks_passed_uncompensated() {
             ),
         );
 }
+
+/// The reproducer through the command line: the passed block and the move after it that
+/// depends on it are listed on stdout and in `--json`, and `trace` says the same move is not
+/// traced.
+#[test]
+fn moves_after_a_passed_block_are_listed_on_stdout_and_in_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("unk.nc");
+    std::fs::write(
+        &program,
+        "G90 G21 G17\nG0 X10 Y10 Z10\nG10 L2 P1 X5\nG1 X50 F100\nG1 X[1+2] Y20\nG1 Y40\nM30\n",
+    )
+    .unwrap();
+    let json = dir.path().join("r.json");
+    volmap()
+        .args(["compensate", "--machine", "vmc-li2015"])
+        .args(["--work-offset", "G54=300,200,250", "--pass-unknown"])
+        .arg("--program")
+        .arg(&program)
+        .arg("--out")
+        .arg(dir.path().join("out.nc"))
+        .arg("--json")
+        .arg(&json)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "moves left as they are      1, lines 6 (X Y not known since line 5)",
+        ));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["not_compensated"][0]["line"], 5);
+    assert_eq!(report["moves_not_compensated"][0]["line"], 6);
+    assert_eq!(report["moves_not_compensated"][0]["unknown"], "X Y");
+    assert_eq!(report["moves_not_compensated"][0]["since_line"], 5);
+    volmap()
+        .args(["trace", "--machine", "vmc-li2015"])
+        .args(["--work-offset", "G54=300,200,250", "--pass-unknown"])
+        .arg("--program")
+        .arg(&program)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "not traced     1 moves, lines 6 (X Y not known since line 5)",
+        ));
+}
