@@ -20,7 +20,7 @@ use super::error::{NcError, NcOption};
 use super::options::Options;
 use super::program::modal::{Motion, AXIS_LETTERS};
 use super::program::parse::{parse_program, Line};
-use super::program::reader::{end_position, take_line, unknown_code, Step};
+use super::program::reader::{end_position, take_line, Step};
 use super::program::toolpath::{arc_path, Toolpath};
 use super::report::Compensated;
 use super::trace::trace_compensated;
@@ -110,6 +110,9 @@ impl Move {
 
 /// The lines (number and text) of the passed blocks that leave an axis unknown.
 type Passed = Vec<(usize, String)>;
+/// The blocks that may move and pass as they are (a code volmap does not follow, a line it cannot
+/// read, a move from where an axis is unknown): line number and text.
+type AsTheyAre = Vec<(usize, String)>;
 
 /// The moves of `text` as the reader runs them, and the passed lines that leave axes unknown.
 fn moves(
@@ -117,29 +120,26 @@ fn moves(
     text: &[u8],
     path: &str,
     options: &Options,
-) -> Result<(Vec<Move>, Passed), NcError> {
+) -> Result<(Vec<Move>, Passed, AsTheyAre), NcError> {
     let (lines, mut state, compensator, _) = begin(machine, text, path, options)?;
     let mut moves = Vec::new();
-    let mut unknown: [Option<usize>; 6] = [None; 6];
     let mut passed = Vec::new();
+    let mut as_they_are = Vec::new();
     for (index, line) in lines.iter().enumerate() {
-        let code = unknown_code(line);
+        // The reader keeps which axes a passed block left unknown, and leaves alone (passes) a
+        // move that depends on one.
+        let before = state.unknown;
         if take_line(&lines, index, &mut state, path, options.pass_unknown)? == Step::Pass {
-            let unread = is_unread(line, path);
-            if code.is_some() || unread {
-                let mut any = false;
-                for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
-                    if unread || line.has(letter) {
-                        unknown[d] = Some(line.number);
-                        any = true;
-                    }
-                }
-                if any {
-                    passed.push((line.number, line.text.clone()));
-                }
+            let newly = (0..6).any(|d| before[d].is_none() && state.unknown[d].is_some());
+            if newly {
+                passed.push((line.number, line.text.clone()));
+            }
+            if newly || state.left_alone.take().is_some() || is_unread(line, path) {
+                as_they_are.push((line.number, line.text.trim().to_string()));
             }
             continue;
         }
+        let unknown = before;
         let end = end_position(line, &state);
         let toolpath = match state.motion {
             Motion::Clockwise | Motion::CounterClockwise => {
@@ -160,14 +160,9 @@ fn moves(
             named,
             unknown,
         });
-        for d in 0..6 {
-            if named[d] && state.absolute {
-                unknown[d] = None;
-            }
-        }
         state.position = end;
     }
-    Ok((moves, passed))
+    Ok((moves, passed, as_they_are))
 }
 
 /// A line the reader kept without reading it (`--pass-unknown`): it has no words, yet more than
@@ -187,11 +182,15 @@ struct Polyline {
 /// measured.
 type Scale = [f64; 6];
 
+/// The larger of the X Y Z and the A B C distance, each in units of its bound: a move at its
+/// bound in both (a rotary correction and the X Y Z that keep the tip) is within it, as each is.
 fn scaled_distance(a: &[f64; 6], b: &[f64; 6], scale: &Scale) -> f64 {
-    (0..6)
-        .map(|d| ((a[d] - b[d]) * scale[d]).powi(2))
-        .sum::<f64>()
-        .sqrt()
+    let group = |axes: std::ops::Range<usize>| {
+        axes.map(|d| ((a[d] - b[d]) * scale[d]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    group(0..3).max(group(3..6))
 }
 
 impl Polyline {
@@ -240,9 +239,11 @@ impl Polyline {
             } else {
                 0.0
             };
-            let f = if length > 0.0 {
-                (ap.iter().zip(&ab).map(|(x, y)| x * y).sum::<f64>() / (length * length))
-                    .clamp(f_min, 1.0)
+            // The projection is Euclidean; `length` is the segment's length as distances are
+            // measured (the larger of two groups), so the squared norm is taken apart.
+            let norm2: f64 = ab.iter().map(|x| x * x).sum();
+            let f = if length > 0.0 && norm2 > 0.0 {
+                (ap.iter().zip(&ab).map(|(x, y)| x * y).sum::<f64>() / norm2).clamp(f_min, 1.0)
             } else {
                 0.0
             };
@@ -322,10 +323,45 @@ pub fn check_written(
     options: &Options,
     bounds: CheckBounds,
 ) -> Result<(), CheckError> {
-    let (programmed, passed) =
+    let (programmed, passed, kept) =
         moves(machine, original, path, options).map_err(CheckError::Unreadable)?;
-    let (written, _) = moves(machine, written, &format!("{path} (compensated)"), options)
-        .map_err(CheckError::Unreadable)?;
+    let (written, _, written_kept) =
+        moves(machine, written, &format!("{path} (compensated)"), options)
+            .map_err(CheckError::Unreadable)?;
+    // What passes as it is must be written as it is, each block once and in order.
+    for (k, (line, text)) in kept.iter().enumerate() {
+        match written_kept.get(k) {
+            Some((_, t)) if t == text => {}
+            Some((out, t)) => {
+                return Err(CheckError::Strays {
+                    path: path.to_string(),
+                    line: *line,
+                    message: format!(
+                        "`{}` passes as it is, but the output has `{}` (line {out} of the output) in its place",
+                        excerpt(text),
+                        excerpt(t)
+                    ),
+                })
+            }
+            None => {
+                return Err(CheckError::Strays {
+                    path: path.to_string(),
+                    line: *line,
+                    message: format!("`{}` passes as it is, but the output lacks it", excerpt(text)),
+                })
+            }
+        }
+    }
+    if let Some((out, t)) = written_kept.get(kept.len()) {
+        return Err(CheckError::Strays {
+            path: path.to_string(),
+            line: kept.last().map_or(0, |k| k.0),
+            message: format!(
+                "the output passes `{}` (line {out} of the output), which the program does not have",
+                excerpt(t)
+            ),
+        });
+    }
     let bounds = with_rotary_lever(bounds, machine, options, &programmed);
     let strays = |line: usize, message: String| CheckError::Strays {
         path: path.to_string(),

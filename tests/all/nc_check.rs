@@ -234,10 +234,12 @@ fn an_axis_a_passed_block_leaves_unknown_is_not_written() {
     .unwrap_err();
     assert!(error.starts_with("u.nc: line 3: "), "{error}");
     assert!(
-        error.contains("names X, which the program's block does not, where X is not known (line 2, `G1 X[1+2] Y20 F100`"),
+        error.contains("`G1 Y40` passes as it is, but the output has `G1 Y40 X10.002` (line 3 of the output) in its place"),
         "{error}"
     );
-    // G10 sets an offset; volmap reads it as a code it does not follow naming X.
+    // G10 L2 sets G54's X to 5 and moves nothing: the move after it runs from where the machine
+    // stands (machine X 310) to machine X 55; a written move to X4.93 (machine X 9.93) strays
+    // 45 mm from that path.
     let original = "G0 X10 Y10 Z10\nG10 L2 P1 X5\nG1 X50 F100\n";
     check(original, "G0 X10 Y10 Z10\nG10 L2 P1 X5\nG1 X50.001 F100\n").unwrap();
     let error = check(
@@ -246,8 +248,12 @@ fn an_axis_a_passed_block_leaves_unknown_is_not_written() {
     )
     .unwrap_err();
     assert!(error.starts_with("u.nc: line 3: "), "{error}");
+    // A block passed as it is and left out of the output.
+    let original = "G0 X10 Y10 Z10\nG1 X[1+2] Y20 F100\nG1 Y40\n";
+    let error = check(original, "G0 X10 Y10 Z10\nG1 X[1+2] Y20 F100\n").unwrap_err();
     assert!(
-        error.contains("adds a move to a block that starts where X is not known"),
+        error.contains("line 3: ")
+            && error.contains("`G1 Y40` passes as it is, but the output lacks it"),
         "{error}"
     );
 }
