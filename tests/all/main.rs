@@ -35,6 +35,7 @@ mod model_forms;
 mod nc;
 mod nc_arcs;
 mod nc_inputs;
+mod nc_offsets;
 mod nc_orientation;
 mod nc_posts;
 mod nc_regressions;

@@ -82,6 +82,9 @@ pub(in crate::nc) struct State {
     pub(in crate::nc) tcpm: Option<super::tcpm::Tcpm>,
     /// The options' tool lengths, for the scans ahead.
     pub(in crate::nc) tool_lengths: ToolLengths,
+    /// The options' work offsets: a change of offset carries where the tool is over
+    /// (`offsets`).
+    pub(in crate::nc) work_offsets: super::offsets::WorkOffsets,
     pub(in crate::nc) pending_tool: Option<u32>,
     /// Where the program has the tool (program coordinates, mm and degrees).
     pub(in crate::nc) position: [f64; 6],

@@ -4,6 +4,7 @@
 
 use super::approach::line_directions;
 use super::modal::{AxisSet, Motion, State, AXIS_LETTERS, MM_PER_INCH, XY, YZ, ZX};
+use super::offsets::{change_offset, selected, shift};
 use super::parse::Line;
 use super::tcpm;
 use crate::error::excerpt;
@@ -33,6 +34,7 @@ pub(in crate::nc) fn first_state(
         tool_length_on: false,
         tcpm: None,
         tool_lengths: options.tool_lengths.clone(),
+        work_offsets: options.work_offsets.clone(),
         pending_tool: None,
         position: start,
         // An axis the program names is, for the reader of the output, where the output first
@@ -62,8 +64,13 @@ fn starting_position(
     // Where the first Z comes under G43, the axes stand higher by the tool's length than the
     // same Z without it: the start is where they stand, in coordinates without tool length.
     let (mut length_on, mut tool, mut pending) = (false, None, None);
+    // A value given under another work offset than G54 (active at the start) stands elsewhere
+    // in G54's coordinates.
+    let mut offset = 54;
     for line in lines {
         distance_and_units(line, &mut absolute, &mut inch);
+        offset = selected(line).unwrap_or(offset);
+        let to_start = shift(&options.work_offsets, offset, 54);
         for w in &line.words {
             match (w.letter, w.value) {
                 ('G', 43.0) => length_on = true,
@@ -100,6 +107,7 @@ fn starting_position(
                     let length = length_added(&options.tool_lengths, tool, length_on && d == 2);
                     start[d] = Some(
                         length
+                            + to_start[d]
                             + if inch && d < 3 {
                                 w.value * MM_PER_INCH
                             } else {
@@ -201,8 +209,10 @@ fn next_absolute(
     let (mut absolute, mut inch) = (state.absolute, state.inch);
     let (mut on, mut tool, mut pending) = (state.tool_length_on, state.tool, state.pending_tool);
     let now = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
+    let mut offset = state.offset;
     for line in &lines[from + 1..] {
         distance_and_units(line, &mut absolute, &mut inch);
+        offset = selected(line).unwrap_or(offset);
         for w in &line.words {
             match (w.letter, w.value) {
                 ('G', 43.0) => on = true,
@@ -226,14 +236,15 @@ fn next_absolute(
                     ),
                 ));
             }
-            // In the coordinates of the tool length in force now.
-            let shift = if d == 2 {
+            // In the coordinates of the tool length and work offset in force now.
+            let length = if d == 2 {
                 length_added(&state.tool_lengths, tool, on) - now
             } else {
                 0.0
             };
             return Ok(Some(
-                shift
+                length
+                    + shift(&state.work_offsets, offset, state.offset)[d]
                     + if inch && d < 3 {
                         w.value * MM_PER_INCH
                     } else {
@@ -459,7 +470,7 @@ fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcErro
             21 => state.inch = false,
             90 => state.absolute = true,
             91 => state.absolute = false,
-            g @ 54..=59 => state.offset = g,
+            g @ 54..=59 if w.value.fract() == 0.0 => change_offset(state, g),
             43 if w.value.fract() == 0.0 => state.tool_length_on = true,
             49 => state.tool_length_on = false,
             _ => {}
