@@ -29,7 +29,7 @@ pub(super) fn begin<'a>(
     options: &'a Options,
 ) -> Result<(Vec<Line>, State, Compensator<'a>, usize), NcError> {
     check_work_offsets(machine, &options.work_offsets)?;
-    let (lines, holes) = as_run(program, path, options.pass_unknown)?;
+    let (lines, holes) = as_run(program, path, options.pass_unknown, &options.work_offsets)?;
     let (state, named) = first_state(&lines, machine, path, options)?;
     if options.orientation_tolerance_rad.is_some() {
         // The correction turns both rotary axes: from a position the program never sets it

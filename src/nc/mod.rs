@@ -80,11 +80,13 @@ pub use write::with_note;
 
 /// The blocks of `program` (its bytes; `path` names it in errors) as the control runs them:
 /// subprogram calls and canned cycles expanded, coordinate rotations (G68) applied. With
-/// `pass_unknown`, blocks volmap does not follow pass as they are.
+/// `pass_unknown`, blocks volmap does not follow pass as they are. Work offsets are taken as
+/// zero here (a cycle's initial level after a change of offset is carried over as `compensate`
+/// does with the options' offsets).
 pub fn blocks_as_run(
     program: &[u8],
     path: &str,
     pass_unknown: bool,
 ) -> Result<Vec<parse::Line>, NcError> {
-    program::as_run(program, path, pass_unknown).map(|(lines, _)| lines)
+    program::as_run(program, path, pass_unknown, &Default::default()).map(|(lines, _)| lines)
 }

@@ -36,6 +36,7 @@ mod nc;
 mod nc_arcs;
 mod nc_check;
 mod nc_inputs;
+mod nc_offsets;
 mod nc_orientation;
 mod nc_posts;
 mod nc_regressions;

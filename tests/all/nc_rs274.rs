@@ -80,13 +80,6 @@ const FEATURES: &[&str] = &[
 ///   axes it may move unknown; G10 moves nothing; G92 applied or refused);
 /// - "g53", "g28": enable once item 4 lands (the moves after a machine position are evaluated
 ///   where the axes stand);
-/// - "offset-change", "offset-direction": faults this test found, which items 1 and 4 come
-///   closest to (where an axis stands): after a change of work offset on a block that does not
-///   name every axis, volmap takes the program coordinates from before the change as the new
-///   offset's and writes a move of the offsets' difference nobody programmed; and across a
-///   change of offset it takes an axis's approach direction from its program coordinates, not
-///   from the way the machine moves it (the tip misses by the reversal error, 6 µm on
-///   `gantry-2m`'s Y);
 /// - "arcs-r-over-180": a fault this test found, in no item of the issue yet: an arc given
 ///   with R < 0 that volmap splits keeps R < 0 on its first piece, which turns less than half a
 ///   turn, so the control runs that piece the long way round (0.5 mm and more off the path),
@@ -99,8 +92,6 @@ const PENDING: &[&str] = &[
     "expressions",
     "g53",
     "g28",
-    "offset-change",
-    "offset-direction",
 ];
 
 /// Features that need volmap's --pass-unknown.

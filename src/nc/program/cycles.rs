@@ -15,6 +15,7 @@
 //! synchronised, stopped or oriented (G74 G76 G84 G86 G87 G88), incremental cycles (G91) and
 //! cycles in another plane are refused.
 
+use super::offsets::{selected, shift, WorkOffsets};
 use super::parse::{parse_line, Line};
 use super::settings::is_setting;
 use super::subprograms::{Room, BLOCK_WORDS, MAX_EXPANDED_WORDS};
@@ -50,6 +51,9 @@ struct Scan {
     xy_plane: bool,
     retract_to_r: bool,
     z: Option<f64>,
+    /// The work offset in force: a change of it moves nothing, so Z where it stands (and a
+    /// cycle's initial level) is carried over in machine coordinates (`offsets`).
+    offset: u32,
     cycle: Option<Cycle>,
     /// A cycle volmap does not expand, passed with `pass_unknown`: its holes pass too.
     passed_cycle: Option<String>,
@@ -93,6 +97,7 @@ pub(super) fn expand_cycles(
     lines: Vec<Line>,
     path: &str,
     pass_unknown: bool,
+    work_offsets: &WorkOffsets,
     room: &mut Room,
 ) -> Result<(Vec<Line>, usize), NcError> {
     let mut holes = 0;
@@ -102,6 +107,7 @@ pub(super) fn expand_cycles(
         xy_plane: true,
         retract_to_r: false,
         z: None,
+        offset: 54,
         cycle: None,
         passed_cycle: None,
     };
@@ -126,6 +132,15 @@ pub(super) fn expand_cycles(
                     _ => {}
                 },
             }
+        }
+        if let Some(to) = selected(&line) {
+            let unit = if scan.inch { 25.4 } else { 1.0 };
+            let dz = shift(work_offsets, scan.offset, to)[2] / unit;
+            scan.z = scan.z.map(|z| z + dz);
+            if let Some(cycle) = scan.cycle.as_mut() {
+                cycle.initial += dz;
+            }
+            scan.offset = to;
         }
         let code = g_codes(&line).find(|&g| is_cycle_code(g)).map(|g| g as u32);
         let axis_words = line

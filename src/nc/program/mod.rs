@@ -21,6 +21,7 @@
 pub(super) mod approach;
 mod cycles;
 pub(super) mod modal;
+pub(super) mod offsets;
 pub mod parse;
 pub(super) mod reader;
 mod rotation;
@@ -40,11 +41,13 @@ use rotation::apply_rotations;
 use subprograms::{expand_subprograms, Room};
 
 /// The program as the control runs it: its blocks read, subprogram calls and canned cycles
-/// expanded, coordinate rotations applied; and the number of cycle holes expanded.
+/// expanded, coordinate rotations applied; and the number of cycle holes expanded. The work
+/// offsets carry a cycle's initial level over a change of offset.
 pub(super) fn as_run(
     program: &[u8],
     path: &str,
     pass_unknown: bool,
+    work_offsets: &offsets::WorkOffsets,
 ) -> Result<(Vec<Line>, usize), NcError> {
     let read = parse_program(program, path, pass_unknown)?;
     let own_blocks = read.len();
@@ -52,6 +55,6 @@ pub(super) fn as_run(
     let mut room = Room::new();
     let lines = expand_subprograms(read, path, pass_unknown, &mut room)?;
     tcpm::check_program(&lines, path)?;
-    let (lines, holes) = expand_cycles(lines, path, pass_unknown, &mut room)?;
+    let (lines, holes) = expand_cycles(lines, path, pass_unknown, work_offsets, &mut room)?;
     Ok((apply_rotations(lines, path, own_blocks, &mut room)?, holes))
 }

@@ -105,8 +105,9 @@ pub(in crate::nc) struct State {
     /// The axes the program names anywhere: a block that may move any axis makes these unknown.
     pub(in crate::nc) named: [bool; 6],
     /// The work offsets as the program has them (the options', then as G10 sets them), machine
-    /// mm and degrees; and those a block volmap does not follow has changed (by line).
-    pub(in crate::nc) work_offsets: HashMap<u32, [f64; 6]>,
+    /// mm and degrees; and those a block volmap does not follow has changed (by line). A change
+    /// of offset carries where the tool is over (`offsets`).
+    pub(in crate::nc) work_offsets: super::offsets::WorkOffsets,
     pub(in crate::nc) offsets_unknown: HashMap<u32, usize>,
     /// The line of a block that set tool data volmap does not follow (G10 L1, L10, L11): moves
     /// under G43 are not compensated after it.

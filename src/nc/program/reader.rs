@@ -3,6 +3,7 @@
 //! volmap follows, where each block ends.
 
 use super::modal::{AxisSet, Motion, State, AXIS_LETTERS, MM_PER_INCH, XY, YZ, ZX};
+use super::offsets::{change_offset, selected, shift};
 use super::parse::Line;
 use super::settings::{is_setting, pass_setting, take_setting, unknown_setting};
 use super::tcpm;
@@ -71,8 +72,13 @@ fn starting_position(
     // Where the first Z comes under G43, the axes stand higher by the tool's length than the
     // same Z without it: the start is where they stand, in coordinates without tool length.
     let (mut length_on, mut tool, mut pending) = (false, None, None);
+    // A value given under another work offset than G54 (active at the start) stands elsewhere
+    // in G54's coordinates.
+    let mut offset = 54;
     for line in lines {
         distance_and_units(line, &mut absolute, &mut inch);
+        offset = selected(line).unwrap_or(offset);
+        let to_start = shift(&options.work_offsets, offset, 54);
         for w in &line.words {
             match (w.letter, w.value) {
                 ('G', 43.0) => length_on = true,
@@ -114,6 +120,7 @@ fn starting_position(
                     let length = length_added(&options.tool_lengths, tool, length_on && d == 2);
                     start[d] = Some(
                         length
+                            + to_start[d]
                             + if inch && d < 3 {
                                 w.value * MM_PER_INCH
                             } else {
@@ -215,8 +222,10 @@ fn next_absolute(
     let (mut absolute, mut inch) = (state.absolute, state.inch);
     let (mut on, mut tool, mut pending) = (state.tool_length_on, state.tool, state.pending_tool);
     let now = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
+    let mut offset = state.offset;
     for line in &lines[from + 1..] {
         distance_and_units(line, &mut absolute, &mut inch);
+        offset = selected(line).unwrap_or(offset);
         for w in &line.words {
             match (w.letter, w.value) {
                 ('G', 43.0) => on = true,
@@ -240,14 +249,15 @@ fn next_absolute(
                     ),
                 ));
             }
-            // In the coordinates of the tool length in force now.
-            let shift = if d == 2 {
+            // In the coordinates of the tool length and work offset in force now.
+            let length = if d == 2 {
                 length_added(&state.tool_lengths, tool, on) - now
             } else {
                 0.0
             };
             return Ok(Some(
-                shift
+                length
+                    + shift(&state.work_offsets, offset, state.offset)[d]
                     + if inch && d < 3 {
                         w.value * MM_PER_INCH
                     } else {
@@ -517,7 +527,7 @@ fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcErro
             21 => state.inch = false,
             90 => state.absolute = true,
             91 => state.absolute = false,
-            g @ 54..=59 => change_offset(state, g),
+            g @ 54..=59 if w.value.fract() == 0.0 => change_offset(state, g),
             43 if w.value.fract() == 0.0 => state.tool_length_on = true,
             49 => state.tool_length_on = false,
             _ => {}
@@ -534,25 +544,6 @@ fn apply_modals(line: &Line, state: &mut State, path: &str) -> Result<(), NcErro
         ));
     }
     Ok(())
-}
-
-/// A change of work offset moves nothing: where both offsets are known, the program's
-/// coordinates of where the axes stand change by their difference.
-fn change_offset(state: &mut State, to: u32) {
-    let of = |n: u32| match state.work_offsets.get(&n) {
-        Some(&v) => Some(v),
-        None if n == 54 => Some([0.0; 6]),
-        None => None,
-    };
-    if let (Some(from), Some(new)) = (of(state.offset), of(to)) {
-        // An axis not set yet stands where the program first names it, in the coordinates in
-        // force then (and one sent home where it is next named): neither moves here.
-        for d in (0..6).filter(|&d| state.set[d] == AxisSet::Yes) {
-            state.position[d] -= new[d] - from[d];
-            state.written[d] -= new[d] - from[d];
-        }
-    }
-    state.offset = to;
 }
 
 /// The block's end point in program coordinates (mm, degrees).
