@@ -87,12 +87,7 @@ const FEATURES: &[&str] = &[
 ///   change of offset it takes an axis's approach direction from its program coordinates, not
 ///   from the way the machine moves it (the tip misses by the reversal error, 6 µm on
 ///   `gantry-2m`'s Y);
-/// - "arcs-r-over-180": a fault this test found, in no item of the issue yet: an arc given
-///   with R < 0 that volmap splits keeps R < 0 on its first piece, which turns less than half a
-///   turn, so the control runs that piece the long way round (0.5 mm and more off the path),
-///   while the report says 0.0002 mm after.
 const PENDING: &[&str] = &[
-    "arcs-r-over-180",
     "g10",
     "g92",
     "macros",
