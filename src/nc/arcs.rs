@@ -18,7 +18,7 @@ use super::walk::{Piece, Walk};
 use super::write::as_written;
 
 /// The largest sweep of an added arc piece: its R word (where the program uses R) stays positive
-/// and well conditioned.
+/// and well conditioned (see `radius_sign`).
 const MAX_SWEEP_RAD: f64 = FRAC_PI_2;
 
 /// Arc pieces of a move: the index in the move's pieces of each piece written as an arc, with its
@@ -69,6 +69,22 @@ pub(super) fn centre_from_radius(
     Some([mid[0] + side * h * left[0], mid[1] + side * h * left[1]])
 }
 
+/// The sign of the R word of an arc from `from` to `to` (as written) about `centre`: negative
+/// where the arc turns more than half a turn, as a control reads R < 0. Each arc written by R
+/// takes its own: a piece of an arc programmed with R < 0 turns less than half a turn, and an
+/// arc near a half turn may cross it once its ends and centre are corrected.
+pub(super) fn radius_sign(
+    (from, to): (&[f64; 6], &[f64; 6]),
+    plane: Plane,
+    centre: [f64; 2],
+    motion: Motion,
+) -> f64 {
+    match arc_through(*from, *to, plane, centre, motion) {
+        Some(arc) if sweep_of(&arc).abs() > PI => -1.0,
+        _ => 1.0,
+    }
+}
+
 /// The sweep of an arc path (0 for a line).
 fn sweep_of(path: &Toolpath) -> f64 {
     match *path {
@@ -95,13 +111,8 @@ impl Block<'_> {
     ) -> Option<Toolpath> {
         let (a, b) = (self.written(from), self.written(to));
         let centre = if self.radius_words {
-            let exact = arc_through(*from, *to, plane, centre, motion)?;
             let r = (b[plane.u] - centre[0]).hypot(b[plane.v] - centre[1]);
-            let sign = if sweep_of(&exact).abs() > PI {
-                -1.0
-            } else {
-                1.0
-            };
+            let sign = radius_sign((&a, &b), plane, centre, motion);
             centre_from_radius(&a, &b, plane, sign * self.written_length(r), motion)?
         } else {
             [

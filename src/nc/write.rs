@@ -2,6 +2,7 @@
 //! where the coordinates need it, pieces added after their block; and the note at the head of a
 //! compensated program that says how it was made.
 
+use super::arcs::radius_sign;
 use super::error::NcError;
 use super::options::Options;
 use super::program::modal::{Motion, State, AXIS_LETTERS, MM_PER_INCH};
@@ -325,10 +326,17 @@ fn centre_edits(
             ('R', None, Some(c)) => {
                 let (u, v) = (state.plane.u, state.plane.v);
                 let r = (first_written[u] - c[0]).hypot(first_written[v] - c[1]);
-                edits.push((
-                    w.number.clone(),
-                    format_value(r * w.value.signum() / unit, decimals),
-                ));
+                // The sign the written arc needs, not the programmed one: a first piece of a
+                // split arc with R < 0 turns less than half a turn.
+                let from: [f64; 6] = std::array::from_fn(|d| {
+                    if state.written[d].is_nan() {
+                        start[d]
+                    } else {
+                        state.written[d]
+                    }
+                });
+                let sign = radius_sign((&from, first_written), state.plane, c, state.motion);
+                edits.push((w.number.clone(), format_value(sign * r / unit, decimals)));
             }
             _ => {}
         }
@@ -424,11 +432,12 @@ fn write_pieces(
             let (u, v) = (state.plane.u, state.plane.v);
             if arc.radius {
                 let r = (piece_written[u] - c[0]).hypot(piece_written[v] - c[1]);
+                let sign = radius_sign((&at, &piece_written), state.plane, *c, arc.motion);
                 words += &format!(
                     "{}{}{}",
                     style.separator,
                     style.letter('R'),
-                    format_value(r / style.unit, style.decimals)
+                    format_value(sign * r / style.unit, style.decimals)
                 );
             } else {
                 for (k, d) in [u, v].into_iter().enumerate() {

@@ -34,6 +34,7 @@ mod model_check;
 mod model_forms;
 mod nc;
 mod nc_arcs;
+mod nc_arcs_radius;
 mod nc_check;
 mod nc_inputs;
 mod nc_offsets;

@@ -150,7 +150,13 @@ pub fn pair(
             let c = &comp[j];
             if reached {
                 if let Some(next) = orig.get(k + 1) {
-                    if kind_fits(c, next) && fits(c, next, 0.0, bound_mm).is_ok() {
+                    // A short move of this move's kind (a feed before a rapid) that goes on
+                    // along it stays with it: the last piece of a split arc, tiny, fits the
+                    // rapid's start too.
+                    let continues = c.is_rapid() == o.is_rapid()
+                        && c.is_rapid() != next.is_rapid()
+                        && fits(c, o, t, bound_mm).is_ok();
+                    if !continues && kind_fits(c, next) && fits(c, next, 0.0, bound_mm).is_ok() {
                         break;
                     }
                 }
