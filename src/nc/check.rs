@@ -11,9 +11,9 @@
 //! reaches each one's end before the next begins; nothing is written before the first or after
 //! the last. Distances are measured between machine commands (program coordinates plus the work
 //! offset and tool length in force), X Y Z against the linear bound and A B C against the rotary
-//! one. Where a passed block leaves an axis unknown (a code volmap does not follow names it, or
-//! a line it cannot read), the written program may name that axis only where the program does,
-//! and a move that starts where an axis is unknown is written as one move.
+//! one (a distance is the larger of the two, each in units of its bound). A block the reader
+//! passes as it is (a code volmap does not follow, a line it cannot read, a move that starts where
+//! an axis is unknown) must be in the written program as it is, each once and in order.
 
 use super::compensate::begin;
 use super::error::{NcError, NcOption};
