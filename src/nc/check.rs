@@ -16,14 +16,12 @@
 //! an axis is unknown) must be in the written program as it is, each once and in order.
 
 use super::compensate::begin;
-use super::error::{NcError, NcOption};
+use super::error::NcError;
 use super::options::Options;
 use super::program::modal::{Motion, AXIS_LETTERS};
 use super::program::parse::{parse_program, Line};
 use super::program::reader::{end_position, take_line, Step};
 use super::program::toolpath::{arc_path, Toolpath};
-use super::report::Compensated;
-use super::trace::trace_compensated;
 use crate::error::{excerpt, Classify, ErrorKind};
 use crate::model::Machine;
 use crate::reference::Twin;
@@ -583,44 +581,4 @@ fn stray_reason(m: &Move, w: &Move, p: &[f64; 6], on: &OnMove, bounds: &CheckBou
             bounds.linear_mm
         )
     }
-}
-
-/// The model run along the written program (as `trace --compensate` does): the largest distance
-/// of the real tool tip from the intended path along its feed moves (take-ups aside), and the
-/// program's lines where it exceeds the chord tolerance.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Residual {
-    pub largest_mm: f64,
-    pub lines: Vec<usize>,
-}
-
-/// [`Residual`] of `compensated`, made from `program` with `options`: sampled every 0.5 mm, or
-/// at a longer step where a long program would exceed the trace's limit on samples.
-pub fn residual(
-    machine: &Machine,
-    program: &[u8],
-    compensated: &Compensated,
-    path: &str,
-    options: &Options,
-) -> Result<Residual, NcError> {
-    let mut step_mm = 0.5;
-    let samples = loop {
-        match trace_compensated(machine, (program, compensated), path, options, step_mm) {
-            Ok(samples) => break samples,
-            Err(NcError::Option {
-                option: NcOption::TraceStep,
-                ..
-            }) if step_mm < 1e3 => step_mm *= 4.0,
-            Err(e) => return Err(e),
-        }
-    };
-    let feeds = samples.iter().filter(|s| s.motion != 0);
-    let largest_mm = feeds.clone().map(|s| s.deviation_mm).fold(0.0, f64::max);
-    let mut lines: Vec<usize> = feeds
-        .filter(|s| s.deviation_mm > options.chord_tolerance_mm)
-        .map(|s| s.line)
-        .collect();
-    lines.sort_unstable();
-    lines.dedup();
-    Ok(Residual { largest_mm, lines })
 }

@@ -58,13 +58,14 @@ mod options;
 mod orientation;
 mod program;
 mod report;
+mod residual;
 mod tcpm;
 mod trace;
 mod untraced;
 mod walk;
 mod write;
 
-pub use check::{check_written, residual, CheckBounds, CheckError, Residual};
+pub use check::{check_written, CheckBounds, CheckError};
 pub use compensate::{compensate, compensate_with_progress};
 pub use error::{NcError, NcOption};
 pub use options::{
@@ -74,6 +75,7 @@ pub use options::{
 };
 pub use program::{parse, MAX_EXPANDED_WORDS, MAX_PECKS};
 pub use report::{Compensated, LeftMove, OrientationLeft, PassedBlock, Report, ReportInputs};
+pub use residual::{residual, Residual};
 pub use trace::{per_block, trace, trace_compensated, trace_path, TracePoint, TraceSample};
 pub use untraced::moves_left_alone;
 pub use write::with_note;
