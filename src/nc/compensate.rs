@@ -92,6 +92,7 @@ pub fn compensate_with_progress(
     let (lines, mut state, mut compensator, holes) = begin(machine, program, path, options)?;
     let mut report = Report {
         cycle_holes_expanded: holes,
+        errors_cover: "feed moves (G1 G2 G3)".into(),
         inputs: ReportInputs::of(&options.inputs, machine),
         ..Report::default()
     };
