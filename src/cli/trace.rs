@@ -57,9 +57,15 @@ pub struct TraceArgs {
 #[derive(serde::Serialize)]
 struct Summary {
     program: &'static str,
-    /// The largest deviation and its line (1-based, of the input program).
+    /// The moves the largest deviation covers: the feed moves (G1 G2 G3), as `compensate`
+    /// reports its errors before and after (rapids apart: the control does not hold their path).
+    covers: &'static str,
+    /// The largest deviation along the feed moves and its line (1-based, of the input program;
+    /// 0 where there is none).
     largest_mm: f64,
     largest_line: usize,
+    /// The largest deviation along the rapids (G0).
+    largest_rapid_mm: f64,
     /// The largest deviation of every block that moves: `[line, mm]`.
     per_block: Vec<(usize, f64)>,
 }
@@ -67,11 +73,18 @@ struct Summary {
 fn summary(program: &'static str, samples: &[TraceSample]) -> Summary {
     let worst = samples
         .iter()
+        .filter(|s| s.motion != 0)
         .max_by(|a, b| a.deviation_mm.total_cmp(&b.deviation_mm));
     Summary {
         program,
+        covers: "feed moves (G1 G2 G3)",
         largest_mm: worst.map_or(0.0, |s| s.deviation_mm),
         largest_line: worst.map_or(0, |s| s.line),
+        largest_rapid_mm: samples
+            .iter()
+            .filter(|s| s.motion == 0)
+            .map(|s| s.deviation_mm)
+            .fold(0.0, f64::max),
         per_block: nc::per_block(samples),
     }
 }
@@ -134,10 +147,11 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
     outln!("{name}: tool-tip deviation on {}", machine.name);
     for s in &summaries {
         outln!(
-            "  {:<14} largest {:.4} mm at line {} ({} blocks that move)",
+            "  {:<14} largest {:.4} mm along the feed moves at line {}, {:.4} mm along the rapids ({} blocks that move)",
             s.program,
             s.largest_mm,
             s.largest_line,
+            s.largest_rapid_mm,
             s.per_block.len()
         );
     }

@@ -35,6 +35,9 @@ pub(super) struct Block<'a> {
     /// directions they were compensated for.
     pub(super) take_ups: Cell<usize>,
     pub(super) against: Cell<usize>,
+    /// Axes standing at a machine position (G53) that the block does not name: the output
+    /// writes no word for them, so they are not corrected (their error stays, and is measured).
+    pub(super) held: [bool; 6],
     /// Where the bound on the rotary correction held back a point's orientation correction:
     /// the largest angle it left between the real and the intended tool axis (rad).
     pub(super) orientation_left: Cell<Option<f64>>,
@@ -75,6 +78,7 @@ impl<'a> Block<'a> {
             largest_correction: Cell::new(0.0),
             take_ups: Cell::new(0),
             against: Cell::new(0),
+            held: [false; 6],
             orientation_left: Cell::new(None),
             largest_rotary_correction: Cell::new(0.0),
             tcpm: None,
@@ -151,7 +155,9 @@ impl<'a> Block<'a> {
             Some(_) => self.kin.tcpm_point(&c, &self.offset),
             None => std::array::from_fn(|d| c[d] - self.offset[d]),
         };
-        compensated[..solved].copy_from_slice(&point[..solved]);
+        for d in (0..solved).filter(|&d| !self.held[d]) {
+            compensated[d] = point[d];
+        }
         self.check_travel(&compensated, "the compensated point")?;
         let correction = (0..3)
             .map(|d| (compensated[d] - p[d]).powi(2))

@@ -16,6 +16,7 @@ use super::program::reader::{first_state, take_line, unknown_code, Step};
 use super::program::tcpm;
 use super::program::toolpath::{arc_path, Toolpath};
 use super::report::{Compensated, LeftMove, PassedBlock, Report, ReportInputs};
+use super::standing::{standing, standing_feed};
 use super::walk::Walk;
 use crate::limits::MAX_DECIMALS;
 use crate::model::Machine;
@@ -91,6 +92,7 @@ pub fn compensate_with_progress(
     let (lines, mut state, mut compensator, holes) = begin(machine, program, path, options)?;
     let mut report = Report {
         cycle_holes_expanded: holes,
+        errors_cover: "feed moves (G1 G2 G3)".into(),
         inputs: ReportInputs::of(&options.inputs, machine),
         ..Report::default()
     };
@@ -154,6 +156,7 @@ fn process_line(
     let line = &lines[index];
     let (path, options) = (comp.path, comp.options);
     let before = tcpm::switches(line).then(|| state.clone());
+    let standing = standing(state);
     let step = take_line(lines, index, state, path, options.pass_unknown)?;
     super::tcpm::follow(line, before, state, comp)?;
     if step == Step::Pass {
@@ -172,6 +175,9 @@ fn process_line(
             ),
         });
     }
+    if let Some(written) = standing_feed((path, line), &standing, state, report, out)? {
+        return Ok(written);
+    }
     let end = super::tcpm::move_end(line, state, comp)?;
     let mut block = Block::new(
         path,
@@ -183,6 +189,8 @@ fn process_line(
         options,
     );
     block.tcpm = state.tcpm;
+    // Where the move starts, an axis at its G53 position stands there, uncorrected.
+    block.held = standing.map(|s| s.is_some());
     if !*start_compensated {
         // The output starts where the compensated start of the program is, for the axes it
         // does not leave unwritten (see `begin`).
@@ -200,10 +208,11 @@ fn process_line(
     let mut pieces: Vec<[f64; 6]> = Vec::new();
     let mut arcs = ArcPieces::new();
     // Where the output has the tool at the start (see `written_start`).
-    let from: [f64; 6];
+    let from = block.written_start(state.written, &start, &state.approach)?;
+    // An axis the block names is corrected at its end; one it does not name stays.
+    block.held = std::array::from_fn(|d| block.held[d] && !line.has(AXIS_LETTERS[d]));
     if motion == Motion::Rapid {
         let programmed = line_directions(&start, &end, &state.programmed);
-        from = block.written_start(state.written, &start, &state.approach)?;
         let mut walk = Walk {
             at: from,
             directions: state.approach,
@@ -235,7 +244,6 @@ fn process_line(
             .max(block.angle_before(&|t| intended.at(t), &|t| {
                 segment_at(&segments, t).directions
             }));
-        from = block.written_start(state.written, &start, &state.approach)?;
         let mut walk = Walk {
             at: from,
             directions: state.approach,

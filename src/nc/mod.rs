@@ -59,6 +59,7 @@ mod orientation;
 mod program;
 mod report;
 mod residual;
+mod standing;
 mod tcpm;
 mod trace;
 mod untraced;

@@ -29,6 +29,9 @@ pub struct Report {
     /// program as written (its numbers rounded, arcs about the centres their words give).
     pub largest_error_before_mm: f64,
     pub largest_error_after_mm: f64,
+    /// The moves the two figures above cover (the feed moves), in words; `trace --compensate`
+    /// gives the same figures over the same moves.
+    pub errors_cover: String,
     /// Where the orientation is compensated: the largest angle between the real and the intended
     /// tool axis along the feed moves, with the program as it was and as compensated (rotary
     /// words as written), rad.

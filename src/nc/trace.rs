@@ -233,29 +233,53 @@ pub fn trace_path(
 /// A straight move whose real tool tip ends within this of where it started (mm) is a take-up.
 const TIP_STANDS_MM: f64 = 1e-4;
 
-/// The distance of `p` from the polyline through `points`.
-fn distance_to_polyline(p: &Vector3<f64>, points: &[Vector3<f64>]) -> f64 {
+/// The point of the polyline through `points` nearest `p` at or after position `from`: its
+/// position along the polyline in points (0 at the first, `points.len() - 1` at the last) and
+/// its distance. From `from` on: a path may come back to a point (a full circle).
+fn nearest_on_polyline(p: &Vector3<f64>, points: &[Vector3<f64>], from: f64) -> (f64, f64) {
     if let [only] = points {
-        return (p - only).norm();
+        return (0.0, (p - only).norm());
     }
+    let first = (from.floor().max(0.0) as usize).min(points.len() - 2);
     points
         .windows(2)
-        .map(|w| {
+        .enumerate()
+        .skip(first)
+        .map(|(i, w)| {
             let (a, b) = (w[0], w[1]);
             let ab = b - a;
+            let least = if i == first { from - i as f64 } else { 0.0 };
             let s = if ab.norm_squared() > 0.0 {
-                ((p - a).dot(&ab) / ab.norm_squared()).clamp(0.0, 1.0)
+                ((p - a).dot(&ab) / ab.norm_squared()).clamp(least.clamp(0.0, 1.0), 1.0)
             } else {
                 0.0
             };
-            (p - (a + s * ab)).norm()
+            (i as f64 + s, (p - (a + s * ab)).norm())
         })
-        .fold(f64::INFINITY, f64::min)
+        .fold(
+            (0.0, f64::INFINITY),
+            |best, c| if c.1 < best.1 { c } else { best },
+        )
+}
+
+/// The polyline through `points` at position `u` (in points, see `nearest_on_polyline`).
+fn on_polyline(points: &[Vector3<f64>], u: f64) -> Vector3<f64> {
+    let last = points.len() - 1;
+    if last == 0 {
+        return points[0];
+    }
+    let i = (u.floor().max(0.0) as usize).min(last - 1);
+    let s = (u - i as f64).clamp(0.0, 1.0);
+    points[i] + s * (points[i + 1] - points[i])
 }
 
 /// The samples of a compensated program, each deviation the distance of its real tool tip from
-/// the intended path (the ideal tip along the original program's move it comes from, sampled
-/// every `step_mm / 8`). `original` is the program `compensated` was made from.
+/// the intended path at the same fraction of the move, as the chord tolerance is held and
+/// `compensate` reports it: the intended path is the ideal tip along the original program's move
+/// the sample comes from (sampled every `step_mm / 8`), and a written piece runs from where the
+/// real tip at its start lies on it to where the real tip at its end does (a piece's ends land
+/// on the intended path, to within the rounding). `original` is the program `compensated` was
+/// made from.
 pub fn trace_compensated(
     machine: &Machine,
     (original, compensated): (&[u8], &Compensated),
@@ -277,21 +301,7 @@ pub fn trace_compensated(
             },
             other => other,
         })?;
-    let mut samples = trace_path(machine, compensated.text.as_bytes(), path, options, step_mm)?;
-    // A take-up (the command crossing a reversal while the tip stands) is left out: the model's
-    // step in the reversal error would put the tip off along it, where the real axis takes up
-    // its play with the tip at rest.
-    let mut kept = Vec::with_capacity(samples.len());
-    let mut previous_end: Option<Vector3<f64>> = None;
-    for group in samples.chunk_by(|a, b| a.line == b.line) {
-        let end = group.last().expect("a chunk is not empty").real;
-        let stands = previous_end.is_some_and(|p| (end - p).norm() < TIP_STANDS_MM);
-        if !(stands && group[0].motion == 1) {
-            kept.extend_from_slice(group);
-        }
-        previous_end = Some(end);
-    }
-    samples = kept;
+    let samples = trace_path(machine, compensated.text.as_bytes(), path, options, step_mm)?;
     // The runs of samples of each line of the original (a line run more than once has more),
     // each from the last ideal point before it: the move's start.
     let mut runs: HashMap<usize, Vec<std::ops::Range<usize>>> = HashMap::new();
@@ -304,17 +314,97 @@ pub fn trace_compensated(
         start = end;
     }
     let ideal: Vec<Vector3<f64>> = intended.iter().map(|i| i.ideal).collect();
-    for s in &mut samples {
-        let origin = compensated.origins[s.line - 1];
-        if let Some(runs) = runs.get(&origin) {
-            s.deviation_mm = runs
-                .iter()
-                .map(|r| distance_to_polyline(&s.real, &ideal[r.clone()]))
-                .fold(f64::INFINITY, f64::min);
+    // A take-up (the command crossing a reversal while the tip stands) is left out: the model's
+    // step in the reversal error would put the tip off along it, where the real axis takes up
+    // its play with the tip at rest.
+    let mut kept = Vec::with_capacity(samples.len());
+    let mut previous_end: Option<Vector3<f64>> = None;
+    // The original line of the last piece, and where it ended along its move.
+    let mut last: Option<(usize, f64)> = None;
+    let groups: Vec<&[TraceSample]> = samples.chunk_by(|a, b| a.line == b.line).collect();
+    let origin = |g: Option<&&[TraceSample]>| g.map(|g| compensated.origins[g[0].line - 1]);
+    for (i, group) in groups.iter().enumerate() {
+        let end = group.last().expect("a chunk is not empty").real;
+        let stands = previous_end.is_some_and(|p| (end - p).norm() < TIP_STANDS_MM);
+        let here = origin(Some(group));
+        if stands && group[0].motion == 1 {
+            // A take-up that starts a move: its first piece starts at the move's start.
+            if last.map(|(o, _)| Some(o)) != Some(here) {
+                last = here.map(|o| (o, 0.0));
+            }
+        } else {
+            // The first piece of a move starts at its start, the next where the last ended, and
+            // the last ends at the move's end.
+            let ua = last
+                .filter(|&(o, _)| Some(o) == here && i > 0)
+                .map_or(0.0, |(_, u)| u);
+            let to = if origin(groups.get(i + 1)) == here {
+                Fraction::At(end)
+            } else {
+                Fraction::End
+            };
+            match here.and_then(|o| runs.get(&o)) {
+                Some(runs) => {
+                    let (measured, ub) = at_same_fraction(group, (ua, to), runs, &ideal);
+                    kept.extend(measured);
+                    last = here.map(|o| (o, ub));
+                }
+                None => kept.extend_from_slice(group),
+            }
         }
-        s.line = origin;
+        previous_end = Some(end);
     }
-    Ok(samples)
+    for s in &mut kept {
+        s.line = compensated.origins[s.line - 1];
+    }
+    Ok(kept)
+}
+
+/// Where a written piece ends along the intended move: at its end, or where the real tip (a
+/// point between pieces) lies on it.
+#[derive(Debug, Clone, Copy)]
+enum Fraction {
+    End,
+    At(Vector3<f64>),
+}
+
+/// The samples of one written piece, from position `ua` along the intended move, with their
+/// deviations from the intended path at the same fraction, along the run of the original line
+/// (`runs`, into `ideal`) its end lies nearest; and where it ends along that run.
+fn at_same_fraction(
+    group: &[TraceSample],
+    (ua, to): (f64, Fraction),
+    runs: &[std::ops::Range<usize>],
+    ideal: &[Vector3<f64>],
+) -> (Vec<TraceSample>, f64) {
+    let end = group.last().expect("a chunk is not empty").real;
+    let run = runs
+        .iter()
+        .map(|r| &ideal[r.clone()])
+        .min_by(|a, b| {
+            nearest_on_polyline(&end, a, ua)
+                .1
+                .total_cmp(&nearest_on_polyline(&end, b, ua).1)
+        })
+        .expect("a line traced has a run");
+    let ua = ua.min((run.len() - 1) as f64);
+    let ub = match to {
+        Fraction::End => (run.len() - 1) as f64,
+        Fraction::At(p) => nearest_on_polyline(&p, run, ua).0,
+    };
+    let n = group.len() as f64;
+    let measured = group
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let u = ua + (ub - ua) * (k + 1) as f64 / n;
+            TraceSample {
+                deviation_mm: (s.real - on_polyline(run, u)).norm(),
+                ..s.clone()
+            }
+        })
+        .collect();
+    (measured, ub)
 }
 
 /// The largest deviation of every block that moves, by line (increasing).

@@ -36,6 +36,7 @@ mod nc;
 mod nc_arcs;
 mod nc_arcs_radius;
 mod nc_check;
+mod nc_homes;
 mod nc_inputs;
 mod nc_offsets;
 mod nc_orientation;

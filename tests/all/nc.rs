@@ -420,19 +420,23 @@ fn reference_returns_and_unreadable_blocks() {
     // Z is at its reference until the program names it: the first move does not add a Z word.
     assert!(!lines[2].contains('Z'), "{}", lines[2]);
     assert!(largest_landing_error(&machine, program, &out, &options) < 1e-6);
-    // Incremental moves of an axis whose place after G28 is unknown are refused.
-    let error = nc::compensate(
+    // Z's place after G28 is the control's reference point, unknown to volmap: an incremental
+    // move of it passes as it is, listed (Z unknown since the G28 block).
+    let out = nc::compensate(
         &machine,
         b"G0 X10 Y10 Z10\nG91 G28 Z0\nZ-5\n",
         "p.nc",
         &options,
     )
-    .unwrap_err()
-    .to_string();
-    assert!(
-        error.contains("line 3: Z moves incrementally after a return"),
-        "{error}"
-    );
+    .unwrap();
+    assert_eq!(out.text.lines().nth(2), Some("Z-5"), "{}", out.text);
+    let listed: Vec<(usize, &str, usize)> = out
+        .report
+        .moves_not_compensated
+        .iter()
+        .map(|m| (m.line, m.unknown.as_str(), m.since_line))
+        .collect();
+    assert_eq!(listed, [(3, "Z", 2)]);
     // A line volmap cannot read is an error, or passed unread with --pass-unknown.
     let unread = b"G0 X10 Y10 Z10\n#100=5\nG1 X20\n";
     let error = nc::compensate(&machine, unread, "p.nc", &options)

@@ -29,7 +29,7 @@ pub(super) mod settings;
 mod subprograms;
 pub(super) mod tcpm;
 pub(super) mod toolpath;
-mod unknown;
+pub(super) mod unknown;
 
 pub use cycles::MAX_PECKS;
 pub use subprograms::MAX_EXPANDED_WORDS;

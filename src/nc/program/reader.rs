@@ -3,7 +3,7 @@
 //! volmap follows, where each block ends.
 
 use super::modal::{AxisSet, Motion, State, AXIS_LETTERS, MM_PER_INCH, XY, YZ, ZX};
-use super::offsets::{change_offset, selected, shift};
+use super::offsets::{change_offset, offset_of, selected, shift};
 use super::parse::Line;
 use super::settings::{is_setting, pass_setting, take_setting, unknown_setting};
 use super::tcpm;
@@ -209,84 +209,48 @@ fn length_added(lengths: &ToolLengths, tool: Option<u32>, on: bool) -> f64 {
         .unwrap_or(0.0)
 }
 
-/// Where axis `d` is next set absolutely after line `from` (for an axis the program sent to
-/// its reference point: the machine's reference is not in the program). Modal distance and
-/// units are followed from `state`.
-fn next_absolute(
-    lines: &[Line],
-    from: usize,
-    d: usize,
-    state: &State,
-    path: &str,
-) -> Result<Option<f64>, NcError> {
-    let (mut absolute, mut inch) = (state.absolute, state.inch);
-    let (mut on, mut tool, mut pending) = (state.tool_length_on, state.tool, state.pending_tool);
-    let now = length_added(&state.tool_lengths, state.tool, state.tool_length_on);
-    let mut offset = state.offset;
-    for line in &lines[from + 1..] {
-        distance_and_units(line, &mut absolute, &mut inch);
-        offset = selected(line).unwrap_or(offset);
-        for w in &line.words {
-            match (w.letter, w.value) {
-                ('G', 43.0) => on = true,
-                ('G', 49.0) => on = false,
-                ('T', t) => pending = Some(t as u32),
-                ('M', 6.0) => tool = pending,
-                _ => {}
-            }
-        }
-        if is_dwell(line) || is_reference_return(line) || is_setting(line) {
+/// A G28 or G53 block passes as it is. The axes a G53 block names stand at the machine
+/// position it gives: in the program's coordinates that position less the active work offset (and
+/// G52, G92 shifts) and, for Z under G43, less the tool's length (the control stands the axes at
+/// program + offset + length); the output has not written them (no word is added for them until a
+/// block names them). The axes G28 names go to the reference point, which the control keeps
+/// (LinuxCNC in parameters 5161–5166, a Fanuc in its parameters) and the program does not give:
+/// they are unknown (`unknown`) until a block sets them absolutely.
+fn reference_return(line: &Line, state: &mut State, path: &str) -> Result<(), NcError> {
+    let machine_position = line
+        .words
+        .iter()
+        .any(|w| w.letter == 'G' && w.value == 53.0);
+    if machine_position && !state.absolute {
+        return Err(NcError::line(
+            path,
+            line.number,
+            "G53 in G91: a machine position is absolute, an increment in machine coordinates is not read (program G90 on the G53 block)".into(),
+        ));
+    }
+    for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
+        let Some(w) = line.word(letter) else {
+            continue;
+        };
+        state.set[d] = AxisSet::Reference(line.number);
+        if !machine_position {
+            state.unknown[d] = Some(line.number);
             continue;
         }
-        if let Some(w) = line.word(AXIS_LETTERS[d]) {
-            if !absolute {
-                return Err(NcError::line(
-                    path,
-                    line.number,
-                    format!(
-                        "{} moves incrementally after a return to the reference point: where it starts is not known",
-                        AXIS_LETTERS[d]
-                    ),
-                ));
-            }
-            // In the coordinates of the tool length and work offset in force now.
-            let length = if d == 2 {
-                length_added(&state.tool_lengths, tool, on) - now
-            } else {
-                0.0
-            };
-            return Ok(Some(
-                length
-                    + shift(&state.work_offsets, offset, state.offset)[d]
-                    + if inch && d < 3 {
-                        w.value * MM_PER_INCH
-                    } else {
-                        w.value
-                    },
-            ));
-        }
-    }
-    Ok(None)
-}
-
-/// A G28 block passes as it is; the axes it names are at the machine's reference afterwards,
-/// which the program does not know: they take the value the program next gives them, and the
-/// output writes them afresh.
-fn reference_return(
-    lines: &[Line],
-    index: usize,
-    state: &mut State,
-    path: &str,
-) -> Result<(), NcError> {
-    let line = &lines[index];
-    for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
-        if line.has(letter) {
-            if let Some(v) = next_absolute(lines, index, d, state, path)? {
-                state.position[d] = v;
-            }
-            state.written[d] = f64::NAN;
-            state.set[d] = AxisSet::Reference(line.number);
-        }
+        let value = if state.inch && d < 3 {
+            w.value * MM_PER_INCH
+        } else {
+            w.value
+        };
+        let work = offset_of(&state.work_offsets, state.offset);
+        let length = if d == 2 {
+            length_added(&state.tool_lengths, state.tool, state.tool_length_on)
+        } else {
+            0.0
+        };
+        state.position[d] = value - work[d] - state.local_shift[d] - state.g92_shift[d] - length;
+        state.written[d] = f64::NAN;
+        state.unknown[d] = None;
     }
     Ok(())
 }
@@ -431,12 +395,7 @@ pub(in crate::nc) fn take_line(
         {
             state.written_motion = state.motion;
         }
-        reference_return(lines, index, state, path)?;
-        for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
-            if line.has(letter) {
-                state.unknown[d] = None;
-            }
-        }
+        reference_return(line, state, path)?;
         return Ok(Step::Pass);
     }
     if let Some(t) = line.word('T') {

@@ -203,6 +203,9 @@ pub(in crate::nc) fn take_setting(
 /// Where axis `d` stands is known, for `code` (G10 L20, G92), which names that point anew.
 fn known(line: &Line, state: &State, d: usize, code: &str, path: &str) -> Result<(), NcError> {
     let why = match (state.unknown[d], state.set[d]) {
+        (Some(at), AxisSet::Reference(r)) if at == r => {
+            format!("it went to the reference point (G28) on line {at}")
+        }
         (Some(at), _) => format!("a block volmap does not follow on line {at} may have moved it"),
         (None, AxisSet::Never) => "the program has not set it yet".into(),
         (None, AxisSet::Reference(at)) => {

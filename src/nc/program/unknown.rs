@@ -276,7 +276,7 @@ pub(super) fn leave_alone(line: &Line, state: &mut State) -> Option<LeftAlone> {
 /// The position after a block passed as it is: the axes it names where it sends them (an axis set
 /// absolutely is known again; one moved by an increment stays as known as it was), in the
 /// program and in the output alike.
-pub(super) fn follow_passed(line: &Line, state: &mut State) {
+pub(in crate::nc) fn follow_passed(line: &Line, state: &mut State) {
     for (d, &letter) in AXIS_LETTERS.iter().enumerate() {
         let Some(w) = line.word(letter) else {
             continue;

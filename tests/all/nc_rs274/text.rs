@@ -125,3 +125,63 @@ pub fn with_x(line: &str, x: f64) -> String {
     words.push(format!("X{x}"));
     words.join(" ")
 }
+
+/// The N words of the moves volmap leaves uncorrected by design after a home: after G28 the axes
+/// it names are unknown (the reference point is the control's), and every move until a block
+/// sets them all absolutely again, that block included, passes as it is; after G53 the axes it
+/// names stand uncorrected until a block names them, so the moves before that one miss by their
+/// error there. A scan of the text in order (subprogram bodies as they stand in it).
+pub fn left_after_homes(program: &str) -> std::collections::HashSet<u32> {
+    let mut left = std::collections::HashSet::new();
+    // Per axis X Y Z: sent home by G28 (true) or G53 (false), not set since.
+    let mut home: [Option<bool>; 3] = [None; 3];
+    let mut absolute = true;
+    for line in program.lines() {
+        let code: String = line
+            .split(['(', ';'])
+            .next()
+            .unwrap()
+            .to_ascii_uppercase()
+            .replace(' ', "");
+        let label: Option<u32> = code.strip_prefix('N').and_then(|r| {
+            r.chars()
+                .take_while(char::is_ascii_digit)
+                .collect::<String>()
+                .parse()
+                .ok()
+        });
+        let g = |n: &str| {
+            code.match_indices(&format!("G{n}"))
+                .any(|(i, m)| !code[i + m.len()..].starts_with(|c: char| c.is_ascii_digit()))
+        };
+        if g("91") {
+            absolute = false;
+        }
+        if g("90") {
+            absolute = true;
+        }
+        let named: [bool; 3] = std::array::from_fn(|d| code.contains(['X', 'Y', 'Z'][d]));
+        if g("28") || g("53") {
+            for d in (0..3).filter(|&d| named[d]) {
+                home[d] = Some(g("28"));
+            }
+            continue;
+        }
+        if !named.iter().any(|&n| n) || home.iter().all(Option::is_none) {
+            continue;
+        }
+        let g28 = home.contains(&Some(true));
+        let g53_all_named = (0..3).all(|d| home[d] != Some(false) || named[d]);
+        if g28 || !g53_all_named {
+            if let Some(n) = label {
+                left.insert(n);
+            }
+        }
+        for d in (0..3).filter(|&d| named[d]) {
+            if home[d] == Some(false) || absolute {
+                home[d] = None;
+            }
+        }
+    }
+    left
+}
