@@ -201,12 +201,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         let lines: Vec<String> = report
             .moves_not_compensated
             .iter()
-            .map(|m| {
-                format!(
-                    "{} ({} not known since line {})",
-                    m.line, m.unknown, m.since_line
-                )
-            })
+            .map(|m| m.to_string())
             .collect();
         outln!(
             "  moves left as they are      {}, lines {}: they depend on what a block volmap does not follow may have moved; no word is added to them",

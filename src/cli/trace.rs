@@ -157,15 +157,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
     }
     let left = nc::moves_left_alone(&machine, &program, &name, &options).map_err(option_failure)?;
     if !left.is_empty() {
-        let lines: Vec<String> = left
-            .iter()
-            .map(|m| {
-                format!(
-                    "{} ({} not known since line {})",
-                    m.line, m.unknown, m.since_line
-                )
-            })
-            .collect();
+        let lines: Vec<String> = left.iter().map(|m| m.to_string()).collect();
         outln!(
             "  not traced     {} moves, lines {}: they depend on what a block volmap does not follow may have moved",
             lines.len(),

@@ -80,6 +80,17 @@ pub struct LeftMove {
     pub since_line: usize,
 }
 
+/// As the summaries list it: `6 (X Y not known since line 5)`.
+impl std::fmt::Display for LeftMove {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} ({} not known since line {})",
+            self.line, self.unknown, self.since_line
+        )
+    }
+}
+
 /// A line where the bound on the rotary correction left part of the tool axis's error: the
 /// largest angle left between the real and the intended tool axis at its compensated points.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
