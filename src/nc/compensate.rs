@@ -13,11 +13,13 @@ use super::program::as_run;
 use super::program::modal::{Directions, Motion, State, AXIS_LETTERS};
 use super::program::parse::Line;
 use super::program::reader::{first_state, take_line, unknown_code, Step};
+use super::program::settings::names_current_point;
 use super::program::tcpm;
 use super::program::toolpath::{arc_path, Toolpath};
 use super::report::{Compensated, LeftMove, PassedBlock, Report, ReportInputs};
 use super::standing::{standing, standing_feed};
 use super::walk::Walk;
+use super::write::write_setting;
 use crate::limits::MAX_DECIMALS;
 use crate::model::Machine;
 
@@ -143,6 +145,46 @@ pub fn compensate_with_progress(
     })
 }
 
+/// An absolute arc left alone (it depends on an axis not known) passes as it is: its centre
+/// words are relative to its start, so it must start where the program has it in its plane,
+/// or the control finds start and end at different distances from the centre (an alarm, or
+/// another path). Refused where a compensated move before it put the start elsewhere.
+fn arc_left_at_its_start(
+    line: &Line,
+    point: ([f64; 6], [f64; 6]),
+    state: &State,
+    path: &str,
+) -> Result<(), NcError> {
+    let arc = matches!(state.motion, Motion::Clockwise | Motion::CounterClockwise);
+    if !arc || !state.absolute {
+        return Ok(());
+    }
+    let (programmed, written) = point;
+    for d in [state.plane.u, state.plane.v] {
+        let off = written[d] - programmed[d];
+        if off.abs() > ARC_START_MM {
+            let left = state.left_alone.as_ref().expect("a move left alone");
+            return Err(NcError::line(
+                path,
+                line.number,
+                format!(
+                    "this arc cannot be compensated ({} not known since line {}) and would pass as it is, but the move before it was compensated: it starts {:.4} mm from its programmed start in {}, so its centre words no longer fit; give {} absolutely before the arc",
+                    left.axes,
+                    left.since,
+                    off.abs(),
+                    AXIS_LETTERS[d],
+                    left.axes
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// How far an arc passed as it is may start from its programmed start, mm: the rounding of
+/// the written numbers, well inside any control's tolerance on an arc's radius.
+const ARC_START_MM: f64 = 1e-4;
+
 /// Handles one line; returns the number of output lines written for it (1 or more).
 fn process_line(
     lines: &[Line],
@@ -157,8 +199,16 @@ fn process_line(
     let (path, options) = (comp.path, comp.options);
     let before = tcpm::switches(line).then(|| state.clone());
     let standing = standing(state);
+    let point = (state.position, state.written);
     let step = take_line(lines, index, state, path, options.pass_unknown)?;
     super::tcpm::follow(line, before, state, comp)?;
+    if state.left_alone.is_some() {
+        arc_left_at_its_start(line, point, state, path)?;
+    }
+    if step == Step::Pass && names_current_point(line) && unknown_code(line).is_none() {
+        write_setting(line, point, state, out, options);
+        return Ok(1);
+    }
     if step == Step::Pass {
         out.push_str(&line.text);
         out.push_str(&line.ending);

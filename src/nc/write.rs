@@ -7,6 +7,7 @@ use super::error::NcError;
 use super::options::Options;
 use super::program::modal::{Motion, State, AXIS_LETTERS, MM_PER_INCH};
 use super::program::parse::{Line, Word};
+use super::program::settings::definite_g10;
 use super::program::tcpm::Tcpm;
 use super::tcpm::vector_decimals;
 
@@ -156,6 +157,54 @@ impl Style {
             self.value_text(target, d, written)
         )
     }
+}
+
+/// Writes a block that names the point where the tool stands anew (G92, G10 L20; already taken
+/// into `state`). The control takes the point it has, the compensated one: each axis value is
+/// moved by the correction there (`point`: the programmed and the written position before the
+/// block), so the shift or offset it sets is the program's (up to half a unit of the last
+/// decimal written). An axis not written since a machine position stands uncorrected.
+pub(super) fn write_setting(
+    line: &Line,
+    point: ([f64; 6], [f64; 6]),
+    state: &mut State,
+    out: &mut String,
+    options: &Options,
+) {
+    let style = Style::numbers(state.inch, options);
+    let (programmed, written) = point;
+    let mut edits: Vec<Edit> = Vec::new();
+    // G92, or G10 L20 of the offset in force: the coordinates the tool is at change now.
+    let g92 = line
+        .words
+        .iter()
+        .any(|w| w.letter == 'G' && w.value == 92.0);
+    let moves_frame = g92 || definite_g10(line) == Some(state.offset);
+    for w in &line.words {
+        let Some(d) = AXIS_LETTERS.iter().position(|&a| a == w.letter) else {
+            continue;
+        };
+        let correction = written[d] - programmed[d];
+        if !correction.is_finite() || !style.changes(written[d], programmed[d], d) {
+            continue;
+        }
+        let value = if d < 3 { w.value * style.unit } else { w.value };
+        let target = style.rounded(value + correction, d);
+        edits.push((
+            w.number.clone(),
+            style.value_text(target, d, &state.written),
+        ));
+        if moves_frame {
+            // Where the control has the tool now: the value as written, rounded.
+            state.written[d] += target - (value + correction);
+        }
+    }
+    let mut text = line.text.clone();
+    for (range, replacement) in edits.iter().rev() {
+        text.replace_range(range.clone(), replacement);
+    }
+    out.push_str(&text);
+    out.push_str(&line.ending);
 }
 
 /// A replacement of bytes of the line's text.

@@ -43,6 +43,7 @@ mod nc_orientation;
 mod nc_posts;
 mod nc_regressions;
 mod nc_rs274;
+mod nc_settings;
 mod nc_singular;
 mod nc_tcpm;
 mod nc_tcpm_refusals;

@@ -28,17 +28,15 @@ fn line_error(result: Result<impl std::fmt::Debug, NcError>) -> (usize, String) 
     }
 }
 
-fn rs274_available() -> bool {
+pub fn rs274_available() -> bool {
     crate::field::tool_available(
         std::process::Command::new("sh").args(["-c", "command -v rs274"]),
         "LinuxCNC's rs274 interpreter",
     )
 }
 
-/// The machine position (X Y Z) at the end of every straight move `rs274` makes of `program`:
-/// its canonical positions are in the coordinates in force, so the work offset and the G92/G52
-/// offset it reports are added.
-fn rs274_machine_points(program: &str) -> Vec<[f64; 3]> {
+/// What `rs274` makes of `program`: its canonical output, run to the end.
+pub fn rs274_canon(program: &str) -> String {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("p.ngc");
     std::fs::write(&file, program).unwrap();
@@ -51,6 +49,14 @@ fn rs274_machine_points(program: &str) -> Vec<[f64; 3]> {
     );
     let canon = std::fs::read_to_string(&canon).unwrap();
     assert!(canon.contains("PROGRAM_END"), "{canon}");
+    canon
+}
+
+/// The machine position (X Y Z) at the end of every straight move `rs274` makes of `program`:
+/// its canonical positions are in the coordinates in force, so the work offset and the G92/G52
+/// offset it reports are added.
+fn rs274_machine_points(program: &str) -> Vec<[f64; 3]> {
+    let canon = rs274_canon(program);
     let numbers = |l: &str| -> Vec<f64> {
         let inner = &l[l.find('(').unwrap() + 1..l.rfind(')').unwrap()];
         inner

@@ -119,3 +119,16 @@ fn a_rotation_about_another_axis_is_refused() {
     let end = traced(about_z)[1].1;
     assert!((end[0] - 8.660254038).abs() < 1e-9 && (end[1] - 5.0).abs() < 1e-9);
 }
+
+/// Words added to a line of one word are spaced (a line of one word has no gap to follow), and
+/// to an unspaced line unspaced.
+#[test]
+fn added_words_follow_the_line_or_take_a_space() {
+    let program = "G90 G21 G17\nG0 X10 Y10 Z10\nG1 X50 F100\nY35.\nG1Y40.\nM30\n";
+    let out = nc::compensate(&machine(), program.as_bytes(), "w.nc", &options()).unwrap();
+    let lines: Vec<&str> = out.text.lines().filter(|l| !l.starts_with('(')).collect();
+    assert!(lines[3].starts_with('Y'), "{}", out.text);
+    assert!(lines[3].contains(" X"), "{}", out.text);
+    assert!(!lines[4].contains(' '), "{}", out.text);
+    assert!(lines[4].contains('X'), "{}", out.text);
+}

@@ -15,9 +15,10 @@
 //! synchronised, stopped or oriented (G74 G76 G84 G86 G87 G88), incremental cycles (G91) and
 //! cycles in another plane are refused.
 
-use super::offsets::{selected, shift, WorkOffsets};
+use super::modal::MM_PER_INCH;
+use super::offsets::{offset_of, selected, shift, WorkOffsets};
 use super::parse::{parse_line, Line};
-use super::settings::is_setting;
+use super::settings::{definite_g10, is_setting};
 use super::subprograms::{Room, BLOCK_WORDS, MAX_EXPANDED_WORDS};
 use super::unknown::unread_names_axis;
 use crate::error::shown;
@@ -54,6 +55,11 @@ struct Scan {
     /// The work offset in force: a change of it moves nothing, so Z where it stands (and a
     /// cycle's initial level) is carried over in machine coordinates (`offsets`).
     offset: u32,
+    /// The work offsets as the program has set them so far (G10), mm; NaN where not known.
+    offsets: WorkOffsets,
+    /// The G92 and G52 shifts of Z in force, mm.
+    g92_z: f64,
+    local_z: f64,
     cycle: Option<Cycle>,
     /// A cycle volmap does not expand, passed with `pass_unknown`: its holes pass too.
     passed_cycle: Option<String>,
@@ -108,6 +114,9 @@ pub(super) fn expand_cycles(
         retract_to_r: false,
         z: None,
         offset: 54,
+        offsets: work_offsets.clone(),
+        g92_z: 0.0,
+        local_z: 0.0,
         cycle: None,
         passed_cycle: None,
     };
@@ -135,8 +144,8 @@ pub(super) fn expand_cycles(
         }
         if let Some(to) = selected(&line) {
             let unit = if scan.inch { 25.4 } else { 1.0 };
-            let dz = shift(work_offsets, scan.offset, to)[2] / unit;
-            scan.z = scan.z.map(|z| z + dz);
+            let dz = shift(&scan.offsets, scan.offset, to)[2] / unit;
+            scan.z = scan.z.map(|z| z + dz).filter(|z| z.is_finite());
             if let Some(cycle) = scan.cycle.as_mut() {
                 cycle.initial += dz;
             }
@@ -229,7 +238,9 @@ pub(super) fn expand_cycles(
             if scan.passed_cycle.is_some() && axis_words {
                 line.unknown = scan.passed_cycle.clone();
             }
-            if g_codes(&line).any(|g| g == 28.0 || g == 30.0 || g == 53.0) || is_setting(&line) {
+            if is_setting(&line) {
+                scan.setting(&line);
+            } else if g_codes(&line).any(|g| g == 28.0 || g == 30.0 || g == 53.0) {
                 if line.has('Z') {
                     scan.z = None;
                 }
@@ -245,6 +256,49 @@ pub(super) fn expand_cycles(
         }
     }
     Ok((out, holes))
+}
+
+impl Scan {
+    /// Z after a setting block (G10 L2/L20, G52, G92, G92.1/.2), in the coordinates it leaves
+    /// in force, as `settings` takes it; not known where the block is one volmap refuses.
+    fn setting(&mut self, line: &Line) {
+        let unit = if self.inch { MM_PER_INCH } else { 1.0 };
+        let code = |c: f64| g_codes(line).any(|g| g == c);
+        let value = line.word('Z').map(|w| w.value);
+        if code(92.1) || code(92.2) {
+            self.z = self.z.map(|z| z + self.g92_z / unit);
+            self.g92_z = 0.0;
+        } else if code(92.0) {
+            if let Some(v) = value {
+                // The point where the tool stands reads as `v`.
+                self.g92_z += self.z.map_or(f64::NAN, |z| (z - v) * unit);
+                self.z = Some(v);
+            }
+        } else if code(52.0) {
+            if let Some(v) = value {
+                self.z = self.z.map(|z| z + self.local_z / unit - v);
+                self.local_z = v * unit;
+            }
+        } else if let (Some(n), Some(v)) = (definite_g10(line), value) {
+            let old = offset_of(&self.offsets, n)[2];
+            let active = n == self.offset;
+            let new = if line.word('L').is_some_and(|w| w.value == 20.0) {
+                // The point where the tool stands reads as `v` in offset `n` (the shifts in
+                // force alike in both).
+                self.z.map_or(f64::NAN, |z| z * unit) + offset_of(&self.offsets, self.offset)[2]
+                    - v * unit
+            } else {
+                v * unit
+            };
+            self.offsets.entry(n).or_insert([0.0; 6])[2] = new;
+            if active {
+                self.z = self.z.map(|z| z + (old - new) / unit);
+            }
+        } else if line.has('Z') {
+            self.z = None;
+        }
+        self.z = self.z.filter(|z| z.is_finite());
+    }
 }
 
 /// The moves of one hole of the cycle in force at `line` (its L or K repeats included).

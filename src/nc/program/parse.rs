@@ -228,12 +228,13 @@ pub(super) fn parse_line(
 }
 
 /// Whether most gaps between neighbouring words hold a space (`G1 X10. Y5.` against
-/// `g1x10.y5.`): words volmap adds are written the same way.
+/// `g1x10.y5.`): words volmap adds are written the same way; a line of one word has no gap to
+/// tell, and takes a space (`Y35. X49.926` rather than `Y35.X49.926`).
 fn spaced_words(body: &str, words: &[Word]) -> bool {
     let gaps = words.windows(2).count();
     let spaced = words
         .windows(2)
         .filter(|pair| body[pair[0].number.end..pair[1].letter_at].contains([' ', '\t']))
         .count();
-    gaps > 0 && 2 * spaced >= gaps
+    gaps == 0 || 2 * spaced >= gaps
 }

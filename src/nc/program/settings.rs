@@ -27,6 +27,12 @@ pub(in crate::nc) fn is_setting(line: &Line) -> bool {
         .any(|&code| g(line, code))
 }
 
+/// Whether the line names the point where the tool stands anew (G92, G10 L20): the control
+/// takes the point it has, so a compensated program must name it as written (`write_setting`).
+pub(in crate::nc) fn names_current_point(line: &Line) -> bool {
+    g(line, 92.0) || g(line, 10.0) && line.word('L').is_some_and(|w| w.value == 20.0)
+}
+
 /// The work offset (54–59) a G10 L2 / L20 sets, where the block is one whose meaning volmap
 /// knows: P1–P6, no rotation R. Tool data (L1, L10, L11) and other offsets are not followed.
 pub(in crate::nc) fn definite_g10(line: &Line) -> Option<u32> {

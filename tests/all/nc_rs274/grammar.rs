@@ -476,7 +476,16 @@ impl Gen<'_> {
             }
             5 if self.on("g92") => {
                 // The current point becomes (0, 0, 0) of the shifted coordinates, and is
-                // left at once; G92.1 ends the shift.
+                // left at once; G92.1 ends the shift. A move naming every axis first: G92
+                // needs where they stand, which a block volmap does not follow may have hidden.
+                let p = self.point(5.0);
+                self.push(format!(
+                    "G90 G1 X{} Y{} Z{} F800",
+                    num(p[0]),
+                    num(p[1]),
+                    num(p[2])
+                ));
+                self.at = p;
                 self.push("G92 X0 Y0 Z0".to_string());
                 let p = self.point(5.0);
                 let q = p - self.at;

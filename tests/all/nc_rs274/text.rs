@@ -7,12 +7,7 @@ use std::collections::HashMap;
 pub fn numbered_lines(program: &str) -> HashMap<u32, String> {
     program
         .lines()
-        .filter_map(|l| {
-            let l = l.trim_start();
-            let rest = l.strip_prefix(['N', 'n'])?;
-            let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
-            Some((digits.parse().ok()?, l.to_ascii_uppercase()))
-        })
+        .filter_map(|l| Some((label(l)?, l.trim_start().to_ascii_uppercase())))
         .collect()
 }
 
@@ -184,4 +179,11 @@ pub fn left_after_homes(program: &str) -> std::collections::HashSet<u32> {
         }
     }
     left
+}
+
+/// The N word a line starts with.
+pub fn label(line: &str) -> Option<u32> {
+    let rest = line.trim_start().strip_prefix(['N', 'n'])?;
+    let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+    digits.parse().ok()
 }
