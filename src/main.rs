@@ -52,6 +52,12 @@ enum Command {
     /// Machine design from tolerances: the error budget (each toleranced term alone at its
     /// limit), Monte Carlo over machines built to the tolerances, tolerance allocation.
     Budget(cli::budget::BudgetArgs),
+    /// Put the shards of a Monte Carlo study (`budget --shard K/M --per-sample FILE.json`)
+    /// together: the statistics one run of all the samples gives.
+    MergeSamples(cli::merge_samples::MergeSamplesArgs),
+    /// Put the shards of a five-axis map (`map --poses … --shard K/M`) into one multi-part
+    /// field: the file one run over every pose writes.
+    MergeMaps(cli::merge_maps::MergeMapsArgs),
     /// Plots: a field slice as a colour map, the deformed workspace grid.
     Plot(cli::plot::PlotArgs),
     /// Rewrite an NC program (ISO 6983 / Fanuc) so the real tool tip lands on the programmed
@@ -83,6 +89,8 @@ fn main() -> ExitCode {
         Command::Fit(args) => cli::fit::run(args),
         Command::Build(args) => cli::build::run(args),
         Command::Budget(args) => cli::budget::run(args),
+        Command::MergeSamples(args) => cli::merge_samples::run(args),
+        Command::MergeMaps(args) => cli::merge_maps::run(args),
         Command::Plot(args) => cli::plot::run(args),
         Command::Compensate(args) => cli::compensate::run(args),
         Command::Trace(args) => cli::trace::run(args),

@@ -9,6 +9,7 @@ use serde_json::{json, Value};
 use volmap::design::allocate::{allocate, Allocation, Target};
 use volmap::design::budget::{budget, Budget};
 use volmap::design::monte_carlo::{check_confidence, check_samples, check_spec, MonteCarlo, Study};
+use volmap::design::shards::{tolerance_text, SampleFile, Shard, StudyKey};
 use volmap::error::excerpt;
 use volmap::io::tolerance_file::ToleranceFile;
 use volmap::model::grid::Grid;
@@ -63,9 +64,19 @@ pub struct BudgetArgs {
     /// Write the tolerance file scaled by the allocated factor here.
     #[arg(long, requires = "allocate")]
     out: Option<PathBuf>,
-    /// Write one CSV row per sampled machine: its statistics, where it is worst, its draws.
+    /// Write one CSV row per sampled machine: its statistics, where it is worst, its draws; or,
+    /// to a .json file, the statistics `merge-samples` reads.
     #[arg(long, requires = "samples")]
     per_sample: Option<PathBuf>,
+    /// Compute only the K-th (from 0) of M equal ranges of the samples (a job of a batch
+    /// scheduler's array), written with --per-sample FILE.json for `merge-samples`.
+    #[arg(
+        long,
+        value_name = "K/M",
+        requires = "per_sample",
+        conflicts_with = "allocate"
+    )]
+    shard: Option<Shard>,
     /// Draw the budget as a bar chart (and the histogram of max |VE| with --samples): .svg or
     /// .png.
     #[arg(long)]
@@ -133,21 +144,43 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
     };
     let mut histogram = None;
     if let Some(samples) = samples {
-        let bar = progress(Some(samples as u64), "sampling", "machines");
+        let range = match args.shard {
+            Some(shard) => shard.range(samples).flag("--shard")?,
+            None => 0..samples,
+        };
+        let bar = progress(Some(range.len() as u64), "sampling", "machines");
         let ones = vec![1.0; tolerances.len()];
-        let stats = study.sample_stats(&engine, samples, &ones, |n| bar.set_position(n as u64));
+        let stats = study.range_stats(&engine, range.clone(), &ones, |n| {
+            bar.set_position(n as u64)
+        });
         bar.finish_and_clear();
         let stats = stats?;
         let monte_carlo = MonteCarlo::of(&stats, args.seed, spec);
         let inputs = machine.inputs.describe(&machine);
+        if let Some(shard) = args.shard {
+            outln!(
+                "Shard {}/{}: samples {}..{} of {samples}",
+                shard.index,
+                shard.count,
+                range.start,
+                range.end
+            );
+            json["shard"] = json!({
+                "index": shard.index, "count": shard.count, "first": range.start, "samples": range.len(),
+            });
+        }
         budget_report::print_monte_carlo(&monte_carlo, engine.name(), &inputs);
         json["monte_carlo"] = budget_report::monte_carlo_json(&monte_carlo);
         // Written once the whole run has succeeded: a failed allocation leaves no file.
         let per_sample = args.per_sample.as_ref().map(|path| {
-            (
-                path,
-                budget_report::per_sample_csv(&machine, &study, &stats),
-            )
+            let text = if path.extension().is_some_and(|e| e == "json") {
+                let key = study_key(&machine, &study, &args, samples, spec);
+                let file = SampleFile::of_fields(key, range.start, &stats);
+                serde_json::to_string_pretty(&file).expect("plain numbers and text") + "\n"
+            } else {
+                budget_report::per_sample_csv(&machine, &study, range.start, &stats)
+            };
+            (path, text)
         });
         histogram = Some((stats.iter().map(|s| s.max_ve_mm).collect::<Vec<_>>(), spec));
         if args.allocate {
@@ -187,6 +220,34 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         write_json(path, &json)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// What every shard of this run shares, for `merge-samples` to check.
+fn study_key(
+    machine: &Machine,
+    study: &Study,
+    args: &BudgetArgs,
+    samples: usize,
+    spec_mm: Option<f64>,
+) -> StudyKey {
+    let inputs = machine.inputs.record(machine);
+    StudyKey {
+        machine: machine.name.clone(),
+        tolerances: study.tolerances.iter().map(tolerance_text).collect(),
+        grid: args.grid.grid,
+        poses: study
+            .grids
+            .iter()
+            .map(|g| pose_name(&g.pose, machine))
+            .collect(),
+        approach: inputs.approach_text(),
+        temperatures: inputs.temperatures_text(),
+        seed: study.seed,
+        samples,
+        spec_mm,
+        part: None,
+        confidence: None,
+    }
 }
 
 /// Which tolerances `--allocate-terms` names (all of them when it names none).

@@ -128,7 +128,12 @@ pub fn monte_carlo_json(mc: &MonteCarlo) -> Value {
 
 /// One row per sampled machine: its statistics, the commanded position of its largest |VE|,
 /// and its amplitude of every tolerance (mm or rad).
-pub fn per_sample_csv(machine: &Machine, study: &Study, stats: &[FieldStats]) -> String {
+pub fn per_sample_csv(
+    machine: &Machine,
+    study: &Study,
+    first: usize,
+    stats: &[FieldStats],
+) -> String {
     let axes = axis_positions(machine, &[0.0; 6]);
     let mut text =
         String::from("sample,max_ve_mm,rms_ve_mm,max_oe_rad,max_ve_x_mm,max_ve_y_mm,max_ve_z_mm");
@@ -140,7 +145,7 @@ pub fn per_sample_csv(machine: &Machine, study: &Study, stats: &[FieldStats]) ->
     }
     text.push('\n');
     let ones = vec![1.0; study.tolerances.len()];
-    for (first, chunk) in (0..).step_by(4096).zip(stats.chunks(4096)) {
+    for (first, chunk) in (first..).step_by(4096).zip(stats.chunks(4096)) {
         let amplitudes = study.amplitudes(first, chunk.len(), &ones);
         for (b, (s, row)) in chunk.iter().zip(&amplitudes).enumerate() {
             let _ = write!(

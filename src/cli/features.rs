@@ -8,13 +8,14 @@ use volmap::io::field::{FieldError, FieldFile, LoadedField};
 use volmap::model::{poses, AxisLetter};
 use volmap::part::{self, ErrorSource, Evaluation, PartFile, Verdict};
 
-use volmap::design::conformance::conformance;
+use volmap::design::conformance::{feature_errors, summarize, FeatureConformance};
 use volmap::design::monte_carlo::{check_confidence, check_samples, Study};
+use volmap::design::shards::{tolerance_text, SampleFile, Shard, StudyKey};
 use volmap::io::tolerance_file::ToleranceFile;
 
 use super::args::{load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{progress, write_json};
+use super::output::{check_distinct_outputs, progress, write_file, write_json};
 
 #[derive(clap::Args)]
 #[command(mut_arg("machine", |a| a.conflicts_with("field")))]
@@ -57,6 +58,13 @@ pub struct FeaturesArgs {
     /// The seed of the draws: the same seed gives the same machines on every device.
     #[arg(long, default_value_t = 0, requires = "tolerances")]
     seed: u64,
+    /// Compute only the K-th (from 0) of M equal ranges of the samples (a job of a batch
+    /// scheduler's array), written with --per-sample FILE.json for `merge-samples`.
+    #[arg(long, value_name = "K/M", requires = "per_sample")]
+    shard: Option<Shard>,
+    /// Write every feature's error on every sampled machine here (JSON), for `merge-samples`.
+    #[arg(long, requires = "tolerances")]
+    per_sample: Option<PathBuf>,
     #[command(flatten)]
     device: DeviceArg,
     #[command(flatten)]
@@ -206,16 +214,57 @@ fn run_conformance(
         grids: &[],
         seed: args.seed,
     };
-    let bar = progress(Some(samples as u64), "evaluating", "machines");
-    let rows = conformance(&engine, &study, part, part_name, samples, confidence, |n| {
+    let range = match args.shard {
+        Some(shard) => shard.range(samples).flag("--shard")?,
+        None => 0..samples,
+    };
+    if let Some(path) = &args.per_sample {
+        check_distinct_outputs(&[
+            ("--per-sample", Some(path.as_path())),
+            ("--json", args.json.json.as_deref()),
+        ])?;
+    }
+    let bar = progress(Some(range.len() as u64), "evaluating", "machines");
+    let result = feature_errors(&engine, &study, part, part_name, range.clone(), |n| {
         bar.set_position(n as u64)
     });
     bar.finish_and_clear();
-    let rows = rows?;
+    let (nominal, errors) = result?;
+    let per_sample = args.per_sample.as_ref().map(|path| {
+        let key = StudyKey {
+            machine: machine.name.clone(),
+            tolerances: file.tolerances.iter().map(tolerance_text).collect(),
+            grid: [0; 3],
+            poses: Vec::new(),
+            approach: machine.inputs.record(&machine).approach_text(),
+            temperatures: machine.inputs.record(&machine).temperatures_text(),
+            seed: args.seed,
+            samples,
+            spec_mm: None,
+            part: Some(part_name.to_string()),
+            confidence: Some(confidence),
+        };
+        let file = SampleFile::of_features(key, range.start, nominal.clone(), errors.clone());
+        (
+            path,
+            serde_json::to_string_pretty(&file).expect("plain numbers and text") + "\n",
+        )
+    });
+    let rows = summarize(nominal, errors, confidence);
+    if let Some(shard) = args.shard {
+        outln!(
+            "Shard {}/{}: samples {}..{} of {samples}",
+            shard.index,
+            shard.count,
+            range.start,
+            range.end
+        );
+    }
     outln!(
-        "{} ({} features) on {samples} machines built to {} around {} at {} (seed {}), VE and OE on the {}; fit where at least {:.1}% conform",
+        "{} ({} features) on {} machines built to {} around {} at {} (seed {}), VE and OE on the {}; fit where at least {:.1}% conform",
         part.name,
         rows.len(),
+        range.len(),
         tolerances.display(),
         machine.name,
         inputs_words(&machine),
@@ -223,6 +272,22 @@ fn run_conformance(
         engine.name(),
         100.0 * confidence
     );
+    print_conformance(&rows);
+    if let Some((path, text)) = per_sample {
+        write_file(path, |out| out.write_all(text.as_bytes())).flag("--per-sample")?;
+        errln!("per-sample: {}", path.display());
+    }
+    if let Some(path) = &args.json.json {
+        write_json(path, &rows)?;
+    }
+    if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
+        return Ok(ExitCode::from(3));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The table of the features over the samples.
+pub fn print_conformance(rows: &[FeatureConformance]) {
     outln!(
         "  {:<24} {:<18} {:>12} {:>12} {:>12} {:>12} {:>11} {:>17}  verdict",
         "feature",
@@ -234,7 +299,7 @@ fn run_conformance(
         "conforming",
         "95% CI"
     );
-    for r in &rows {
+    for r in rows {
         outln!(
             "  {:<24} {:<18} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>10.2}% {:>17}  {}",
             r.name,
@@ -256,13 +321,6 @@ fn run_conformance(
             }
         );
     }
-    if let Some(path) = &args.json.json {
-        write_json(path, &rows)?;
-    }
-    if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
-        return Ok(ExitCode::from(3));
-    }
-    Ok(ExitCode::SUCCESS)
 }
 
 /// The inputs the machine is evaluated at, in words.

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use volmap::design::shards::Shard;
 use volmap::engine::map::{self, CheckResult, FieldStats, MapOptions};
 use volmap::engine::EngineError;
 use volmap::gpu::GpuError;
@@ -13,7 +14,7 @@ use volmap::model::Machine;
 use super::args::{
     sweep_grids, DefaultMachineArg, DeviceArg, GridArg, InputsArg, PoseArg, PosesArg,
 };
-use super::failure::Failure;
+use super::failure::{Failure, FlagContext};
 use super::output::progress;
 use super::sweep;
 
@@ -27,6 +28,10 @@ pub struct MapArgs {
     pose: PoseArg,
     #[command(flatten)]
     poses: PosesArg,
+    /// With --poses: map only the K-th (from 0) of M equal ranges of the poses (a job of a
+    /// batch scheduler's array); `merge-maps` puts the files together.
+    #[arg(long, value_name = "K/M", requires = "poses")]
+    shard: Option<Shard>,
     #[command(flatten)]
     inputs: InputsArg,
     /// The field file to write.
@@ -90,6 +95,21 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     // The machine at the evaluation inputs: the field records them.
     let (machine, _) = args.inputs.machine_at(&loaded)?;
     let sweep = sweep_grids(&machine, &args.grid, &args.pose, &args.poses)?;
+    let sweep = match args.shard {
+        Some(shard) => {
+            let range = shard.range(sweep.len()).flag("--shard")?;
+            outln!(
+                "Shard {}/{}: poses {}..{} of {}",
+                shard.index,
+                shard.count,
+                range.start,
+                range.end,
+                sweep.len()
+            );
+            sweep[range].to_vec()
+        }
+        None => sweep,
+    };
     let grid = sweep[0].clone();
     let grids = args.poses.poses.is_some().then_some(sweep);
     if args

@@ -61,6 +61,8 @@ pub mod info;
 pub mod interrupt;
 pub mod machines;
 pub mod map;
+pub mod merge_maps;
+pub mod merge_samples;
 pub mod output;
 pub mod plot;
 pub mod reference;

@@ -97,8 +97,17 @@ pub fn write_file(
 
 /// Writes `value` as pretty JSON to the file `--json` names.
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), Failure> {
+    write_json_for(path, value, "--json")
+}
+
+/// Writes `value` as pretty JSON to the file `flag` names.
+pub fn write_json_for(
+    path: &Path,
+    value: &impl serde::Serialize,
+    flag: &str,
+) -> Result<(), Failure> {
     let text = serde_json::to_string_pretty(value).map_err(Failure::work)?;
-    write_file(path, |out| writeln!(out, "{text}")).flag("--json")
+    write_file(path, |out| writeln!(out, "{text}")).flag(flag)
 }
 
 /// Writes a plot (SVG or PNG by the extension) and says where.

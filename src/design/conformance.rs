@@ -49,7 +49,34 @@ pub fn conformance(
     confidence: f64,
     on_progress: impl Fn(usize) + Sync,
 ) -> Result<Vec<FeatureConformance>, DesignError> {
-    if samples == 0 {
+    let (nominal, errors) = feature_errors(engine, study, part, file, 0..samples, on_progress)?;
+    Ok(summarize(nominal, errors, confidence))
+}
+
+/// A feature on the nominal machine (the machine file as it is): what the summary over the
+/// samples reports beside them.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NominalFeature {
+    pub name: String,
+    pub kind: String,
+    pub tolerance_mm: f64,
+    pub error_mm: f64,
+    pub safety: Option<f64>,
+    pub worst_point: [f64; 3],
+}
+
+/// Every feature's error on the samples of `range` (a shard's, or all): `errors[f][n]` is
+/// feature `f`'s on sample `range.start + n`, the same as in a run of all of them.
+pub fn feature_errors(
+    engine: &Engine,
+    study: &Study,
+    part: &PartFile,
+    file: &str,
+    range: std::ops::Range<usize>,
+    on_progress: impl Fn(usize) + Sync,
+) -> Result<(Vec<NominalFeature>, Vec<Vec<f64>>), DesignError> {
+    if range.is_empty() {
         return Err(DesignError::NoSamples);
     }
     let nominal = part::evaluate(part, part::ErrorSource::Exact(study.machine), file)?;
@@ -71,10 +98,9 @@ pub fn conformance(
     };
     let scale = vec![1.0; study.tolerances.len()];
     let batch = (VALUES_PER_BATCH / commands.len().max(1)).clamp(1, 4096);
-    // errors[f][b]: feature f's error on sample b.
-    let mut errors: Vec<Vec<f64>> = vec![Vec::with_capacity(samples); nominal.len()];
-    for first in (0..samples).step_by(batch) {
-        let count = batch.min(samples - first);
+    let mut errors: Vec<Vec<f64>> = vec![Vec::with_capacity(range.len()); nominal.len()];
+    for first in range.clone().step_by(batch) {
+        let count = batch.min(range.end - first);
         let rows = amplitude_rows(study.tolerances, &scale, study.seed, first as u64, count);
         let values = engine.variant_values(&variants, &rows, &commands, |_| {})?;
         let results: Vec<Vec<FeatureResult>> = values
@@ -86,9 +112,30 @@ pub fn conformance(
                 errors[f].push(r.error_mm);
             }
         }
-        on_progress(first + count);
+        on_progress(first + count - range.start);
     }
-    Ok(nominal
+    let nominal = nominal
+        .into_iter()
+        .map(|n| NominalFeature {
+            name: n.name,
+            kind: n.kind,
+            tolerance_mm: n.tolerance_mm,
+            error_mm: n.error_mm,
+            safety: n.safety,
+            worst_point: n.worst_point,
+        })
+        .collect();
+    Ok((nominal, errors))
+}
+
+/// Each feature over its errors on the samples: percentiles, the fraction within tolerance and
+/// the verdict at `confidence`.
+pub fn summarize(
+    nominal: Vec<NominalFeature>,
+    errors: Vec<Vec<f64>>,
+    confidence: f64,
+) -> Vec<FeatureConformance> {
+    nominal
         .into_iter()
         .zip(errors)
         .map(|(n, mut e)| {
@@ -102,7 +149,7 @@ pub fn conformance(
                 error_mm: n.error_mm,
                 safety: n.safety,
                 worst_point: n.worst_point,
-                samples,
+                samples: e.len(),
                 error_p50_mm: percentile(&e, 50.0),
                 error_p95_mm: percentile(&e, 95.0),
                 conforming_fraction: fraction.fraction,
@@ -114,5 +161,5 @@ pub fn conformance(
                 },
             }
         })
-        .collect())
+        .collect()
 }

@@ -13,6 +13,7 @@ pub mod budget;
 pub mod conformance;
 pub mod draws;
 pub mod monte_carlo;
+pub mod shards;
 pub mod summary;
 
 use crate::engine::EngineError;

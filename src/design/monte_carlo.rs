@@ -44,7 +44,19 @@ impl Study<'_> {
         scale: &[f64],
         on_progress: impl Fn(usize) + Sync,
     ) -> Result<Vec<FieldStats>, DesignError> {
-        if samples == 0 {
+        self.range_stats(engine, 0..samples, scale, on_progress)
+    }
+
+    /// The statistics of the samples of `range` (a shard's): each sample's the same as in a run
+    /// of all of them, its draws being counter-based.
+    pub fn range_stats(
+        &self,
+        engine: &Engine,
+        range: std::ops::Range<usize>,
+        scale: &[f64],
+        on_progress: impl Fn(usize) + Sync,
+    ) -> Result<Vec<FieldStats>, DesignError> {
+        if range.is_empty() {
             return Err(DesignError::NoSamples);
         }
         let perturbations = self.perturbations();
@@ -52,9 +64,9 @@ impl Study<'_> {
             base: self.machine,
             perturbations: &perturbations,
         };
-        let mut stats = Vec::with_capacity(samples);
-        for first in (0..samples).step_by(HOST_BATCH) {
-            let count = HOST_BATCH.min(samples - first);
+        let mut stats = Vec::with_capacity(range.len());
+        for first in range.clone().step_by(HOST_BATCH) {
+            let count = HOST_BATCH.min(range.end - first);
             let rows = amplitude_rows(self.tolerances, scale, self.seed, first as u64, count);
             let done = stats.len();
             stats.extend(

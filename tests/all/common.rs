@@ -184,6 +184,18 @@ pub fn rs274(program: &std::path::Path, canon: &std::path::Path) -> std::process
         .expect("rs274 starts")
 }
 
+/// The numbers of a canonical call `rs274` prints (`STRAIGHT_FEED(1.0000, 2.0000, …)`), in
+/// order; words that are not numbers are left out.
+pub fn canon_numbers(line: &str) -> Vec<f64> {
+    let (Some(open), Some(close)) = (line.find('('), line.rfind(')')) else {
+        return Vec::new();
+    };
+    line[open + 1..close.max(open + 1)]
+        .split([',', ' '])
+        .filter_map(|n| n.trim().parse().ok())
+        .collect()
+}
+
 /// The machine file `tests/fixtures/NAME.toml`, a machine several tests share.
 pub fn fixture_path(name: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -69,12 +69,7 @@ fn g92_and_g10_l20_agree_with_rs274() {
         canon
             .lines()
             .filter(|l| l.contains("SET_G92_OFFSET(") || l.contains("SET_G5X_OFFSET("))
-            .map(|l| {
-                l[l.find('(').unwrap() + 1..l.rfind(')').unwrap()]
-                    .split(',')
-                    .map(|n| n.trim().parse().unwrap())
-                    .collect()
-            })
+            .map(crate::common::canon_numbers)
             .collect()
     };
     let (original, compensated) = (offsets(program), offsets(&out.text));

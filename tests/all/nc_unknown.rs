@@ -57,13 +57,7 @@ pub fn rs274_canon(program: &str) -> String {
 /// offset it reports are added.
 fn rs274_machine_points(program: &str) -> Vec<[f64; 3]> {
     let canon = rs274_canon(program);
-    let numbers = |l: &str| -> Vec<f64> {
-        let inner = &l[l.find('(').unwrap() + 1..l.rfind(')').unwrap()];
-        inner
-            .split(',')
-            .filter_map(|n| n.trim().parse().ok())
-            .collect()
-    };
+    let numbers = crate::common::canon_numbers;
     let (mut g5x, mut g92) = ([0.0; 3], [0.0; 3]);
     let mut points = Vec::new();
     for l in canon.lines() {

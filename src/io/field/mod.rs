@@ -39,6 +39,7 @@ mod encode;
 mod header;
 mod inputs;
 mod loaded;
+mod merge;
 mod pipeline;
 mod prepare;
 mod read;
@@ -46,6 +47,7 @@ mod write;
 
 pub use blocks::{compress_on_one_thread, Compression, Storage, HALF_MAX};
 pub use loaded::{field_memory_bytes, GridCell, LoadedField, FIELD_MEMORY_BYTES};
+pub use merge::merge_parts;
 pub use pipeline::WriteTimes;
 pub use read::{FieldFile, FieldReader};
 pub use write::{FieldWriter, PartsWriter};
@@ -62,6 +64,9 @@ pub enum FieldError {
     File(#[from] FileError),
     #[error("{path}: not a volmap field: {what}")]
     Format { path: String, what: String },
+    /// Fields that are not the shards of one sweep, to merge.
+    #[error("{path}: {what}")]
+    NotOneSweep { path: String, what: String },
     #[error("{path}: lines must arrive in order: expected line {expected}, got {got}")]
     OutOfOrder {
         path: String,
@@ -124,6 +129,7 @@ impl Classify for FieldError {
         match self {
             FieldError::File(e) => e.kind(),
             FieldError::Format { .. }
+            | FieldError::NotOneSweep { .. }
             | FieldError::Poses { .. }
             | FieldError::NoPose { .. }
             | FieldError::Inputs { .. }

@@ -182,6 +182,16 @@ impl FieldFile {
         }
     }
 
+    /// How part `part` stores its values, where volmap writes that storage (`none`, `zip`,
+    /// `pxr24`, FLOAT or HALF); `None` for a compression it only reads.
+    pub fn stored(&self, part: usize) -> Option<super::Storage> {
+        let stored = &self.parts[part];
+        Some(super::Storage {
+            compression: super::Compression::parse(&compression_name(stored.code))?,
+            half: stored.half,
+        })
+    }
+
     /// The evaluation inputs part `part` was computed for.
     pub fn inputs(&self, part: usize) -> &InputsRecord {
         &self.parts[part].info.inputs

@@ -160,10 +160,7 @@ fn linuxcnc_runs_the_orientation_compensated_program() {
     let moves: Vec<Vec<f64>> = canon
         .lines()
         .filter(|l| l.contains("STRAIGHT_"))
-        .map(|l| {
-            let args = &l[l.find('(').unwrap() + 1..l.rfind(')').unwrap()];
-            args.split(',').map(|v| v.trim().parse().unwrap()).collect()
-        })
+        .map(crate::common::canon_numbers)
         .collect();
     let written: Vec<[f64; 2]> = text
         .lines()

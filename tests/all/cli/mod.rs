@@ -28,6 +28,7 @@ mod profile_datums;
 mod query;
 mod refusals;
 mod sample;
+mod shards;
 mod standards;
 mod standards_frames;
 mod sweep;

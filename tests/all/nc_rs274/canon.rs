@@ -144,11 +144,7 @@ pub fn read(canon: &str) -> Result<Vec<Move>, String> {
             continue;
         };
         let args = args.trim_end_matches(')');
-        let numbers = || -> Vec<f64> {
-            args.split([',', ' '])
-                .filter_map(|a| a.trim().parse::<f64>().ok())
-                .collect()
-        };
+        let numbers = || crate::common::canon_numbers(call);
         match name {
             "USE_LENGTH_UNITS" if !args.contains("MM") => {
                 return Err(format!("inch programs are not read here: {line}"))
