@@ -3,6 +3,8 @@
 //! per line, two 4×4 products per point, and the ideal machine alongside. Used where no adapter
 //! exists and when the CPU is asked for.
 
+mod folded;
+
 use nalgebra::Matrix4;
 
 use super::CPU_CHUNK_POINTS;
@@ -37,8 +39,8 @@ pub struct CpuPlan {
     tail_real: Transform,
     tail_ideal: Transform,
     /// A machine with errors of other axes' positions, whose axes cannot be tabulated per grid
-    /// value of their own: evaluated point by point with the reference.
-    per_point: Option<Box<Twin>>,
+    /// value of their own: tabulated over the dimensions each reads instead ([`folded`]).
+    folded: Option<Box<folded::FoldedPlan>>,
 }
 
 impl CpuPlan {
@@ -78,18 +80,22 @@ impl CpuPlan {
             axes,
             tail_real: reference::spindle_and_tool(machine),
             tail_ideal: reference::spindle_and_tool(twin.ideal()),
-            per_point: machine
+            folded: machine
                 .has_cross_axis_errors()
-                .then(|| Box::new(twin.clone())),
+                .then(|| Box::new(folded::FoldedPlan::new(machine, grid))),
         }
     }
 
     /// Computes lines `first_line .. first_line + lines` into `out` (`lines · 6 · nx` values).
     pub fn compute_lines(&self, first_line: u64, lines: u64, out: &mut [f32]) {
-        if let Some(twin) = &self.per_point {
-            return super::reference::reference_lines(twin, &self.grid, first_line, lines, out);
-        }
         let nx = self.grid.dims[0];
+        if let Some(plan) = &self.folded {
+            return super::par_lines(&self.grid, first_line, lines, out, |jk, line_out| {
+                plan.line(jk, |i, real, ideal| {
+                    write_point(line_out, nx, i, real, ideal)
+                })
+            });
+        }
         super::par_lines(&self.grid, first_line, lines, out, |[j, k], line_out| {
             let ijk = [0, j, k];
             let (mut pre_r, mut pre_i) = (Transform::identity(), Transform::identity());
@@ -114,14 +120,19 @@ impl CpuPlan {
                     }
                     None => (pre_r * post_r, pre_i * post_i),
                 };
-                let ve = real.fixed_view::<3, 1>(0, 3) - ideal.fixed_view::<3, 1>(0, 3);
-                let r = real.fixed_view::<3, 3>(0, 0) * ideal.fixed_view::<3, 3>(0, 0).transpose();
-                let oe = reference::rotation_vector(&r);
-                for (c, v) in [oe.x, oe.y, oe.z, ve.x, ve.y, ve.z].iter().enumerate() {
-                    line_out[c * nx + i] = *v as f32;
-                }
+                write_point(line_out, nx, i, &real, &ideal);
             }
         });
+    }
+}
+
+/// Point `i`'s OE and VE, from its real and ideal transforms, into a line of the chunk layout.
+fn write_point(line_out: &mut [f32], nx: usize, i: usize, real: &Transform, ideal: &Transform) {
+    let ve = real.fixed_view::<3, 1>(0, 3) - ideal.fixed_view::<3, 1>(0, 3);
+    let r = real.fixed_view::<3, 3>(0, 0) * ideal.fixed_view::<3, 3>(0, 0).transpose();
+    let oe = reference::rotation_vector(&r);
+    for (c, v) in [oe.x, oe.y, oe.z, ve.x, ve.y, ve.z].iter().enumerate() {
+        line_out[c * nx + i] = *v as f32;
     }
 }
 
