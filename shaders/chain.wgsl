@@ -44,7 +44,7 @@ struct Params {
     grid: vec4<u32>,         // nx, ny, nz, number of axes
     counts: vec4<u32>,       // axis-value entries, group entries (each per sample), perturbation terms, samples in the batch
     chunk: vec4<u32>,        // first line of the chunk, lines in the chunk, points per lane, lanes per line group
-    group_starts: vec4<u32>, // first entry of PA, PB, QA, QB in the group values
+    group_starts: vec4<u32>, // first entry of PA, PB, QA, QB in the group values (folded.wgsl: the span first, end)
     x_motion: vec4<f32>,     // tq at the centre index, tq per index step, centre index (t = i − centre), -
     x_translation: array<vec4<f32>, 4>,  // EXX EYX EZX as polynomials in t: c0..c3 (xyz)
     x_rotation: array<vec4<f32>, 4>,     // EAX EBX ECX likewise
@@ -292,51 +292,65 @@ fn command_q(c: Command, index: u32) -> f32 {
     return c.rotary[min(index, 5u) - 3u];
 }
 
-// Which terms of an error value to evaluate: all of them, those that vary along a grid line in
-// X, or those constant along it.
-const TERMS_ALL: u32 = 0u;
-const TERMS_ALONG_X: u32 = 1u;
-const TERMS_ACROSS_X: u32 = 2u;
+// Which terms of an error value to evaluate: all of them, or those that read exactly the grid
+// dimensions of a mask (bit d: grid dimension d; see term_dims).
+const TERMS_ALL: u32 = 0xffffffffu;
 
-// Whether term `f` of an error of the axis with letter index `own` varies along X: it reads X's
-// commanded position, as its (first) argument, or as a two-axis table's second.
-fn term_varies_along_x(f: Function, own: u32) -> bool {
+// The bit of the grid dimension that drives the axis with letter index `letter` (X Y Z: 0..2);
+// none for a rotary axis, which stands at its pose.
+fn dim_bit(letter: u32) -> u32 {
+    if letter < 3u {
+        return 1u << letter;
+    }
+    return 0u;
+}
+
+// The grid dimensions term `f` of an error of the axis with letter index `own` reads: its
+// argument's (the axis's own position, or another's), and a two-axis table's second.
+fn term_dims(f: Function, own: u32) -> u32 {
     let arg = (f.pieces.z >> FUNCTION_ARG_SHIFT) & 15u;
     var first = own;
     if arg != 0u {
         first = arg - 1u;
     }
+    var dims = dim_bit(first);
     if (f.pieces.z & FUNCTION_TABLE2D) != 0u {
         let arg2 = (f.pieces.z >> FUNCTION_ARG2_SHIFT) & 15u;
-        return first == 0u || max(arg2, 1u) - 1u == 0u;
+        dims = dims | dim_bit(max(arg2, 1u) - 1u);
     }
-    return first == 0u;
+    return dims;
 }
 
 // Error function `index` of an error of axis `own` at its own position q with every axis at
-// `c`, over the terms `which` selects (TERMS_*): each term of a sum reads its own argument.
+// `c`, over the terms `which` selects (TERMS_ALL, or a mask of grid dimensions): each term of a
+// sum reads its own argument.
 fn eval_terms_at(index: u32, q: f32, c: Command, own: u32, which: u32) -> f32 {
     var total = 0.0;
     var next = index;
     while next != NO_FUNCTION {
         let f = functions[next];
         next = f.pieces.w;
-        if which != TERMS_ALL && term_varies_along_x(f, own) != (which == TERMS_ALONG_X) {
+        if which != TERMS_ALL && term_dims(f, own) != which {
             continue;
         }
-        let arg = (f.pieces.z >> FUNCTION_ARG_SHIFT) & 15u;
-        var x = q;
-        if arg != 0u {
-            x = command_q(c, arg - 1u);
-        }
-        if (f.pieces.z & FUNCTION_TABLE2D) != 0u {
-            let arg2 = (f.pieces.z >> FUNCTION_ARG2_SHIFT) & 15u;
-            total = total + eval_table2d(f, x, command_q(c, max(arg2, 1u) - 1u));
-        } else {
-            total = total + eval_pieces(f, x);
-        }
+        total = total + eval_term(f, q, c);
     }
     return total;
+}
+
+// One term `f` of an error value at its axis's own position q with every axis at `c`: it reads
+// its own argument.
+fn eval_term(f: Function, q: f32, c: Command) -> f32 {
+    let arg = (f.pieces.z >> FUNCTION_ARG_SHIFT) & 15u;
+    var x = q;
+    if arg != 0u {
+        x = command_q(c, arg - 1u);
+    }
+    if (f.pieces.z & FUNCTION_TABLE2D) != 0u {
+        let arg2 = (f.pieces.z >> FUNCTION_ARG2_SHIFT) & 15u;
+        return eval_table2d(f, x, command_q(c, max(arg2, 1u) - 1u));
+    }
+    return eval_pieces(f, x);
 }
 
 // An axis's six component errors at q: translations and angles.
@@ -353,7 +367,7 @@ fn component_errors(a: AxisData, q: f32) -> array<vec3<f32>, 2> {
 }
 
 // The six component errors of axis `a` at q with every axis at `command`, over the terms
-// `which` selects (TERMS_*).
+// `which` selects (TERMS_ALL, or those that read exactly a mask of grid dimensions).
 fn component_terms_at(a: AxisData, q: f32, command: Command, which: u32) -> array<vec3<f32>, 2> {
     let own = a.functions_b.z;
     return array<vec3<f32>, 2>(

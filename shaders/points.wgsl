@@ -283,7 +283,11 @@ fn comes_first(a: f32, at_a: vec2<u32>, b: f32, at_b: vec2<u32>) -> bool {
 }
 
 fn accumulate(acc: ptr<function, Accumulator>, line: u32, i: u32, line_terms: LineTerms, x: XValues) {
-    let e = point_errors(line_terms, x);
+    accumulate_errors(acc, line, i, point_errors(line_terms, x));
+}
+
+// Adds the point (line, i) with errors e = (OE, VE) to what the invocation has seen.
+fn accumulate_errors(acc: ptr<function, Accumulator>, line: u32, i: u32, e: array<vec3<f32>, 2>) {
     let ve2 = dot(e[1], e[1]);
     let ve = sqrt(ve2);
     if comes_first(ve, vec2<u32>(line, i), (*acc).stats.x, (*acc).at) {
@@ -329,6 +333,13 @@ fn points_reduce_main(
             }
         }
     }
+    write_partial(wid, lid, groups_in, sample, acc);
+}
+
+// Combines the accumulators of a workgroup's invocations and has its first invocation write them
+// to `partials`, at the workgroup's place among the `groups_in.x · groups_in.y` of `sample`.
+// Every invocation of the workgroup must call it (it holds barriers).
+fn write_partial(wid: vec3<u32>, lid: vec3<u32>, groups_in: vec3<u32>, sample: u32, acc: Accumulator) {
     wg_stats[lid.x] = acc.stats;
     wg_axes[lid.x] = acc.axes;
     wg_at[lid.x] = acc.at;

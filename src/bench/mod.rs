@@ -169,8 +169,8 @@ pub fn bench_machine(
     let runs = runs.max(1);
     // The GPU kernels first, before any file is written: the kernel's flushing of written files
     // would compete with them for the cores lavapipe runs on.
-    // A machine with errors of other axes' positions maps point by point (no folded kernel, no
-    // ceiling to hold it against): its GPU rows are the map's own.
+    // A machine with errors of other axes' positions maps with its own kernel (folded.wgsl,
+    // timed with its readback; no ceiling row): its GPU rows are the map's own.
     let cross_axis = machine.has_cross_axis_errors();
     let gpu = match engine {
         Engine::Gpu(gpu) if !cross_axis => Some(paths::bench_gpu_kernels(

@@ -34,9 +34,10 @@ pub(super) fn bench_monte_carlo(
     let cpu = Engine::Cpu;
     let mut engines = vec![(&cpu, "CPU engine Monte Carlo")];
     if let Engine::Gpu(_) = engine {
-        // A machine with errors of other axes' positions: each sample mapped point by point.
+        // A machine with errors of other axes' positions: its errors tabulated per sample in parts
+        // (src/gpu/chain/folded.rs).
         let name = if machine.has_cross_axis_errors() {
-            "GPU Monte Carlo, per point"
+            "GPU Monte Carlo, errors of other axes"
         } else {
             "GPU Monte Carlo"
         };

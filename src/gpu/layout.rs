@@ -37,9 +37,8 @@ pub const SAMPLE_VALUES: u32 = 6;
 pub const SHAPE_CONSTANT: u32 = 0;
 pub const SHAPE_LINE: u32 = 1;
 pub const SHAPE_BOW: u32 = 2;
-/// The points of a grid line one invocation of `grid_runs_main` (the per-point map sharing
-/// the axes that do not vary along X) takes.
-pub const GRID_RUN: u32 = 64;
+/// The most axes `folded_main` composes at every point (a machine's axes).
+pub const SPAN_AXES: u32 = 6;
 /// Flags of a [`Function`] (`pieces[2]`): periodic, a two-axis table, and where the argument
 /// axes stand (4 bits each: 0 the error's own axis, else the commanded axis's index + 1).
 pub const FUNCTION_PERIODIC: u32 = 1;
@@ -48,6 +47,8 @@ pub const FUNCTION_ARG_SHIFT: u32 = 4;
 pub const FUNCTION_ARG2_SHIFT: u32 = 8;
 /// [`Term::info`]`[0]` of a term that deviates no component error (a location or the spindle).
 pub const TERM_NO_AXIS: u32 = u32::MAX;
+/// `which` of `component_terms_at`: every term (else a mask of the grid dimensions read).
+pub const TERMS_ALL: u32 = u32::MAX;
 /// The constant factors of each machine in the `constants` buffer: X's location, S·Trans(tool).
 pub const CONSTANT_X_LOCATION: u32 = 0;
 pub const CONSTANT_TAIL: u32 = 1;
@@ -61,7 +62,7 @@ pub enum Shared {
 }
 
 /// Every constant the shaders share with this file, by its WGSL name.
-pub const SHARED_CONSTANTS: [(&str, Shared); 26] = [
+pub const SHARED_CONSTANTS: [(&str, Shared); 27] = [
     ("WORKGROUP_SIZE", Shared::U32(WORKGROUP_SIZE)),
     ("NO_FUNCTION", Shared::U32(NO_FUNCTION)),
     ("KIND_LINEAR", Shared::U32(KIND_LINEAR)),
@@ -80,7 +81,6 @@ pub const SHARED_CONSTANTS: [(&str, Shared); 26] = [
     ("SHAPE_LINE", Shared::U32(SHAPE_LINE)),
     ("SHAPE_BOW", Shared::U32(SHAPE_BOW)),
     ("TERM_NO_AXIS", Shared::U32(TERM_NO_AXIS)),
-    ("GRID_RUN", Shared::U32(GRID_RUN)),
     ("FUNCTION_PERIODIC", Shared::U32(FUNCTION_PERIODIC)),
     ("FUNCTION_TABLE2D", Shared::U32(FUNCTION_TABLE2D)),
     ("FUNCTION_ARG_SHIFT", Shared::U32(FUNCTION_ARG_SHIFT)),
@@ -88,10 +88,12 @@ pub const SHARED_CONSTANTS: [(&str, Shared); 26] = [
     ("CONSTANT_X_LOCATION", Shared::U32(CONSTANT_X_LOCATION)),
     ("CONSTANT_TAIL", Shared::U32(CONSTANT_TAIL)),
     ("CONSTANTS_PER_SAMPLE", Shared::U32(CONSTANTS_PER_SAMPLE)),
+    ("SPAN_AXES", Shared::U32(SPAN_AXES)),
+    ("TERMS_ALL", Shared::U32(TERMS_ALL)),
 ];
 
 /// The size of every struct a shader reads or writes through a buffer, by its WGSL name.
-pub const STRUCT_SIZES: [(&str, usize); 13] = [
+pub const STRUCT_SIZES: [(&str, usize); 14] = [
     ("Params", std::mem::size_of::<Params>()),
     ("AxisData", std::mem::size_of::<AxisData>()),
     ("Function", std::mem::size_of::<Function>()),
@@ -105,6 +107,7 @@ pub const STRUCT_SIZES: [(&str, usize); 13] = [
     ("Location", std::mem::size_of::<Location>()),
     ("XPoly", std::mem::size_of::<XPoly>()),
     ("Partial", std::mem::size_of::<Partial>()),
+    ("FoldedPart", std::mem::size_of::<FoldedPart>()),
 ];
 
 /// A 3×3 matrix in the upper-left of a WGSL `mat4x4<f32>`, column-major.
@@ -126,7 +129,8 @@ pub struct Params {
     /// First line of this chunk, lines in this chunk, points per invocation of the point pass,
     /// invocations per group of lines (the point pass's tiling, see `shaders/chain.wgsl`).
     pub chunk: [u32; 4],
-    /// First entry of each group table in the group values: PA, PB (Pre), QA, QB (Post).
+    /// First entry of each group table in the group values: PA, PB (Pre), QA, QB (Post); for
+    /// `folded_main`, the axes `[first, end)` composed at every point, then unused.
     pub group_starts: [u32; 4],
     /// X's nominal motion along x̂ (`q` times X's sense) at the centre index, its step per index,
     /// the centre index (X's polynomials are in `t = i − centre`); w unused.
@@ -362,3 +366,15 @@ pub struct Partial {
     pub at: [u32; 4],
 }
 const _: () = assert!(std::mem::size_of::<Partial>() == 48);
+
+/// One part of an axis's errors, the terms that read the same grid dimensions, tabulated over
+/// them: `struct FoldedPart` in `shaders/folded.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Pod, Zeroable)]
+pub struct FoldedPart {
+    /// First entry, entries, axis (product order), the grid dimensions it reads (bit d).
+    pub table: [u32; 4],
+    /// The entry's step per i, j, k (0 for a dimension the part does not read), unused.
+    pub stride: [u32; 4],
+}
+const _: () = assert!(std::mem::size_of::<FoldedPart>() == 32);

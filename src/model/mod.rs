@@ -75,6 +75,26 @@ impl Axis {
         })
     }
 
+    /// The grid dimensions (0 X, 1 Y, 2 Z) the axis's transform depends on on a grid, in
+    /// increasing order: its own (a linear axis) and those of the linear axes its errors read
+    /// (`of`, `table2d`, `sum`). A rotary axis stands at its pose, so reading it adds none.
+    pub fn grid_dims(&self) -> Vec<usize> {
+        let mut dims: Vec<usize> = std::iter::once(self.letter)
+            .filter(|l| l.is_linear())
+            .chain(
+                self.components
+                    .iter()
+                    .flatten()
+                    .flat_map(|f| f.other_axes()),
+            )
+            .filter(|l| l.is_linear())
+            .map(|l| l.direction_index())
+            .collect();
+        dims.sort_unstable();
+        dims.dedup();
+        dims
+    }
+
     pub fn component_key(&self, n: usize) -> String {
         format!("E{}{}", COMPONENT_NAMES[n], self.letter)
     }

@@ -7,31 +7,11 @@
 
 use nalgebra::Matrix4;
 
-use crate::model::errorfn::ErrorFunction;
 use crate::model::grid::Grid;
 use crate::model::{AxisLetter, Machine};
 use crate::reference::{self, Twin};
 
 type Transform = Matrix4<f64>;
-
-/// The grid dimensions (0 X, 1 Y, 2 Z) an error function reads, besides the axis's own.
-fn read_dims(f: &ErrorFunction, out: &mut Vec<usize>) {
-    match f {
-        ErrorFunction::Sum(terms) => terms.iter().for_each(|t| read_dims(t, out)),
-        ErrorFunction::Of { axis, form } => {
-            push_dim(*axis, out);
-            read_dims(form, out);
-        }
-        ErrorFunction::Table2d(t) => t.axes.iter().for_each(|a| push_dim(*a, out)),
-        _ => {}
-    }
-}
-
-fn push_dim(axis: AxisLetter, out: &mut Vec<usize>) {
-    if axis.is_linear() && !out.contains(&axis.direction_index()) {
-        out.push(axis.direction_index());
-    }
-}
 
 /// One axis's transforms, real and ideal.
 enum AxisTable {
@@ -51,14 +31,7 @@ impl AxisTable {
     fn new(twin: &Twin, letter: AxisLetter, grid: &Grid) -> AxisTable {
         let axis = twin.real().axis(letter).expect("an axis of the machine");
         let ideal_axis = twin.ideal().axis(letter).expect("same axes");
-        let mut dims = Vec::new();
-        if letter.is_linear() {
-            dims.push(letter.direction_index());
-        }
-        for f in axis.components.iter().flatten() {
-            read_dims(f, &mut dims);
-        }
-        dims.sort_unstable();
+        let dims = axis.grid_dims();
         if dims.len() > 2 {
             return AxisTable::PerPoint(letter);
         }

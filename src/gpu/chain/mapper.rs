@@ -78,10 +78,14 @@ pub(super) enum SampledKernel {
     AxisValues,
     Groups,
     Positions,
-    /// The per-point map of a machine with errors of other axes' positions.
-    GridPoints,
-    /// The same, runs of points along X sharing the axes that do not vary along X.
-    GridRuns,
+    /// The tables of the errors of a machine with errors of other axes' positions
+    /// (`folded_values_main`).
+    FoldedValues,
+    /// Its map (`folded_main`): X alone varying along a line or not, the field stored or reduced.
+    Folded {
+        x_alone: bool,
+        reduce: bool,
+    },
     /// The reduce pass of a shape of machine and a tiling.
     Reduce(PointVariant),
 }
@@ -466,7 +470,7 @@ impl GpuMapper {
         mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
     ) -> Result<(), E> {
         if machine.has_cross_axis_errors() {
-            return self.run_per_point(machine, grid, chunk_points, on_chunk);
+            return self.run_folded(machine, grid, chunk_points, on_chunk);
         }
         let prepared = self.prepare(machine, grid, chunk_points, &[self.tiling])?;
         let mut pending: Option<(device::Submission, usize)> = None;

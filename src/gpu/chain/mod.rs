@@ -6,9 +6,9 @@
 //! GPU) and fold the chain on either side of X into at most two tables each; per chunk, one pass
 //! composes each line's products from those tables and evaluates its points.
 
+mod folded;
 mod mapper;
 pub mod pack;
-mod per_point;
 mod positions;
 mod sampled;
 
@@ -22,8 +22,9 @@ use crate::model::Machine;
 
 /// The chain kernel's WGSL source: `shaders/deviation.wgsl` (transforms in deviation form),
 /// `shaders/chain.wgsl` (buffers, the axis and group passes), `shaders/points.wgsl` (the point
-/// pass, its reduce variant, the write-only kernel) and `shaders/positions.wgsl` (the chain at
-/// arbitrary positions), joined in that order.
+/// pass, its reduce variant, the write-only kernel), `shaders/positions.wgsl` (the chain at
+/// arbitrary positions) and `shaders/folded.wgsl` (machines whose errors read other axes),
+/// joined in that order.
 pub const CHAIN_WGSL: &str = concat!(
     include_str!("../../../shaders/deviation.wgsl"),
     "\n",
@@ -31,14 +32,17 @@ pub const CHAIN_WGSL: &str = concat!(
     "\n",
     include_str!("../../../shaders/points.wgsl"),
     "\n",
-    include_str!("../../../shaders/positions.wgsl")
+    include_str!("../../../shaders/positions.wgsl"),
+    "\n",
+    include_str!("../../../shaders/folded.wgsl")
 );
 /// The files [`CHAIN_WGSL`] is joined from, in order, in `shaders/`.
-pub const CHAIN_WGSL_FILES: [&str; 4] = [
+pub const CHAIN_WGSL_FILES: [&str; 5] = [
     "deviation.wgsl",
     "chain.wgsl",
     "points.wgsl",
     "positions.wgsl",
+    "folded.wgsl",
 ];
 /// Bytes of output per grid point: six f32 channels.
 pub const BYTES_PER_POINT: u64 = (CHANNELS.len() * 4) as u64;

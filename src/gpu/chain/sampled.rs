@@ -33,7 +33,7 @@ pub(super) struct Base {
     /// X's six errors of the base machine as polynomials in the grid index (f64), where each is
     /// one; [0; 4] for the others (their table is used).
     x_polynomials: [[f64; 4]; 6],
-    terms: Vec<Term>,
+    pub(super) terms: Vec<Term>,
     /// The sum of the base machine's angular errors over the grid (see
     /// [`super::check_error_angles`]), and for each perturbation the most it adds per unit of
     /// amplitude.
@@ -112,9 +112,9 @@ impl Base {
 
 /// The per-sample data of one batch.
 pub(super) struct BatchData {
-    amplitudes: Vec<f32>,
-    locations: Vec<Location>,
-    constants: Vec<DevData>,
+    pub(super) amplitudes: Vec<f32>,
+    pub(super) locations: Vec<Location>,
+    pub(super) constants: Vec<DevData>,
     x_polys: Vec<XPoly>,
 }
 
@@ -127,8 +127,14 @@ impl GpuMapper {
             SampledKernel::AxisValues => ("axis_values_sampled_main", Vec::new()),
             SampledKernel::Groups => ("groups_sampled_main", Vec::new()),
             SampledKernel::Positions => ("positions_main", Vec::new()),
-            SampledKernel::GridPoints => ("grid_points_main", Vec::new()),
-            SampledKernel::GridRuns => ("grid_runs_main", Vec::new()),
+            SampledKernel::FoldedValues => ("folded_values_main", Vec::new()),
+            SampledKernel::Folded { x_alone, reduce } => (
+                "folded_main",
+                vec![
+                    ("FOLD_X_ALONE", f64::from(u8::from(x_alone))),
+                    ("FOLD_REDUCE", f64::from(u8::from(reduce))),
+                ],
+            ),
             SampledKernel::Reduce(variant) => ("points_reduce_main", variant.constants().to_vec()),
         };
         self.pipeline(&self.sampled, kernel, entry, &constants)
@@ -333,7 +339,7 @@ impl GpuMapper {
         mut on_batch: impl FnMut(usize),
     ) -> Result<Vec<FieldStats>, GpuError> {
         if machine.has_cross_axis_errors() {
-            return self.variant_stats_per_point(machine, perturbations, rows, grid, on_batch);
+            return self.variant_stats_folded(machine, perturbations, rows, grid, on_batch);
         }
         let base = Base::new(machine, perturbations, grid);
         let nx = grid.dims[0] as u64;
@@ -463,35 +469,57 @@ impl GpuMapper {
                     }),
                 );
                 self.gpu.read(submission, &staging, bytes, |bytes| {
-                    let all: &[Partial] = bytemuck::cast_slice(bytes);
-                    for (s, per_sample) in all.chunks_exact(groups as usize).enumerate() {
-                        let (sample, best) = (&mut batch_stats[s], &mut best[s]);
-                        for p in per_sample {
-                            if p.stats[0] < 0.0 {
-                                continue;
-                            }
-                            let ve = p.stats[0] as f64;
-                            let point = p.at[0] as u64 * nx + p.at[1] as u64;
-                            if comes_first(ve, point, best.0, best.1) {
-                                *best = (ve, point);
-                            }
-                            sample.sum_sq_ve += p.stats[1] as f64;
-                            sample.max_oe_rad = sample.max_oe_rad.max(p.stats[2] as f64);
-                            for (m, v) in sample.max_axis_mm.iter_mut().zip(p.axes) {
-                                *m = m.max(v as f64);
-                            }
-                        }
-                    }
+                    add_partials(
+                        bytemuck::cast_slice(bytes),
+                        groups,
+                        nx,
+                        batch_stats,
+                        &mut best,
+                    )
                 })?;
             }
-            for (sample, (ve, point)) in batch_stats.iter_mut().zip(best) {
-                sample.points = grid.points();
-                sample.max_ve_mm = ve.max(0.0);
-                sample.max_ve_point = if point == u64::MAX { 0 } else { point };
-            }
+            finish_stats(batch_stats, best, grid);
             done += batch_rows.len();
             on_batch(done);
         }
         Ok(stats)
+    }
+}
+
+/// Adds the partials of one chunk, `groups` per sample of the batch, to each sample's
+/// statistics; `best` holds each sample's max |VE| so far and its point.
+pub(super) fn add_partials(
+    all: &[Partial],
+    groups: u64,
+    nx: u64,
+    stats: &mut [FieldStats],
+    best: &mut [(f64, u64)],
+) {
+    for ((per_sample, sample), best) in all.chunks_exact(groups as usize).zip(stats).zip(best) {
+        for p in per_sample {
+            if p.stats[0] < 0.0 {
+                continue;
+            }
+            let ve = p.stats[0] as f64;
+            let point = p.at[0] as u64 * nx + p.at[1] as u64;
+            if comes_first(ve, point, best.0, best.1) {
+                *best = (ve, point);
+            }
+            sample.sum_sq_ve += p.stats[1] as f64;
+            sample.max_oe_rad = sample.max_oe_rad.max(p.stats[2] as f64);
+            for (m, v) in sample.max_axis_mm.iter_mut().zip(p.axes) {
+                *m = m.max(v as f64);
+            }
+        }
+    }
+}
+
+/// Completes each sample's statistics once every chunk is added: its points, its max |VE| and
+/// where.
+pub(super) fn finish_stats(stats: &mut [FieldStats], best: Vec<(f64, u64)>, grid: &Grid) {
+    for (sample, (ve, point)) in stats.iter_mut().zip(best) {
+        sample.points = grid.points();
+        sample.max_ve_mm = ve.max(0.0);
+        sample.max_ve_point = if point == u64::MAX { 0 } else { point };
     }
 }

@@ -1,0 +1,479 @@
+//! The map of a machine whose error values read other axes' positions (`of`, `table2d`, `sum`),
+//! and the statistics of batches of such sampled machines (`shaders/folded.wgsl`). Each term of
+//! an error value reads one or two grid indices (its axis's own, the axes it names), so each
+//! axis's errors are a sum of parts, one per set of grid dimensions its terms read, each
+//! tabulated on the device over exactly those dimensions. The axes that do not vary along a grid
+//! line are composed once per line, and per point only the parts that read i are added. A map is
+//! a batch of one machine without deviations; a batch's fields are reduced on the device.
+//!
+//! The tables of one machine hold, per part, one entry per value of the one or two dimensions it
+//! reads: at most the grid's largest face (NX·NY, NY·NZ or NX·NZ) per part, 32 bytes an entry.
+
+use super::mapper::{GpuMapper, LineTiles, SampledKernel};
+use super::sampled::{add_partials, finish_stats, workgroups, Base};
+use super::{check_error_angles, Tiling, BYTES_PER_POINT};
+use crate::gpu::device::{Buffer, Pass, Readback};
+use crate::gpu::layout::{DevData, FoldedPart, Location, Partial, CONSTANTS_PER_SAMPLE};
+use crate::gpu::GpuError;
+use crate::model::errorfn::ErrorFunction;
+use crate::model::grid::Grid;
+use crate::model::perturbation::Perturbation;
+use crate::model::statistics::FieldStats;
+use crate::model::{AxisLetter, Machine};
+
+/// Bytes of one part's entry of one machine: its six errors in two vec4.
+const ENTRY_BYTES: u64 = 32;
+
+/// The bit of the grid dimension that drives axis `letter`; none for a rotary axis (at its pose).
+fn dim_bit(letter: AxisLetter) -> u32 {
+    if letter.is_linear() {
+        1 << letter.direction_index()
+    } else {
+        0
+    }
+}
+
+/// The grid dimensions term `term` of an error of axis `own` reads (the shader's `term_dims`).
+fn term_dims(term: &ErrorFunction, own: AxisLetter) -> u32 {
+    match term {
+        ErrorFunction::Of { axis, .. } => dim_bit(*axis),
+        ErrorFunction::Table2d(t) => dim_bit(t.axes[0]) | dim_bit(t.axes[1]),
+        _ => dim_bit(own),
+    }
+}
+
+/// Where each part of each axis of a machine stands, and which axes vary along a line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub(super) struct FoldedLayout {
+    pub parts: Vec<FoldedPart>,
+    /// Per axis (product order): first part, parts constant along a line, parts varying.
+    pub axes: Vec<[u32; 4]>,
+    /// Table entries of one machine, every part's together.
+    pub entries: u32,
+    /// The axes `[first, end)` (product order) from the first to the last that varies along a
+    /// grid line: composed at every point; those before and after once per line.
+    pub span: (u32, u32),
+    /// X alone varies along a line: the point pass's formula.
+    pub x_alone: bool,
+}
+
+impl FoldedLayout {
+    pub fn new(machine: &Machine, grid: &Grid) -> FoldedLayout {
+        let order = machine.axes_in_product_order();
+        let mut parts = Vec::new();
+        let mut axes = Vec::new();
+        let mut entries = 0u64;
+        for (n, axis) in order.iter().enumerate() {
+            // The part of the own dimension always: the tolerances' deviations go there.
+            let mut masks = vec![dim_bit(axis.letter)];
+            for f in axis.components.iter().flatten() {
+                for term in f.terms().into_iter().filter(|t| !t.is_zero()) {
+                    masks.push(term_dims(term, axis.letter));
+                }
+            }
+            // Those constant along a line first.
+            masks.sort_unstable_by_key(|m| (m & 1, *m));
+            masks.dedup();
+            let constant = masks.iter().filter(|m| *m & 1 == 0).count() as u32;
+            axes.push([
+                parts.len() as u32,
+                constant,
+                masks.len() as u32 - constant,
+                0,
+            ]);
+            for mask in masks {
+                // i fastest, so that the entries a line reads stand together.
+                let mut stride = [0u32; 4];
+                let mut step = 1u64;
+                for d in (0..3).filter(|d| mask & 1 << d != 0) {
+                    stride[d] = step as u32;
+                    step *= grid.dims[d] as u64;
+                }
+                parts.push(FoldedPart {
+                    table: [entries as u32, step as u32, n as u32, mask],
+                    stride,
+                });
+                entries += step;
+            }
+        }
+        let varies = |n: &usize| axes[*n][2] > 0;
+        let count = order.len();
+        let first = (0..count).find(varies).unwrap_or(count);
+        let end = (0..count).rfind(varies).map_or(first, |last| last + 1);
+        let x_alone = end == first + 1 && order[first].letter == AxisLetter::X;
+        FoldedLayout {
+            parts,
+            axes,
+            entries: entries as u32,
+            span: (first as u32, end as u32),
+            x_alone,
+        }
+    }
+
+    /// Bytes of the tables of one machine.
+    pub fn bytes(&self) -> u64 {
+        self.entries as u64 * ENTRY_BYTES
+    }
+}
+
+/// A machine and its perturbations on the device, with the buffers of one batch.
+struct Folded {
+    base: Base,
+    layout: FoldedLayout,
+    batch: usize,
+    /// Perturbation terms (at least one: the amplitudes' stride).
+    terms: u32,
+    params: Buffer,
+    values_bindings: crate::gpu::device::Bindings,
+    folded_bindings: crate::gpu::device::Bindings,
+    values_kernel: std::sync::Arc<crate::gpu::device::Kernel>,
+    folded_kernel: std::sync::Arc<crate::gpu::device::Kernel>,
+    amplitudes: Buffer,
+    locations: Buffer,
+    constants: Buffer,
+    /// What `folded_main` writes: the chunk's field, or the batch's partials.
+    results: Buffer,
+    staging: Buffer,
+}
+
+/// How one chunk of lines is dispatched: the point pass's tiling with one line per invocation.
+struct ChunkDispatch {
+    tiles: LineTiles,
+    /// Workgroups along a line, line groups.
+    workgroups: [u32; 2],
+}
+
+impl ChunkDispatch {
+    fn of(mapper: &GpuMapper, lines: u64, nx: u64) -> Result<ChunkDispatch, GpuError> {
+        let tiling = Tiling {
+            lines_per_lane: 1,
+            ..mapper.tiling()
+        };
+        let max_groups = mapper.gpu.max_workgroups_per_dimension() as u64;
+        let tiles = LineTiles::of(tiling, nx, max_groups)
+            .filter(|t| t.line_groups(lines) as u64 <= max_groups)
+            .ok_or_else(|| {
+                mapper.error(format!(
+                    "{lines} lines of {nx} points need more workgroups than one dispatch holds"
+                ))
+            })?;
+        Ok(ChunkDispatch {
+            workgroups: [tiles.x_groups, tiles.line_groups(lines)],
+            tiles,
+        })
+    }
+
+    fn groups(&self) -> u64 {
+        self.workgroups[0] as u64 * self.workgroups[1] as u64
+    }
+
+    /// The most lines of `nx` points one dispatch takes.
+    fn max_lines(mapper: &GpuMapper, nx: u64) -> u64 {
+        let max_groups = mapper.gpu.max_workgroups_per_dimension() as u64;
+        ChunkDispatch::of(mapper, 1, nx).map_or(1, |d| max_groups * d.tiles.lines_per_workgroup)
+    }
+}
+
+impl GpuMapper {
+    /// Uploads `machine`, compiles the kernels and sizes the buffers for batches of up to
+    /// `samples` machines whose chunks' results take `result_bytes(batch)`: the field of one
+    /// chunk, or with `reduce` the partials of a batch (`result_bytes(1)` per machine).
+    fn prepare_folded(
+        &self,
+        machine: &Machine,
+        perturbations: &[Perturbation],
+        grid: &Grid,
+        samples: usize,
+        reduce: bool,
+        result_bytes: impl Fn(u64) -> u64,
+    ) -> Result<Folded, GpuError> {
+        let base = Base::new(machine, perturbations, grid);
+        let layout = FoldedLayout::new(machine, grid);
+        let binding = self.gpu.max_storage_binding_bytes();
+        if layout.bytes() > binding {
+            return Err(self.error(format!(
+                "the tables of {}'s errors over this grid take {} bytes, more than one buffer holds ({binding}): use a coarser grid",
+                machine.name,
+                layout.bytes()
+            )));
+        }
+        let terms = perturbations.len().max(1) as u64;
+        let order = base.order.len() as u64;
+        let per_sample = layout.bytes()
+            + order * std::mem::size_of::<Location>() as u64
+            + CONSTANTS_PER_SAMPLE as u64 * std::mem::size_of::<DevData>() as u64
+            + terms * 4
+            + if reduce { result_bytes(1) } else { 0 };
+        let batch = self.batch_size(per_sample).min(samples.max(1));
+        let b = batch as u64;
+        let gpu = &self.gpu;
+        let packed = &base.packed;
+        let params = gpu.uniform("folded params", bytemuck::bytes_of(&packed.params));
+        let axes = gpu.storage("axes", &packed.axes);
+        let functions = gpu.storage("functions", &packed.functions);
+        let pieces = gpu.storage("pieces", &packed.pieces);
+        let coefficients = gpu.storage("coefficients", &packed.coefficients);
+        let terms_buffer = gpu.storage("terms", &base.terms);
+        let folded_parts = gpu.storage("folded parts", &layout.parts);
+        let folded_axes = gpu.storage("folded axes", &layout.axes);
+        let amplitudes = gpu.writable("amplitudes", b * terms * 4);
+        let locations = gpu.writable(
+            "locations",
+            (b * order).max(1) * std::mem::size_of::<Location>() as u64,
+        );
+        let constants = gpu.writable(
+            "constants",
+            b * CONSTANTS_PER_SAMPLE as u64 * std::mem::size_of::<DevData>() as u64,
+        );
+        let x_errors = gpu.output("folded parts' values", (b * layout.bytes()).max(32));
+        let results = gpu.output("folded results", result_bytes(b).max(16));
+        let staging = gpu.staging("folded staging", result_bytes(b).max(16));
+        // The buffer `folded_main` does not write in this mode.
+        let unused = gpu.output("unused", 48);
+        let (out, partials) = if reduce {
+            (&unused, &results)
+        } else {
+            (&results, &unused)
+        };
+        let values_kernel = self.sampled_kernel(SampledKernel::FoldedValues)?;
+        let folded_kernel = self.sampled_kernel(SampledKernel::Folded {
+            x_alone: layout.x_alone,
+            reduce,
+        })?;
+        let values_bindings = gpu.bind(
+            &values_kernel,
+            &[
+                (0, &params),
+                (1, &axes),
+                (2, &functions),
+                (3, &pieces),
+                (4, &coefficients),
+                (8, &x_errors),
+                (12, &terms_buffer),
+                (13, &amplitudes),
+                (19, &folded_parts),
+            ],
+        );
+        let folded_bindings = gpu.bind(
+            &folded_kernel,
+            &[
+                (0, &params),
+                (1, &axes),
+                (7, out),
+                (8, &x_errors),
+                (11, &constants),
+                (14, &locations),
+                (16, partials),
+                (19, &folded_parts),
+                (20, &folded_axes),
+            ],
+        );
+        Ok(Folded {
+            base,
+            layout,
+            batch,
+            terms: terms as u32,
+            params,
+            values_bindings,
+            folded_bindings,
+            values_kernel,
+            folded_kernel,
+            amplitudes,
+            locations,
+            constants,
+            results,
+            staging,
+        })
+    }
+
+    /// Uploads the batch `rows` and fills its tables.
+    fn fold_batch(
+        &self,
+        folded: &Folded,
+        machine: &Machine,
+        perturbations: &[Perturbation],
+        rows: &[Vec<f64>],
+        grid: &Grid,
+    ) -> Result<(), GpuError> {
+        let data = self.batch_data(machine, perturbations, &folded.base, rows, grid)?;
+        let gpu = &self.gpu;
+        gpu.write(&folded.amplitudes, bytemuck::cast_slice(&data.amplitudes));
+        gpu.write(&folded.locations, bytemuck::cast_slice(&data.locations));
+        gpu.write(&folded.constants, bytemuck::cast_slice(&data.constants));
+        let samples = rows.len() as u32;
+        let mut params = folded.base.packed.params;
+        params.counts = [folded.layout.entries, 0, folded.terms, samples];
+        gpu.write(&folded.params, bytemuck::bytes_of(&params));
+        let groups = workgroups(folded.layout.entries as u64) as u64;
+        let rows = groups.div_ceil(gpu.max_workgroups_per_dimension() as u64);
+        gpu.submit(
+            &[Pass {
+                kernel: &folded.values_kernel,
+                bindings: &folded.values_bindings,
+                workgroups: [groups.div_ceil(rows) as u32, rows as u32, samples],
+            }],
+            None,
+        );
+        Ok(())
+    }
+
+    /// Sets the chunk `(first_line, lines)` of `samples` machines and dispatches `folded_main`
+    /// over it, its results copied to the staging buffer.
+    fn submit_folded_chunk(
+        &self,
+        folded: &Folded,
+        (first_line, lines): (u64, u64),
+        samples: u32,
+        result_bytes: u64,
+        grid: &Grid,
+    ) -> Result<crate::gpu::device::Submission, GpuError> {
+        let dispatch = ChunkDispatch::of(self, lines, grid.dims[0] as u64)?;
+        let mut params = folded.base.packed.params;
+        params.counts = [folded.layout.entries, 0, folded.terms, samples];
+        params.chunk = [
+            first_line as u32,
+            lines as u32,
+            dispatch.tiles.points_per_invocation,
+            dispatch.tiles.invocations_per_line_group,
+        ];
+        params.group_starts = [folded.layout.span.0, folded.layout.span.1, 0, 0];
+        self.gpu.write(&folded.params, bytemuck::bytes_of(&params));
+        let submission = self.gpu.submit(
+            &[Pass {
+                kernel: &folded.folded_kernel,
+                bindings: &folded.folded_bindings,
+                workgroups: [dispatch.workgroups[0], dispatch.workgroups[1], samples],
+            }],
+            Some(Readback {
+                from: &folded.results,
+                to: &folded.staging,
+                bytes: result_bytes,
+            }),
+        );
+        Ok(submission)
+    }
+}
+
+impl GpuMapper {
+    /// [`GpuMapper::run`] for a machine with errors of other axes' positions: its tables filled
+    /// once, then chunk after chunk, each read back before the next.
+    pub(super) fn run_folded<E: From<GpuError>>(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        chunk_points: Option<u64>,
+        mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
+    ) -> Result<(), E> {
+        check_error_angles(machine, grid)?;
+        let nx = grid.dims[0] as u64;
+        // A chunk holds whole lines: at least one, whatever is asked, as on the CPU.
+        let device_limit = self.max_chunk_points();
+        let limit = chunk_points.map_or(device_limit, |c| c.max(nx).min(device_limit));
+        if nx > limit {
+            return Err(self
+                .error(format!(
+                    "a line of {nx} points does not fit in one chunk of at most {limit} points"
+                ))
+                .into());
+        }
+        let lines = (limit / nx).clamp(1, ChunkDispatch::max_lines(self, nx));
+        let chunks = grid.chunks(lines * nx);
+        let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
+        let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
+        let folded = self.prepare_folded(machine, &[], grid, 1, false, |_| chunk_bytes)?;
+        self.fold_batch(&folded, machine, &[], &[Vec::new()], grid)?;
+        for chunk in chunks {
+            let bytes = chunk.1 * nx * BYTES_PER_POINT;
+            let submission = self.submit_folded_chunk(&folded, chunk, 1, bytes, grid)?;
+            self.gpu.read(submission, &folded.staging, bytes, |data| {
+                on_chunk(chunk.0, chunk.1, bytemuck::cast_slice(data))
+            })??;
+        }
+        Ok(())
+    }
+
+    /// [`GpuMapper::variant_stats`] for a machine with errors of other axes' positions: batch
+    /// after batch, each sample's tables filled on the device and its field reduced there to
+    /// the partials of its workgroups; nothing per point is read back.
+    pub(super) fn variant_stats_folded(
+        &self,
+        machine: &Machine,
+        perturbations: &[Perturbation],
+        rows: &[Vec<f64>],
+        grid: &Grid,
+        mut on_batch: impl FnMut(usize),
+    ) -> Result<Vec<FieldStats>, GpuError> {
+        let nx = grid.dims[0] as u64;
+        let chunks = grid.chunks(ChunkDispatch::max_lines(self, nx) * nx);
+        let mut most_groups = 1;
+        for &(_, lines) in &chunks {
+            most_groups = most_groups.max(ChunkDispatch::of(self, lines, nx)?.groups());
+        }
+        let partial = std::mem::size_of::<Partial>() as u64;
+        let folded =
+            self.prepare_folded(machine, perturbations, grid, rows.len(), true, |batch| {
+                batch * most_groups * partial
+            })?;
+        let mut stats = vec![FieldStats::default(); rows.len()];
+        let mut done = 0;
+        for batch_rows in rows.chunks(folded.batch) {
+            self.fold_batch(&folded, machine, perturbations, batch_rows, grid)?;
+            let samples = batch_rows.len();
+            let batch_stats = &mut stats[done..done + samples];
+            let mut best: Vec<(f64, u64)> = vec![(-1.0, u64::MAX); samples];
+            for &chunk in &chunks {
+                let groups = ChunkDispatch::of(self, chunk.1, nx)?.groups();
+                let bytes = samples as u64 * groups * partial;
+                let submission =
+                    self.submit_folded_chunk(&folded, chunk, samples as u32, bytes, grid)?;
+                self.gpu.read(submission, &folded.staging, bytes, |data| {
+                    add_partials(
+                        bytemuck::cast_slice(data),
+                        groups,
+                        nx,
+                        batch_stats,
+                        &mut best,
+                    )
+                })?;
+            }
+            finish_stats(batch_stats, best, grid);
+            done += samples;
+            on_batch(done);
+        }
+        Ok(stats)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::embedded;
+
+    #[test]
+    fn the_gantrys_errors_fold_into_parts_of_the_dimensions_they_read() {
+        // FFXYZ: EAX reads Y, every other error of X its own position; EZY sums a table of Y
+        // and a table of Y and Z; Z reads only Z.
+        let machine = embedded::load("gantry-2m").unwrap();
+        let grid = Grid::full_travel(&machine, [5, 7, 3], [0.0; 6]).unwrap();
+        let layout = FoldedLayout::new(&machine, &grid);
+        let masks: Vec<u32> = layout.parts.iter().map(|p| p.table[3]).collect();
+        assert_eq!(masks, [0b010, 0b001, 0b010, 0b110, 0b100]);
+        assert_eq!(layout.axes, [[0, 1, 1, 0], [2, 2, 0, 0], [4, 1, 0, 0]]);
+        let entries: Vec<u32> = layout.parts.iter().map(|p| p.table[1]).collect();
+        assert_eq!(entries, [7, 5, 7, 21, 3]);
+        assert_eq!(layout.parts[3].stride, [0, 1, 7, 0]);
+        assert_eq!(layout.entries, 43);
+        assert_eq!((layout.span, layout.x_alone), ((0, 1), true));
+        // A sag of Y with X makes Y vary along a line too: X and Y are composed per point.
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/machines/gantry-2m.toml"
+        ))
+        .unwrap()
+        .replace("of = [\"Y\", \"Z\"]", "of = [\"X\", \"Y\"]");
+        let sagging = Machine::from_toml(&text, "gantry.toml", None).unwrap();
+        let layout = FoldedLayout::new(&sagging, &grid);
+        assert_eq!((layout.span, layout.x_alone), ((0, 2), false));
+        assert_eq!(layout.axes[1], [2, 1, 1, 0]);
+    }
+}
