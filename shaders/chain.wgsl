@@ -433,7 +433,7 @@ fn add_deviations(base: array<vec3<f32>, 2>, n: u32, sample: u32, q: f32) -> arr
 fn axis_transform_with(a: AxisData, location: Location, errors: array<vec3<f32>, 2>, q: f32) -> Dev {
     let location_m = mat3x3<f32>(location.m[0].xyz, location.m[1].xyz, location.m[2].xyz);
     let located = Dev(IDENTITY3, a.offset.xyz, location_m, location.delta.xyz);
-    let error = Dev(IDENTITY3, vec3<f32>(0.0), rot_deviation(errors[1]), errors[0]);
+    let error = Dev(IDENTITY3, vec3<f32>(0.0), tiny_rot_deviation(errors[1]), errors[0]);
     if a.info.x == KIND_LINEAR {
         let motion = Dev(IDENTITY3, q * a.unit.xyz, ZERO3, vec3<f32>(0.0));
         return compose(compose(located, motion), error);

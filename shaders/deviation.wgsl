@@ -12,8 +12,6 @@
 //
 // This file is joined in front of chain.wgsl (src/gpu/chain/mod.rs, CHAIN_WGSL).
 
-const HALF_PI_HI: f32 = 1.5707963705062866;     // f32(π/2)
-const HALF_PI_LO: f32 = -4.371139000186243e-8;  // π/2 − HALF_PI_HI
 const RAD_PER_DEG: f32 = 0.017453292519943295;
 
 // A transform as nominal part and deviation: [(I + m)·r0, t0 + d].
@@ -61,12 +59,6 @@ fn sincos_deg(q: f32) -> vec2<f32> {
     return sincos_quadrant(sincos_reduced((q - n * 90.0) * RAD_PER_DEG), n);
 }
 
-fn sincos_rad(x: f32) -> vec2<f32> {
-    let n = round(x / HALF_PI_HI);
-    let r = (x - n * HALF_PI_HI) - n * HALF_PI_LO;
-    return sincos_quadrant(sincos_reduced(r), n);
-}
-
 // The elementary rotation about coordinate axis `axis` (0 x, 1 y, 2 z) minus I, from (sin, cos − 1).
 fn rot_minus_identity_about(axis: u32, s: f32, cm1: f32) -> mat3x3<f32> {
     switch axis {
@@ -74,21 +66,6 @@ fn rot_minus_identity_about(axis: u32, s: f32, cm1: f32) -> mat3x3<f32> {
         case 1u: { return mat3x3<f32>(vec3<f32>(cm1, 0.0, -s), vec3<f32>(0.0), vec3<f32>(s, 0.0, cm1)); }
         default: { return mat3x3<f32>(vec3<f32>(cm1, s, 0.0), vec3<f32>(-s, cm1, 0.0), vec3<f32>(0.0)); }
     }
-}
-
-// Rx(angle) − I etc. with cos − 1 = −2 sin²(angle/2), exact for tiny angles.
-fn small_rotation(axis: u32, angle: f32) -> mat3x3<f32> {
-    let half = sincos_rad(0.5 * angle).x;
-    return rot_minus_identity_about(axis, sincos_rad(angle).x, -2.0 * half * half);
-}
-
-// Rot(a, b, c) − I = (I + Mx)(I + My)(I + Mz) − I, kept small.
-fn rot_deviation(e: vec3<f32>) -> mat3x3<f32> {
-    let mx = small_rotation(0u, e.x);
-    let my = small_rotation(1u, e.y);
-    let mz = small_rotation(2u, e.z);
-    let mxy = mx + my + mx * my;
-    return mxy + mz + mxy * mz;
 }
 
 // (sin x, cos x − 1) for error angles below 0.1 rad (checked on the host), by Taylor series that

@@ -10,6 +10,7 @@
 
 mod monte_carlo;
 mod paths;
+mod plain;
 mod table;
 mod timing;
 
@@ -18,6 +19,7 @@ use std::path::Path;
 use serde::Serialize;
 
 pub use paths::{describe_tiling, WARM_UP_SECONDS};
+pub use plain::{plain_counterpart, PLAIN_SUFFIX};
 pub use table::table;
 pub use timing::Spread;
 
@@ -91,6 +93,17 @@ pub struct MachineResult {
     /// The disk ceiling in megabytes (10⁶) per second, its median run.
     pub disk_mb_per_s: f64,
     pub paths: Vec<PathResult>,
+    /// For a machine with errors of other axes' positions: on each path measured with its
+    /// plain counterpart too (rows named with [`PLAIN_SUFFIX`]), the machine's rate over the
+    /// counterpart's.
+    pub against_plain: Vec<PlainRatio>,
+}
+
+/// A path's rate over that of the same machine with plain tables.
+#[derive(Debug, Clone, Serialize)]
+pub struct PlainRatio {
+    pub path: String,
+    pub ratio: f64,
 }
 
 /// A whole `volmap bench` run: where it ran and what each machine measured.
@@ -170,7 +183,8 @@ pub fn bench_machine(
     // The GPU kernels first, before any file is written: the kernel's flushing of written files
     // would compete with them for the cores lavapipe runs on.
     // A machine with errors of other axes' positions maps with its own kernel (folded.wgsl,
-    // timed with its readback; no ceiling row): its GPU rows are the map's own.
+    // timed with its readback; no ceiling row): its GPU rows are the map's own, and the same
+    // paths are measured on its plain counterpart beside them (plain.rs).
     let cross_axis = machine.has_cross_axis_errors();
     let gpu = match engine {
         Engine::Gpu(gpu) if !cross_axis => Some(paths::bench_gpu_kernels(
@@ -249,6 +263,22 @@ pub fn bench_machine(
         runs,
         &mut on_step,
     )?);
+    let mut against_plain = Vec::new();
+    if cross_axis {
+        let (plain_rows, ratios) = plain::bench_plain(
+            machine,
+            grid,
+            engine,
+            (&maps, reference_points),
+            &rows,
+            &mut on_step,
+        )?;
+        rows.extend(plain_rows);
+        against_plain = ratios
+            .into_iter()
+            .map(|(path, ratio)| PlainRatio { path, ratio })
+            .collect();
+    }
     let ceiling = gpu.as_ref().map(|g| g.ceiling);
     let reference_rate = rows[0].points as f64 / Spread::of(&rows[0].seconds).median;
     let gpu_kernel = gpu.as_ref().map(|g| (g.kernel_s, g.readback_s));
@@ -265,6 +295,7 @@ pub fn bench_machine(
         ceiling_tiling: gpu.as_ref().map(|g| g.ceiling_tiling.clone()),
         disk_mb_per_s,
         paths,
+        against_plain,
     })
 }
 

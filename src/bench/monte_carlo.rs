@@ -37,7 +37,7 @@ pub(super) fn bench_monte_carlo(
         // A machine with errors of other axes' positions: its errors tabulated per sample in parts
         // (src/gpu/chain/folded.rs).
         let name = if machine.has_cross_axis_errors() {
-            "GPU Monte Carlo, errors of other axes"
+            "GPU Monte Carlo, other axes"
         } else {
             "GPU Monte Carlo"
         };

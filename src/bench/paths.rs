@@ -115,7 +115,7 @@ pub(super) fn bench_gpu_per_point(
     runs: usize,
     on_step: &mut impl FnMut(&str),
 ) -> Result<Row, BenchError> {
-    on_step("GPU kernel of errors of other axes + readback");
+    on_step("GPU map passes + readback");
     let map = |grid: &Grid| {
         gpu.run(machine, grid, None, |_, _, data| -> Result<(), GpuError> {
             std::hint::black_box(data);
@@ -134,7 +134,7 @@ pub(super) fn bench_gpu_per_point(
         seconds.push(s);
     }
     Ok(Row::new(
-        "GPU kernel of errors of other axes + readback",
+        "GPU map passes + readback",
         grid.points(),
         seconds,
     ))

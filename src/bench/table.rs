@@ -20,7 +20,7 @@ pub fn table(report: &BenchReport) -> String {
     );
     for m in &report.machines {
         out.push_str(&format!(
-            "\n{} ({}), grid {}x{}x{}{}; disk ceiling {:.0} MB/s\n  {:<44} {:>10} {:>19} {:>11} {:>8} {:>8}\n",
+            "\n{} ({}), grid {}x{}x{}{}; disk ceiling {:.0} MB/s\n  {:<52} {:>10} {:>19} {:>11} {:>8} {:>8}\n",
             m.machine,
             m.chain,
             m.grid[0],
@@ -45,6 +45,17 @@ pub fn table(report: &BenchReport) -> String {
                 "  Monte Carlo rows count machine-points (machines × grid points), each machine's statistics reduced where it is computed\n",
             );
         }
+        if !m.against_plain.is_empty() {
+            let ratios: Vec<String> = m
+                .against_plain
+                .iter()
+                .map(|r| format!("{} {:.2}×", r.path, r.ratio))
+                .collect();
+            out.push_str(&format!(
+                "  against the same machine with plain tables (errors of other axes made errors of the axis's own position): {}\n",
+                ratios.join("; ")
+            ));
+        }
         if let (Some(kernel), Some(ceiling)) = (&m.kernel_tiling, &m.ceiling_tiling) {
             out.push_str(&format!(
                 "  tilings: GPU kernel {kernel}; ceiling (the fastest write-only) {ceiling}\n"
@@ -57,7 +68,7 @@ pub fn table(report: &BenchReport) -> String {
 fn row(p: &PathResult) -> String {
     let percent = |f: Option<f64>| f.map_or(String::new(), |f| format!("{:.0}%", f * 100.0));
     let mut line = format!(
-        "  {:<44} {:>10.2} {:>19} {:>11.1} {:>8} {:>8}\n",
+        "  {:<52} {:>10.2} {:>19} {:>11.1} {:>8} {:>8}\n",
         p.path,
         p.mpts_per_s,
         format!("({:.2}–{:.2})", p.mpts_per_s_min, p.mpts_per_s_max),

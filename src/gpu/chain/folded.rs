@@ -125,15 +125,22 @@ struct Folded {
     terms: u32,
     params: Buffer,
     values_bindings: crate::gpu::device::Bindings,
-    folded_bindings: crate::gpu::device::Bindings,
+    /// The chunks in flight at once: each its parameters, results and their bindings.
+    slots: Vec<Slot>,
     values_kernel: std::sync::Arc<crate::gpu::device::Kernel>,
     folded_kernel: std::sync::Arc<crate::gpu::device::Kernel>,
     amplitudes: Buffer,
     locations: Buffer,
     constants: Buffer,
-    /// What `folded_main` writes: the chunk's field, or the batch's partials.
+}
+
+/// One chunk in flight: its parameters, what `folded_main` writes (the chunk's field, or the
+/// batch's partials) and where it is read back.
+struct Slot {
+    params: Buffer,
     results: Buffer,
     staging: Buffer,
+    bindings: crate::gpu::device::Bindings,
 }
 
 /// How one chunk of lines is dispatched: the point pass's tiling with one line per invocation.
@@ -183,7 +190,7 @@ impl GpuMapper {
         machine: &Machine,
         perturbations: &[Perturbation],
         grid: &Grid,
-        samples: usize,
+        (samples, slots): (usize, usize),
         reduce: bool,
         result_bytes: impl Fn(u64) -> u64,
     ) -> Result<Folded, GpuError> {
@@ -226,15 +233,8 @@ impl GpuMapper {
             b * CONSTANTS_PER_SAMPLE as u64 * std::mem::size_of::<DevData>() as u64,
         );
         let x_errors = gpu.output("folded parts' values", (b * layout.bytes()).max(32));
-        let results = gpu.output("folded results", result_bytes(b).max(16));
-        let staging = gpu.staging("folded staging", result_bytes(b).max(16));
         // The buffer `folded_main` does not write in this mode.
         let unused = gpu.output("unused", 48);
-        let (out, partials) = if reduce {
-            (&unused, &results)
-        } else {
-            (&results, &unused)
-        };
         let values_kernel = self.sampled_kernel(SampledKernel::FoldedValues)?;
         let folded_kernel = self.sampled_kernel(SampledKernel::Folded {
             x_alone: layout.x_alone,
@@ -254,20 +254,38 @@ impl GpuMapper {
                 (19, &folded_parts),
             ],
         );
-        let folded_bindings = gpu.bind(
-            &folded_kernel,
-            &[
-                (0, &params),
-                (1, &axes),
-                (7, out),
-                (8, &x_errors),
-                (11, &constants),
-                (14, &locations),
-                (16, partials),
-                (19, &folded_parts),
-                (20, &folded_axes),
-            ],
-        );
+        let slots = (0..slots.max(1))
+            .map(|_| {
+                let params = gpu.uniform("folded chunk params", bytemuck::bytes_of(&packed.params));
+                let results = gpu.output("folded results", result_bytes(b).max(16));
+                let staging = gpu.staging("folded staging", result_bytes(b).max(16));
+                let (out, partials) = if reduce {
+                    (&unused, &results)
+                } else {
+                    (&results, &unused)
+                };
+                let bindings = gpu.bind(
+                    &folded_kernel,
+                    &[
+                        (0, &params),
+                        (1, &axes),
+                        (7, out),
+                        (8, &x_errors),
+                        (11, &constants),
+                        (14, &locations),
+                        (16, partials),
+                        (19, &folded_parts),
+                        (20, &folded_axes),
+                    ],
+                );
+                Slot {
+                    params,
+                    results,
+                    staging,
+                    bindings,
+                }
+            })
+            .collect();
         Ok(Folded {
             base,
             layout,
@@ -275,14 +293,12 @@ impl GpuMapper {
             terms: terms as u32,
             params,
             values_bindings,
-            folded_bindings,
+            slots,
             values_kernel,
             folded_kernel,
             amplitudes,
             locations,
             constants,
-            results,
-            staging,
         })
     }
 
@@ -318,10 +334,11 @@ impl GpuMapper {
     }
 
     /// Sets the chunk `(first_line, lines)` of `samples` machines and dispatches `folded_main`
-    /// over it, its results copied to the staging buffer.
+    /// over it in slot `slot`, its results copied to the slot's staging buffer.
     fn submit_folded_chunk(
         &self,
         folded: &Folded,
+        slot: &Slot,
         (first_line, lines): (u64, u64),
         samples: u32,
         result_bytes: u64,
@@ -337,16 +354,16 @@ impl GpuMapper {
             dispatch.tiles.invocations_per_line_group,
         ];
         params.group_starts = [folded.layout.span.0, folded.layout.span.1, 0, 0];
-        self.gpu.write(&folded.params, bytemuck::bytes_of(&params));
+        self.gpu.write(&slot.params, bytemuck::bytes_of(&params));
         let submission = self.gpu.submit(
             &[Pass {
                 kernel: &folded.folded_kernel,
-                bindings: &folded.folded_bindings,
+                bindings: &slot.bindings,
                 workgroups: [dispatch.workgroups[0], dispatch.workgroups[1], samples],
             }],
             Some(Readback {
-                from: &folded.results,
-                to: &folded.staging,
+                from: &slot.results,
+                to: &slot.staging,
                 bytes: result_bytes,
             }),
         );
@@ -356,7 +373,7 @@ impl GpuMapper {
 
 impl GpuMapper {
     /// [`GpuMapper::run`] for a machine with errors of other axes' positions: its tables filled
-    /// once, then chunk after chunk, each read back before the next.
+    /// once, then chunk after chunk, each read back while the next computes.
     pub(super) fn run_folded<E: From<GpuError>>(
         &self,
         machine: &Machine,
@@ -380,14 +397,25 @@ impl GpuMapper {
         let chunks = grid.chunks(lines * nx);
         let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
-        let folded = self.prepare_folded(machine, &[], grid, 1, false, |_| chunk_bytes)?;
+        let folded = self.prepare_folded(machine, &[], grid, (1, 2), false, |_| chunk_bytes)?;
         self.fold_batch(&folded, machine, &[], &[Vec::new()], grid)?;
-        for chunk in chunks {
+        let mut deliver = |submission, slot: &Slot, (first, lines): (u64, u64)| {
+            let bytes = lines * nx * BYTES_PER_POINT;
+            self.gpu.read(submission, &slot.staging, bytes, |data| {
+                on_chunk(first, lines, bytemuck::cast_slice(data))
+            })?
+        };
+        let mut pending = None;
+        for (n, &chunk) in chunks.iter().enumerate() {
+            let slot = &folded.slots[n % folded.slots.len()];
             let bytes = chunk.1 * nx * BYTES_PER_POINT;
-            let submission = self.submit_folded_chunk(&folded, chunk, 1, bytes, grid)?;
-            self.gpu.read(submission, &folded.staging, bytes, |data| {
-                on_chunk(chunk.0, chunk.1, bytemuck::cast_slice(data))
-            })??;
+            let submission = self.submit_folded_chunk(&folded, slot, chunk, 1, bytes, grid)?;
+            if let Some((previous, slot, chunk)) = pending.replace((submission, slot, chunk)) {
+                deliver(previous, slot, chunk)?;
+            }
+        }
+        if let Some((previous, slot, chunk)) = pending {
+            deliver(previous, slot, chunk)?;
         }
         Ok(())
     }
@@ -410,10 +438,14 @@ impl GpuMapper {
             most_groups = most_groups.max(ChunkDispatch::of(self, lines, nx)?.groups());
         }
         let partial = std::mem::size_of::<Partial>() as u64;
-        let folded =
-            self.prepare_folded(machine, perturbations, grid, rows.len(), true, |batch| {
-                batch * most_groups * partial
-            })?;
+        let folded = self.prepare_folded(
+            machine,
+            perturbations,
+            grid,
+            (rows.len(), 1),
+            true,
+            |batch| batch * most_groups * partial,
+        )?;
         let mut stats = vec![FieldStats::default(); rows.len()];
         let mut done = 0;
         for batch_rows in rows.chunks(folded.batch) {
@@ -424,9 +456,10 @@ impl GpuMapper {
             for &chunk in &chunks {
                 let groups = ChunkDispatch::of(self, chunk.1, nx)?.groups();
                 let bytes = samples as u64 * groups * partial;
+                let slot = &folded.slots[0];
                 let submission =
-                    self.submit_folded_chunk(&folded, chunk, samples as u32, bytes, grid)?;
-                self.gpu.read(submission, &folded.staging, bytes, |data| {
+                    self.submit_folded_chunk(&folded, slot, chunk, samples as u32, bytes, grid)?;
+                self.gpu.read(submission, &slot.staging, bytes, |data| {
                     add_partials(
                         bytemuck::cast_slice(data),
                         groups,

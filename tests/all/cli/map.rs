@@ -372,3 +372,81 @@ fn a_gpu_map_without_a_window_system_prints_no_error() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!stderr.to_lowercase().contains("error"), "{stderr}");
 }
+
+#[test]
+fn bench_holds_a_machine_with_errors_of_other_axes_against_its_plain_counterpart() {
+    // gantry-2m: a roll of X with Y, a sag of Y with Z. Its counterpart reads its own axes only:
+    // EAX the same polynomial of X's position, EZY the table of Y without the table of Y and Z.
+    let machine = volmap::io::embedded::load("gantry-2m").unwrap();
+    let plain = volmap::bench::plain_counterpart(&machine);
+    assert!(machine.has_cross_axis_errors() && !plain.has_cross_axis_errors());
+    let x = plain.axis(volmap::model::AxisLetter::X).unwrap();
+    let y = plain.axis(volmap::model::AxisLetter::Y).unwrap();
+    let (eax, ezy) = (
+        x.components[3].as_ref().unwrap(),
+        y.components[2].as_ref().unwrap(),
+    );
+    for q in [0.0, 700.0, 2000.0] {
+        assert!(
+            (eax.eval(q) - (4.0e-6 - 4.0e-9 * q)).abs() < 1e-18,
+            "EAX at {q}"
+        );
+    }
+    // The table of Y alone: 0.008 at its middle node; the table of Y and Z gave -0.012 more at Z 0.
+    assert!((ezy.eval(1000.0) - 0.008).abs() < 1e-15);
+    let on_y_and_z = machine
+        .axis(volmap::model::AxisLetter::Y)
+        .unwrap()
+        .components[2]
+        .as_ref()
+        .unwrap()
+        .eval_at(1000.0, &[0.0, 1000.0, 0.0, 0.0, 0.0, 0.0]);
+    assert!((on_y_and_z - (0.008 - 0.012)).abs() < 1e-15);
+
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    volmap()
+        .args(["bench", "--machines", "gantry-2m", "--grid", "8x6x4"])
+        .args(["--reference-points", "50", "--runs", "2", "--json"])
+        .arg(&json)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "against the same machine with plain tables",
+        ));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let m = &report["machines"][0];
+    let names: Vec<&str> = m["paths"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p["path"].as_str().unwrap())
+        .collect();
+    let mut expected = vec!["CPU engine, f64", "CPU engine Monte Carlo"];
+    if report["adapter"].is_string() {
+        expected.extend([
+            "GPU map passes + readback",
+            "map to EXR, GPU, none",
+            "GPU Monte Carlo",
+        ]);
+    }
+    let ratios = m["against_plain"].as_array().unwrap();
+    assert_eq!(ratios.len(), expected.len(), "{ratios:?}");
+    for stem in expected {
+        let own = names
+            .iter()
+            .filter(|n| n.starts_with(stem) && !n.ends_with("(plain tables)"))
+            .count();
+        let plain = names
+            .iter()
+            .filter(|n| n.starts_with(stem) && n.ends_with("(plain tables)"))
+            .count();
+        assert_eq!((own, plain), (1, 1), "{stem} in {names:?}");
+        let ratio = ratios
+            .iter()
+            .find(|r| r["path"].as_str().unwrap().starts_with(stem))
+            .unwrap_or_else(|| panic!("no ratio for {stem}: {ratios:?}"));
+        assert!(ratio["ratio"].as_f64().unwrap() > 0.0, "{ratio}");
+    }
+}
