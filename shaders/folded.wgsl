@@ -13,9 +13,10 @@
 //                  first and after the last that vary along the line (the span [first, end),
 //                  params.group_starts.xy) are composed once per invocation into Pre and Post,
 //                  and the parts of the span's axes that do not read i summed once; per point,
-//                  only the parts that read i are added. Where X alone varies along a line, a
-//                  point costs what it costs in the point pass (points.wgsl): the line's terms
-//                  and X's errors; otherwise the span's axes are composed at every point.
+//                  only the parts that read i are added. Where X alone varies along a line, its
+//                  parts are summed once per map over the dimensions they read (folded_x_main),
+//                  and a point costs what it costs in the point pass (points.wgsl): the line's
+//                  terms and X's errors; otherwise the span's axes are composed at every point.
 //
 // The field is stored in the chunk layout of the point pass, or with FOLD_REDUCE each sample's
 // points are reduced to their statistics in `partials` (workgroup (x, line group, sample)), so
@@ -32,7 +33,8 @@ struct FoldedPart {
 
 @group(0) @binding(19) var<storage, read> folded_parts: array<FoldedPart>;
 // Per axis (product order): its first part, then its parts that do not read i, then those that
-// do: (first part, parts constant along a line, parts varying along it, -).
+// do; and for X where it alone varies along a line, its whole errors tabulated over the one or
+// two dimensions its parts read (folded_x_main), as part `w − 1` (0: none).
 @group(0) @binding(20) var<storage, read> folded_axes: array<vec4<u32>>;
 
 // X alone varies along a line: the point pass's formula with X's errors from its parts.
@@ -54,7 +56,8 @@ fn folded_values_main(
 ) {
     let entry = gid.x + gid.y * groups_in.x * WORKGROUP_SIZE;
     let sample = gid.z;
-    if entry >= params.counts.x || sample >= params.counts.w {
+    // counts.y: the entries of the parts (X's whole errors, after them, are folded_x_main's).
+    if entry >= params.counts.y || sample >= params.counts.w {
         return;
     }
     for (var p = 0u; p < arrayLength(&folded_parts); p = p + 1u) {
@@ -82,6 +85,41 @@ fn folded_values_main(
             x_errors[slot + 1u] = vec4<f32>(errors[1], 0.0);
         }
         return;
+    }
+}
+
+// Invocation (entry, row, sample) of X's whole errors (folded_axes[n].w − 1 of the X axis n =
+// params.group_starts.x): the sum of its parts at the entry's grid point. After folded_values_main.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn folded_x_main(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups_in: vec3<u32>,
+) {
+    let sample = gid.z;
+    let x = params.group_starts.x;
+    if x >= params.grid.w || sample >= params.counts.w {
+        return;
+    }
+    let ax = folded_axes[x];
+    if ax.w == 0u {
+        return;
+    }
+    let whole = folded_parts[ax.w - 1u];
+    let e = gid.x + gid.y * groups_in.x * WORKGROUP_SIZE;
+    if e >= whole.table.y {
+        return;
+    }
+    var ijk = vec3<u32>(0u);
+    for (var d = 0u; d < 3u; d = d + 1u) {
+        if whole.stride[d] != 0u {
+            ijk[d] = (e / whole.stride[d]) % params.grid[d];
+        }
+    }
+    let errors = parts_sum(ax.x, ax.y + ax.z, ijk, sample);
+    let slot = 2u * (sample * params.counts.x + whole.table.x + e);
+    if slot + 1u < arrayLength(&x_errors) {
+        x_errors[slot] = vec4<f32>(errors[0], 0.0);
+        x_errors[slot + 1u] = vec4<f32>(errors[1], 0.0);
     }
 }
 
@@ -163,8 +201,8 @@ fn folded_main(
             pre = compose(pre, dev_of(constants[sample * CONSTANTS_PER_SAMPLE + CONSTANT_X_LOCATION]));
         }
         let terms = line_terms(pre, post);
-        let x_parts = folded_axes[min(first, params.grid.w - 1u)];
-        let x_line = line_errors[0];
+        // X's whole errors where X alone varies.
+        let whole = folded_parts[max(folded_axes[min(first, params.grid.w - 1u)].w, 1u) - 1u];
         for (var n = 0u; n < params.chunk.z; n = n + 1u) {
             let i = tile.y + n * params.chunk.w;
             if i >= nx {
@@ -172,9 +210,15 @@ fn folded_main(
             }
             ijk.x = i;
             if FOLD_X_ALONE {
-                let along = parts_sum(x_parts.x + x_parts.y, x_parts.z, ijk, sample);
+                let slot = 2u * (sample * params.counts.x + whole.table.x + dot(ijk, whole.stride.xyz));
+                var e = vec3<f32>(0.0);
+                var angles = vec3<f32>(0.0);
+                if slot + 1u < arrayLength(&x_errors) {
+                    e = x_errors[slot].xyz;
+                    angles = x_errors[slot + 1u].xyz;
+                }
                 let tq = params.x_motion.x + (f32(i) - params.x_motion.z) * params.x_motion.y;
-                let x = XValues(x_line[0] + along[0], tiny_rot_deviation(x_line[1] + along[1]), tq);
+                let x = XValues(e, tiny_rot_deviation(angles), tq);
                 folded_out(&acc, line, local, i, point_errors(terms, x));
             } else {
                 var t = pre;

@@ -263,22 +263,18 @@ pub fn bench_machine(
         runs,
         &mut on_step,
     )?);
-    let mut against_plain = Vec::new();
-    if cross_axis {
-        let (plain_rows, ratios) = plain::bench_plain(
+    let against_plain = if cross_axis {
+        plain::bench_plain(
             machine,
             grid,
             engine,
             (&maps, reference_points),
-            &rows,
+            &mut rows,
             &mut on_step,
-        )?;
-        rows.extend(plain_rows);
-        against_plain = ratios
-            .into_iter()
-            .map(|(path, ratio)| PlainRatio { path, ratio })
-            .collect();
-    }
+        )?
+    } else {
+        Vec::new()
+    };
     let ceiling = gpu.as_ref().map(|g| g.ceiling);
     let reference_rate = rows[0].points as f64 / Spread::of(&rows[0].seconds).median;
     let gpu_kernel = gpu.as_ref().map(|g| (g.kernel_s, g.readback_s));

@@ -4,7 +4,7 @@
 //! its readback, the map, Monte Carlo).
 
 use super::paths::{self, MapBench};
-use super::{monte_carlo, BenchError, Row, Spread};
+use super::{monte_carlo, BenchError, PlainRatio, Row, Spread};
 use crate::engine::Engine;
 use crate::io::field::Compression;
 use crate::model::errorfn::ErrorFunction;
@@ -47,17 +47,17 @@ fn same_path(a: &str, b: &str) -> bool {
     stem(a) == stem(b)
 }
 
-/// The plain counterpart of `machine` on the paths where they differ, each row named with
-/// [`PLAIN_SUFFIX`], and for each the machine's rate over the counterpart's (`rows`: the
-/// machine's own).
+/// Measures the plain counterpart of `machine` on the paths where they differ and adds its rows
+/// to `rows` (the machine's own), each named with [`PLAIN_SUFFIX`]; returns for each the
+/// machine's rate over the counterpart's.
 pub(super) fn bench_plain(
     machine: &Machine,
     grid: &Grid,
     engine: &Engine,
     bench: (&MapBench, u64),
-    rows: &[Row],
+    rows: &mut Vec<Row>,
     on_step: &mut impl FnMut(&str),
-) -> Result<(Vec<Row>, Vec<(String, f64)>), BenchError> {
+) -> Result<Vec<PlainRatio>, BenchError> {
     let plain = plain_counterpart(machine);
     let (maps, reference_points) = bench;
     let runs = maps.runs;
@@ -87,9 +87,13 @@ pub(super) fn bench_plain(
     let mut ratios = Vec::new();
     for plain_row in &mut plain_rows {
         if let Some(own) = rows.iter().find(|r| same_path(&r.path, &plain_row.path)) {
-            ratios.push((own.path.clone(), rate(own) / rate(plain_row)));
+            ratios.push(PlainRatio {
+                path: own.path.clone(),
+                ratio: rate(own) / rate(plain_row),
+            });
         }
         plain_row.path.push_str(PLAIN_SUFFIX);
     }
-    Ok((plain_rows, ratios))
+    rows.extend(plain_rows);
+    Ok(ratios)
 }

@@ -86,6 +86,8 @@ pub(super) enum SampledKernel {
         x_alone: bool,
         reduce: bool,
     },
+    /// X's whole errors summed from its parts (`folded_x_main`).
+    FoldedX,
     /// The reduce pass of a shape of machine and a tiling.
     Reduce(PointVariant),
 }

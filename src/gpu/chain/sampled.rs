@@ -128,6 +128,7 @@ impl GpuMapper {
             SampledKernel::Groups => ("groups_sampled_main", Vec::new()),
             SampledKernel::Positions => ("positions_main", Vec::new()),
             SampledKernel::FoldedValues => ("folded_values_main", Vec::new()),
+            SampledKernel::FoldedX => ("folded_x_main", Vec::new()),
             SampledKernel::Folded { x_alone, reduce } => (
                 "folded_main",
                 vec![
