@@ -182,12 +182,19 @@ pub fn bench_machine(
     let runs = runs.max(1);
     // The GPU kernels first, before any file is written: the kernel's flushing of written files
     // would compete with them for the cores lavapipe runs on.
-    // A machine with errors of other axes' positions maps with its own kernel (folded.wgsl,
-    // timed with its readback; no ceiling row): its GPU rows are the map's own, and the same
-    // paths are measured on its plain counterpart beside them (plain.rs).
+    // A machine with errors of other axes' positions maps with its own kernel (folded.wgsl),
+    // held against the write-only kernel of its dispatch, and the paths where it differs are
+    // measured on its plain counterpart beside them (plain.rs).
     let cross_axis = machine.has_cross_axis_errors();
     let gpu = match engine {
         Engine::Gpu(gpu) if !cross_axis => Some(paths::bench_gpu_kernels(
+            gpu,
+            machine,
+            grid,
+            runs,
+            &mut on_step,
+        )?),
+        Engine::Gpu(gpu) => Some(paths::bench_gpu_folded(
             gpu,
             machine,
             grid,
@@ -203,15 +210,6 @@ pub fn bench_machine(
                 .iter()
                 .map(|r| Row::new(&r.path, r.points, r.seconds.clone())),
         );
-    }
-    if let (Engine::Gpu(gpu), true) = (engine, cross_axis) {
-        rows.push(paths::bench_gpu_per_point(
-            gpu,
-            machine,
-            grid,
-            runs,
-            &mut on_step,
-        )?);
     }
     let disk = paths::bench_disk_ceiling(
         machine,
@@ -309,7 +307,8 @@ fn result(
     let rate = |s: f64| row.points as f64 / s.max(1e-12);
     let median_rate = rate(spread.median);
     let gpu_path = row.path.starts_with("GPU");
-    let on_gpu = row.path.contains(", GPU,");
+    // The kernel's own timings say nothing of the plain counterpart's map.
+    let on_gpu = row.path.contains(", GPU,") && !row.path.ends_with(PLAIN_SUFFIX);
     let stages = row.times.map(|(t, wall)| {
         let wall = wall.max(1e-12);
         let (device, readback) = match gpu_kernel.filter(|_| on_gpu) {

@@ -106,8 +106,48 @@ pub(super) fn bench_gpu_kernels(
     })
 }
 
-/// The per-point GPU map of a machine with errors of other axes' positions (no folded kernel,
-/// no ceiling to hold it against), with its readback.
+/// The kernel of a machine with errors of other axes' positions (`folded_main`) taking turns
+/// with the write-only kernel of the same dispatch (its ceiling), and its map passes with their
+/// readback through the engine's own run.
+pub(super) fn bench_gpu_folded(
+    gpu: &GpuMapper,
+    machine: &Machine,
+    grid: &Grid,
+    runs: usize,
+    on_step: &mut impl FnMut(&str),
+) -> Result<GpuKernels, BenchError> {
+    let points = grid.points();
+    on_step("GPU kernel and its write-only ceiling");
+    let ([kernel_seconds, ceiling_seconds], timestamps) =
+        gpu.time_folded(machine, grid, runs, WARM_UP_SECONDS)?;
+    let ceiling_s = Spread::of(&ceiling_seconds).median;
+    let kernel_s = Spread::of(&kernel_seconds).median;
+    let readback = bench_gpu_per_point(gpu, machine, grid, runs, on_step)?;
+    let readback_s = Spread::of(&readback.seconds).median;
+    let tiling = describe_tiling(gpu.folded_tiling(grid.dims[0] as u64));
+    Ok(GpuKernels {
+        ceiling: points as f64 / ceiling_s,
+        timing: if timestamps {
+            "timestamp queries"
+        } else {
+            "wall clock"
+        }
+        .to_string(),
+        kernel_tiling: tiling.clone(),
+        ceiling_tiling: tiling,
+        kernel_s,
+        readback_s,
+        rows: vec![
+            Row::new("GPU write-only kernel (ceiling)", points, ceiling_seconds),
+            Row::new("GPU kernel", points, kernel_seconds),
+            readback,
+        ],
+    })
+}
+
+/// The GPU map passes with their readback, as a map runs them (tables filled, chunks read
+/// back): the kernel of a machine with errors of other axes' positions, or of its plain
+/// counterpart.
 pub(super) fn bench_gpu_per_point(
     gpu: &GpuMapper,
     machine: &Machine,

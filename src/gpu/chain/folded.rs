@@ -182,19 +182,7 @@ struct ChunkDispatch {
 
 impl ChunkDispatch {
     fn of(mapper: &GpuMapper, lines: u64, nx: u64) -> Result<ChunkDispatch, GpuError> {
-        // On a CPU adapter, which runs an invocation's points one after another, a whole line per
-        // invocation: its line's axes composed once (measured: about 4.7 µs an invocation on
-        // lavapipe, 0.11 µs a point).
-        let own = mapper.tiling();
-        let points_per_lane = if mapper.gpu.is_software() {
-            own.points_per_lane.max(nx)
-        } else {
-            own.points_per_lane
-        };
-        let tiling = Tiling {
-            lines_per_lane: 1,
-            points_per_lane,
-        };
+        let tiling = mapper.folded_tiling(nx);
         let max_groups = mapper.gpu.max_workgroups_per_dimension() as u64;
         let tiles = LineTiles::of(tiling, nx, max_groups)
             .filter(|t| t.line_groups(lines) as u64 <= max_groups)
@@ -538,6 +526,117 @@ impl GpuMapper {
             on_batch(done);
         }
         Ok(stats)
+    }
+}
+
+impl GpuMapper {
+    /// How `folded_main` divides lines of `nx` points among its invocations: one line each, and
+    /// on a CPU adapter, which runs an invocation's points one after another, the whole line, so
+    /// that its line's axes are composed once (measured on lavapipe: about 4.7 µs an invocation,
+    /// 0.11 µs a point).
+    pub fn folded_tiling(&self, nx: u64) -> Tiling {
+        let own = self.tiling();
+        let points_per_lane = if self.gpu.is_software() {
+            own.points_per_lane.max(nx)
+        } else {
+            own.points_per_lane
+        };
+        Tiling {
+            lines_per_lane: 1,
+            points_per_lane,
+        }
+    }
+
+    /// The seconds `folded_main` takes over the whole grid of a machine with errors of other
+    /// axes' positions (its tables filled before, nothing read back), and the write-only kernel
+    /// with the same dispatch and output (its ceiling), taking turns `runs` times after warming
+    /// up for `warm_up_s` seconds; and whether timestamp queries timed them.
+    pub fn time_folded(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        runs: usize,
+        warm_up_s: f64,
+    ) -> Result<([Vec<f64>; 2], bool), GpuError> {
+        check_error_angles(machine, grid)?;
+        let nx = grid.dims[0] as u64;
+        let lines = (self.max_chunk_points() / nx).clamp(1, ChunkDispatch::max_lines(self, nx));
+        let chunks = grid.chunks(lines * nx);
+        let chunk_lines = chunks.iter().map(|&(_, l)| l).max().unwrap_or(1);
+        let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
+        let slots = chunks.len().min(2);
+        let folded = self.prepare_folded(machine, &[], grid, (1, slots), false, |_| chunk_bytes)?;
+        self.fold_batch(&folded, machine, &[], &[Vec::new()], grid)?;
+        let write_only = self.write_only_kernel(1)?;
+        let ceiling_bindings: Vec<_> = folded
+            .slots
+            .iter()
+            .map(|s| {
+                self.gpu
+                    .bind(&write_only, &[(0, &s.params), (7, &s.results)])
+            })
+            .collect();
+        let pass = |ceiling: bool, timer: Option<&crate::gpu::device::Timer>| {
+            let mut last = None;
+            for (n, &(first_line, lines)) in chunks.iter().enumerate() {
+                let slot = &folded.slots[n % folded.slots.len()];
+                let dispatch = ChunkDispatch::of(self, lines, nx)?;
+                let mut params = folded.base.packed.params;
+                params.counts = [folded.layout.entries, 0, folded.terms, 1];
+                params.chunk = [
+                    first_line as u32,
+                    lines as u32,
+                    dispatch.tiles.points_per_invocation,
+                    dispatch.tiles.invocations_per_line_group,
+                ];
+                params.group_starts = [folded.layout.span.0, folded.layout.span.1, 0, 0];
+                self.gpu.write(&slot.params, bytemuck::bytes_of(&params));
+                let (kernel, bindings) = if ceiling {
+                    (&*write_only, &ceiling_bindings[n % folded.slots.len()])
+                } else {
+                    (&*folded.folded_kernel, &slot.bindings)
+                };
+                let pass = Pass {
+                    kernel,
+                    bindings,
+                    workgroups: [dispatch.workgroups[0], dispatch.workgroups[1], 1],
+                };
+                let submission = self
+                    .gpu
+                    .submit_timed(&[pass], None, timer.map(|t| (t, n as u32)));
+                // A slot's parameters are rewritten two chunks later: wait for it first.
+                if slots < chunks.len() {
+                    self.gpu.wait(submission)?;
+                } else {
+                    last = Some(submission);
+                }
+            }
+            match last {
+                Some(last) => self.gpu.wait(last),
+                None => Ok(()),
+            }
+        };
+        let warming = std::time::Instant::now();
+        loop {
+            pass(false, None)?;
+            pass(true, None)?;
+            if warming.elapsed().as_secs_f64() >= warm_up_s {
+                break;
+            }
+        }
+        let timer = self.gpu.timer(chunks.len());
+        let mut seconds = [Vec::with_capacity(runs), Vec::with_capacity(runs)];
+        for _ in 0..runs.max(1) {
+            for (k, ceiling) in [false, true].into_iter().enumerate() {
+                let start = std::time::Instant::now();
+                pass(ceiling, timer.as_ref())?;
+                seconds[k].push(match &timer {
+                    Some(t) => self.gpu.timed_seconds(t, chunks.len() as u32)?,
+                    None => start.elapsed().as_secs_f64(),
+                });
+            }
+        }
+        Ok((seconds, timer.is_some()))
     }
 }
 

@@ -219,6 +219,19 @@ impl GpuMapper {
         Ok(kernel)
     }
 
+    /// The write-only kernel with `lines_per_lane` lines per invocation.
+    pub(super) fn write_only_kernel(
+        &self,
+        lines_per_lane: u32,
+    ) -> Result<Arc<device::Kernel>, GpuError> {
+        self.pipeline(
+            &self.write_only,
+            lines_per_lane,
+            "write_only_main",
+            &[("LINES_PER_LANE", lines_per_lane as f64)],
+        )
+    }
+
     /// The most points one chunk may hold on this device.
     pub fn max_chunk_points(&self) -> u64 {
         let default = if self.gpu.is_software() {

@@ -431,6 +431,20 @@ fn bench_holds_a_machine_with_errors_of_other_axes_against_its_plain_counterpart
             "GPU Monte Carlo",
         ]);
     }
+    if report["adapter"].is_string() {
+        // Its kernel held against the write-only kernel of the same dispatch.
+        let paths = m["paths"].as_array().unwrap();
+        let fraction = |name: &str| {
+            paths
+                .iter()
+                .find(|p| p["path"] == name)
+                .unwrap_or_else(|| panic!("no {name} in {names:?}"))["fraction_of_ceiling"]
+                .as_f64()
+                .unwrap()
+        };
+        assert_eq!(fraction("GPU write-only kernel (ceiling)"), 1.0);
+        assert!(fraction("GPU kernel") > 0.0);
+    }
     let ratios = m["against_plain"].as_array().unwrap();
     assert_eq!(ratios.len(), expected.len(), "{ratios:?}");
     for stem in expected {
