@@ -92,18 +92,23 @@ pub(super) fn bench_gpu_kernels(
     rows.push(Row::new("GPU kernel + readback", points, readback));
     Ok(GpuKernels {
         ceiling: points as f64 / ceiling_s,
-        timing: if timestamps {
-            "timestamp queries"
-        } else {
-            "wall clock"
-        }
-        .to_string(),
+        timing: timing_name(timestamps),
         kernel_tiling: describe_tiling(gpu.tiling()),
         ceiling_tiling: describe_tiling(ceilings[fastest]),
         kernel_s,
         readback_s,
         rows,
     })
+}
+
+/// How the GPU kernels were timed.
+fn timing_name(timestamps: bool) -> String {
+    if timestamps {
+        "timestamp queries"
+    } else {
+        "wall clock"
+    }
+    .to_string()
 }
 
 /// The kernel of a machine with errors of other axes' positions (`folded_main`) taking turns
@@ -127,12 +132,7 @@ pub(super) fn bench_gpu_folded(
     let tiling = describe_tiling(gpu.folded_tiling(grid.dims[0] as u64));
     Ok(GpuKernels {
         ceiling: points as f64 / ceiling_s,
-        timing: if timestamps {
-            "timestamp queries"
-        } else {
-            "wall clock"
-        }
-        .to_string(),
+        timing: timing_name(timestamps),
         kernel_tiling: tiling.clone(),
         ceiling_tiling: tiling,
         kernel_s,

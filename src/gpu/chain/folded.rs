@@ -42,6 +42,18 @@ fn term_dims(term: &ErrorFunction, own: AxisLetter) -> u32 {
     }
 }
 
+/// The entry steps per i, j, k of a table over the grid dimensions of `mask` (0 for the others),
+/// i fastest so that the entries a line reads stand together, and its entries.
+fn strides(mask: u32, grid: &Grid) -> ([u32; 4], u64) {
+    let mut stride = [0u32; 4];
+    let mut step = 1u64;
+    for d in (0..3).filter(|d| mask & 1 << d != 0) {
+        stride[d] = step as u32;
+        step *= grid.dims[d] as u64;
+    }
+    (stride, step)
+}
+
 /// Where each part of each axis of a machine stands, and which axes vary along a line.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(super) struct FoldedLayout {
@@ -85,13 +97,7 @@ impl FoldedLayout {
                 0,
             ]);
             for mask in masks {
-                // i fastest, so that the entries a line reads stand together.
-                let mut stride = [0u32; 4];
-                let mut step = 1u64;
-                for d in (0..3).filter(|d| mask & 1 << d != 0) {
-                    stride[d] = step as u32;
-                    step *= grid.dims[d] as u64;
-                }
+                let (stride, step) = strides(mask, grid);
                 parts.push(FoldedPart {
                     table: [entries as u32, step as u32, n as u32, mask],
                     stride,
@@ -115,12 +121,7 @@ impl FoldedLayout {
             && x_dims.is_some_and(|m| m.count_ones() <= 2);
         let part_entries = entries as u32;
         if let (true, Some(mask)) = (x_alone, x_dims) {
-            let mut stride = [0u32; 4];
-            let mut step = 1u64;
-            for d in (0..3).filter(|d| mask & 1 << d != 0) {
-                stride[d] = step as u32;
-                step *= grid.dims[d] as u64;
-            }
+            let (stride, step) = strides(mask, grid);
             axes[first][3] = parts.len() as u32 + 1;
             parts.push(FoldedPart {
                 table: [entries as u32, step as u32, first as u32, mask],
@@ -385,17 +386,16 @@ impl GpuMapper {
         Ok(())
     }
 
-    /// Sets the chunk `(first_line, lines)` of `samples` machines and dispatches `folded_main`
-    /// over it in slot `slot`, its results copied to the slot's staging buffer.
-    fn submit_folded_chunk(
+    /// Writes the parameters of chunk `(first_line, lines)` of `samples` machines into `slot`
+    /// and returns how it is dispatched.
+    fn set_chunk(
         &self,
         folded: &Folded,
         slot: &Slot,
         (first_line, lines): (u64, u64),
         samples: u32,
-        result_bytes: u64,
         grid: &Grid,
-    ) -> Result<crate::gpu::device::Submission, GpuError> {
+    ) -> Result<ChunkDispatch, GpuError> {
         let dispatch = ChunkDispatch::of(self, lines, grid.dims[0] as u64)?;
         let mut params = folded.base.packed.params;
         params.counts = [folded.layout.entries, 0, folded.terms, samples];
@@ -407,6 +407,21 @@ impl GpuMapper {
         ];
         params.group_starts = [folded.layout.span.0, folded.layout.span.1, 0, 0];
         self.gpu.write(&slot.params, bytemuck::bytes_of(&params));
+        Ok(dispatch)
+    }
+
+    /// Sets the chunk `(first_line, lines)` of `samples` machines and dispatches `folded_main`
+    /// over it in slot `slot`, its results copied to the slot's staging buffer.
+    fn submit_folded_chunk(
+        &self,
+        folded: &Folded,
+        slot: &Slot,
+        (first_line, lines): (u64, u64),
+        samples: u32,
+        result_bytes: u64,
+        grid: &Grid,
+    ) -> Result<crate::gpu::device::Submission, GpuError> {
+        let dispatch = self.set_chunk(folded, slot, (first_line, lines), samples, grid)?;
         let submission = self.gpu.submit(
             &[Pass {
                 kernel: &folded.folded_kernel,
@@ -580,17 +595,7 @@ impl GpuMapper {
             let mut last = None;
             for (n, &(first_line, lines)) in chunks.iter().enumerate() {
                 let slot = &folded.slots[n % folded.slots.len()];
-                let dispatch = ChunkDispatch::of(self, lines, nx)?;
-                let mut params = folded.base.packed.params;
-                params.counts = [folded.layout.entries, 0, folded.terms, 1];
-                params.chunk = [
-                    first_line as u32,
-                    lines as u32,
-                    dispatch.tiles.points_per_invocation,
-                    dispatch.tiles.invocations_per_line_group,
-                ];
-                params.group_starts = [folded.layout.span.0, folded.layout.span.1, 0, 0];
-                self.gpu.write(&slot.params, bytemuck::bytes_of(&params));
+                let dispatch = self.set_chunk(&folded, slot, (first_line, lines), 1, grid)?;
                 let (kernel, bindings) = if ceiling {
                     (&*write_only, &ceiling_bindings[n % folded.slots.len()])
                 } else {
