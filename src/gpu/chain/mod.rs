@@ -6,6 +6,7 @@
 //! GPU) and fold the chain on either side of X into at most two tables each; per chunk, one pass
 //! composes each line's products from those tables and evaluates its points.
 
+mod fold_layout;
 mod folded;
 mod mapper;
 pub mod pack;
