@@ -47,6 +47,18 @@ fn budget(extra: &[&str]) -> assert_cmd::Command {
 }
 
 /// The JSON block of the key `monte_carlo`, as written.
+/// Waits for every shard running as its own process; each must succeed.
+fn wait_for_all(jobs: Vec<std::process::Child>) {
+    for job in jobs {
+        let done = job.wait_with_output().unwrap();
+        assert!(
+            done.status.success(),
+            "{}",
+            String::from_utf8_lossy(&done.stderr)
+        );
+    }
+}
+
 fn monte_carlo_text(path: &Path) -> String {
     let text = std::fs::read_to_string(path).unwrap();
     let start = text
@@ -75,14 +87,7 @@ fn three_shards_merge_to_one_run() {
                 .unwrap()
         })
         .collect();
-    for job in jobs {
-        let done = job.wait_with_output().unwrap();
-        assert!(
-            done.status.success(),
-            "{}",
-            String::from_utf8_lossy(&done.stderr)
-        );
-    }
+    wait_for_all(jobs);
     let one = dir.path().join("one.json");
     budget(&["--json"]).arg(&one).assert().success();
     let merged = dir.path().join("merged.json");
@@ -259,14 +264,7 @@ fn map_shards_merge_to_one_run() {
                 .unwrap()
         })
         .collect();
-    for job in jobs {
-        let done = job.wait_with_output().unwrap();
-        assert!(
-            done.status.success(),
-            "{}",
-            String::from_utf8_lossy(&done.stderr)
-        );
-    }
+    wait_for_all(jobs);
     let one = dir.path().join("one.exr");
     assert!(map("8x7x6", &[], &one).status().unwrap().success());
     let merged = dir.path().join("merged.exr");
