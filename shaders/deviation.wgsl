@@ -73,8 +73,9 @@ fn rot_minus_identity_about(axis: u32, s: f32, cm1: f32) -> mat3x3<f32> {
 // cos x − 1 = −x²/2 (1 − x²/12 (1 − x²/30)).
 fn tiny_sincos(x: vec3<f32>) -> array<vec3<f32>, 2> {
     let x2 = x * x;
-    let s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0)));
-    let cm1 = -0.5 * x2 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0));
+    // Constant reciprocals, not divisions: a CPU adapter divides at every call otherwise.
+    let s = x * (1.0 - x2 * (1.0 / 6.0) * (1.0 - x2 * (1.0 / 20.0) * (1.0 - x2 * (1.0 / 42.0))));
+    let cm1 = -0.5 * x2 * (1.0 - x2 * (1.0 / 12.0) * (1.0 - x2 * (1.0 / 30.0)));
     return array<vec3<f32>, 2>(s, cm1);
 }
 

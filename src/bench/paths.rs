@@ -129,7 +129,7 @@ pub(super) fn bench_gpu_folded(
     let kernel_s = Spread::of(&kernel_seconds).median;
     let readback = bench_gpu_per_point(gpu, machine, grid, runs, on_step)?;
     let readback_s = Spread::of(&readback.seconds).median;
-    let tiling = describe_tiling(gpu.folded_tiling(grid.dims[0] as u64));
+    let tiling = describe_tiling(gpu.folded_tiling(machine, grid));
     Ok(GpuKernels {
         ceiling: points as f64 / ceiling_s,
         timing: timing_name(timestamps),

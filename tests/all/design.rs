@@ -407,7 +407,8 @@ tolerance_mm = 0.005
 #[test]
 fn sampled_machines_with_errors_of_other_axes_give_the_same_statistics_on_every_engine() {
     // The gantry's cross-rail sag is a table of Y and Z and its roll an error of Y's position:
-    // the GPU maps each sampled machine point by point; every sample against the reference.
+    // the GPU folds each sampled machine into tables of its parts; every sample against the
+    // reference.
     let machine = embedded::load("gantry-2m").unwrap();
     assert!(machine.has_cross_axis_errors());
     let grids = vec![Grid::full_travel(&machine, [7, 5, 4], [0.0; 6]).unwrap()];

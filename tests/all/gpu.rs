@@ -367,6 +367,32 @@ fn every_tiling_of_the_point_pass_matches_the_reference() {
             assert_field_matches_reference(&machine, &grid, &field);
         }
     }
+    // The folded kernel of a machine whose X reads Y (X alone varies along a line: lines per
+    // invocation as the tiling says) and of one whose Y reads X (one line an invocation), with
+    // the tiling of a hardware GPU too (a line split among invocations).
+    let gantry = embedded::embedded("gantry-2m").unwrap().unwrap();
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/machines/gantry-2m.toml"
+    ))
+    .unwrap()
+    .replace("of = [\"Y\", \"Z\"]", "of = [\"X\", \"Y\"]");
+    let sagging = Machine::from_toml(&text, "gantry.toml", None).unwrap();
+    for (points_per_lane, lines_per_lane) in [(64, 4), (8, 2), (3, 4), (1, 1)] {
+        gpu.set_tiling(Tiling {
+            points_per_lane,
+            lines_per_lane,
+        })
+        .unwrap();
+        for machine in [&gantry, &sagging] {
+            let grid = Grid::full_travel(machine, [37, 7, 5], [0.0; 6]).unwrap();
+            for chunk_points in [None, Some(37 * 9)] {
+                let (field, _) = field_with(&gpu, machine, &grid, chunk_points);
+                eprint!("{} {points_per_lane} × {lines_per_lane}: ", machine.name);
+                assert_field_matches_reference(machine, &grid, &field);
+            }
+        }
+    }
     for lines_per_lane in [0, 3, 8] {
         let error = gpu
             .set_tiling(Tiling {

@@ -250,10 +250,10 @@ fn the_engines_evaluate_every_form_within_the_tolerances_of_the_reference() {
         }
     }
     // Where some axes do not vary along X, the GPU composes them once per line (runs of 64
-    // points on a hardware GPU: 70 points make a full run and a partial one): X alone, its
-    // errors of X and Y summed per map (an error of Y on X); X alone with an error of Z too
-    // (its errors read i, j and k: composed per point); and X then Y (a table of X and Y) with Z
-    // after them.
+    // points on a hardware GPU: 70 points make a full run and a partial one): X alone, an error
+    // of Y on X (X's part of j added per line to its part of i); X alone with an error of Z too
+    // (parts of i, j and k); X alone with a table of X and Y on X (a part of i and j, read per
+    // point and line); and X then Y (a table of X and Y) with Z after them.
     let without = |keys: &[&str]| -> String {
         EVERY_FORM
             .lines()
@@ -261,9 +261,14 @@ fn the_engines_evaluate_every_form_within_the_tolerances_of_the_reference() {
             .collect::<Vec<_>>()
             .join("\n")
     };
+    let x_and_y_on_x = format!(
+        "{}\nX: EYX = {{ table2d = {{ of = [\"X\", \"Y\"], x = [0.0, 2000.0], y = [0.0, 1500.0], values = [[0.0, 0.004], [-0.003, 0.006]] }} }}",
+        without(&["EZY", "EXZ"])
+    );
     for errors in [
         without(&["EZY", "EXZ", "EZX"]),
         without(&["EZY", "EXZ"]),
+        x_and_y_on_x,
         without(&["EXZ"]),
     ] {
         let m = gantry(&errors);

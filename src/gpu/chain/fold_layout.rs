@@ -1,7 +1,6 @@
 //! Where each part of a machine's errors stands in the tables of `shaders/folded.wgsl`: each
 //! axis's six errors split by the grid dimensions their terms read (a term reads at most two),
-//! each part tabulated over exactly those dimensions, and, where X alone varies along a grid
-//! line, X's whole errors after the parts. Pure host arithmetic, no device.
+//! each part tabulated over exactly those dimensions. Pure host arithmetic, no device.
 
 use crate::gpu::layout::FoldedPart;
 use crate::model::errorfn::ErrorFunction;
@@ -45,13 +44,11 @@ fn strides(mask: u32, grid: &Grid) -> ([u32; 4], u64) {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub(super) struct FoldedLayout {
     pub parts: Vec<FoldedPart>,
-    /// Per axis (product order): first part, parts constant along a line, parts varying.
+    /// Per axis (product order): first part, parts constant along a line, parts varying (the
+    /// part of i alone first), -.
     pub axes: Vec<[u32; 4]>,
-    /// Table entries of one machine, every part's together, then X's whole errors where X alone
-    /// varies along a line (`x_alone`).
+    /// Table entries of one machine, every part's together.
     pub entries: u32,
-    /// The entries of the parts alone.
-    pub part_entries: u32,
     /// The axes `[first, end)` (product order) from the first to the last that varies along a
     /// grid line: composed at every point; those before and after once per line.
     pub span: (u32, u32),
@@ -96,31 +93,11 @@ impl FoldedLayout {
         let count = order.len();
         let first = (0..count).find(varies).unwrap_or(count);
         let end = (0..count).rfind(varies).map_or(first, |last| last + 1);
-        // X alone varies: its parts summed once per map over the dimensions they read, one or
-        // two (a face at most), so that a point reads X's errors once.
-        let x_dims = (first < count).then(|| {
-            let [start, constant, varying, _] = axes[first];
-            let parts = &parts[start as usize..(start + constant + varying) as usize];
-            parts.iter().fold(0u32, |m, p| m | p.table[3])
-        });
-        let x_alone = end == first + 1
-            && order[first].letter == AxisLetter::X
-            && x_dims.is_some_and(|m| m.count_ones() <= 2);
-        let part_entries = entries as u32;
-        if let (true, Some(mask)) = (x_alone, x_dims) {
-            let (stride, step) = strides(mask, grid);
-            axes[first][3] = parts.len() as u32 + 1;
-            parts.push(FoldedPart {
-                table: [entries as u32, step as u32, first as u32, mask],
-                stride,
-            });
-            entries += step;
-        }
+        let x_alone = end == first + 1 && order[first].letter == AxisLetter::X;
         FoldedLayout {
             parts,
             axes,
             entries: entries as u32,
-            part_entries,
             span: (first as u32, end as u32),
             x_alone,
         }
@@ -145,15 +122,14 @@ mod tests {
         let machine = embedded::load("gantry-2m").unwrap();
         let grid = Grid::full_travel(&machine, [5, 7, 3], [0.0; 6]).unwrap();
         let layout = FoldedLayout::new(&machine, &grid);
-        // X alone varies along a line: its whole errors over (i, j) follow the parts.
         let masks: Vec<u32> = layout.parts.iter().map(|p| p.table[3]).collect();
-        assert_eq!(masks, [0b010, 0b001, 0b010, 0b110, 0b100, 0b011]);
-        assert_eq!(layout.axes, [[0, 1, 1, 6], [2, 2, 0, 0], [4, 1, 0, 0]]);
+        assert_eq!(masks, [0b010, 0b001, 0b010, 0b110, 0b100]);
+        assert_eq!(layout.axes, [[0, 1, 1, 0], [2, 2, 0, 0], [4, 1, 0, 0]]);
         let entries: Vec<u32> = layout.parts.iter().map(|p| p.table[1]).collect();
-        assert_eq!(entries, [7, 5, 7, 21, 3, 35]);
+        assert_eq!(entries, [7, 5, 7, 21, 3]);
         assert_eq!(layout.parts[3].stride, [0, 1, 7, 0]);
-        assert_eq!(layout.parts[5].stride, [1, 5, 0, 0]);
-        assert_eq!((layout.part_entries, layout.entries), (43, 78));
+        assert_eq!(layout.parts[1].stride, [1, 0, 0, 0]);
+        assert_eq!(layout.entries, 43);
         assert_eq!((layout.span, layout.x_alone), ((0, 1), true));
         // A sag of Y with X makes Y vary along a line too: X and Y are composed per point.
         let text = std::fs::read_to_string(concat!(
@@ -166,6 +142,5 @@ mod tests {
         let layout = FoldedLayout::new(&sagging, &grid);
         assert_eq!((layout.span, layout.x_alone), ((0, 2), false));
         assert_eq!(layout.axes[1], [2, 1, 1, 0]);
-        assert_eq!(layout.entries, layout.part_entries);
     }
 }

@@ -34,8 +34,6 @@ struct Folded {
     /// The chunks in flight at once: each its parameters, results and their bindings.
     slots: Vec<Slot>,
     values_kernel: std::sync::Arc<crate::gpu::device::Kernel>,
-    x_kernel: std::sync::Arc<crate::gpu::device::Kernel>,
-    x_bindings: crate::gpu::device::Bindings,
     folded_kernel: std::sync::Arc<crate::gpu::device::Kernel>,
     amplitudes: Buffer,
     locations: Buffer,
@@ -59,8 +57,13 @@ struct ChunkDispatch {
 }
 
 impl ChunkDispatch {
-    fn of(mapper: &GpuMapper, lines: u64, nx: u64) -> Result<ChunkDispatch, GpuError> {
-        let tiling = mapper.folded_tiling(nx);
+    fn of(
+        mapper: &GpuMapper,
+        lines: u64,
+        nx: u64,
+        x_alone: bool,
+    ) -> Result<ChunkDispatch, GpuError> {
+        let tiling = mapper.tiling_of_folded(nx, x_alone);
         let max_groups = mapper.gpu.max_workgroups_per_dimension() as u64;
         let tiles = LineTiles::of(tiling, nx, max_groups)
             .filter(|t| t.line_groups(lines) as u64 <= max_groups)
@@ -80,9 +83,10 @@ impl ChunkDispatch {
     }
 
     /// The most lines of `nx` points one dispatch takes.
-    fn max_lines(mapper: &GpuMapper, nx: u64) -> u64 {
+    fn max_lines(mapper: &GpuMapper, nx: u64, x_alone: bool) -> u64 {
         let max_groups = mapper.gpu.max_workgroups_per_dimension() as u64;
-        ChunkDispatch::of(mapper, 1, nx).map_or(1, |d| max_groups * d.tiles.lines_per_workgroup)
+        ChunkDispatch::of(mapper, 1, nx, x_alone)
+            .map_or(1, |d| max_groups * d.tiles.lines_per_workgroup)
     }
 }
 
@@ -141,10 +145,12 @@ impl GpuMapper {
         // The buffer `folded_main` does not write in this mode.
         let unused = gpu.output("unused", 48);
         let values_kernel = self.sampled_kernel(SampledKernel::FoldedValues)?;
-        let x_kernel = self.sampled_kernel(SampledKernel::FoldedX)?;
         let folded_kernel = self.sampled_kernel(SampledKernel::Folded {
             x_alone: layout.x_alone,
             reduce,
+            lines_per_lane: self
+                .tiling_of_folded(grid.dims[0] as u64, layout.x_alone)
+                .lines_per_lane,
         })?;
         let values_bindings = gpu.bind(
             &values_kernel,
@@ -158,15 +164,6 @@ impl GpuMapper {
                 (12, &terms_buffer),
                 (13, &amplitudes),
                 (19, &folded_parts),
-            ],
-        );
-        let x_bindings = gpu.bind(
-            &x_kernel,
-            &[
-                (0, &params),
-                (8, &x_errors),
-                (19, &folded_parts),
-                (20, &folded_axes),
             ],
         );
         let slots = (0..slots.max(1))
@@ -185,7 +182,7 @@ impl GpuMapper {
                         (0, &params),
                         (1, &axes),
                         (7, out),
-                        (8, &x_errors),
+                        (21, &x_errors),
                         (11, &constants),
                         (14, &locations),
                         (16, partials),
@@ -208,8 +205,6 @@ impl GpuMapper {
             terms: terms as u32,
             params,
             values_bindings,
-            x_kernel,
-            x_bindings,
             slots,
             values_kernel,
             folded_kernel,
@@ -236,7 +231,7 @@ impl GpuMapper {
         let samples = rows.len() as u32;
         let mut params = folded.base.packed.params;
         let layout = &folded.layout;
-        params.counts = [layout.entries, layout.part_entries, folded.terms, samples];
+        params.counts = [layout.entries, 0, folded.terms, samples];
         params.group_starts = [layout.span.0, layout.span.1, 0, 0];
         gpu.write(&folded.params, bytemuck::bytes_of(&params));
         // Workgroups for `count` invocations of each sample, in rows of at most the device's
@@ -246,20 +241,14 @@ impl GpuMapper {
             let rows = groups.div_ceil(gpu.max_workgroups_per_dimension() as u64);
             [groups.div_ceil(rows) as u32, rows as u32, samples]
         };
-        let whole_x = layout.entries - layout.part_entries;
-        let mut passes = vec![Pass {
-            kernel: &folded.values_kernel,
-            bindings: &folded.values_bindings,
-            workgroups: rows_of(layout.part_entries as u64),
-        }];
-        if whole_x > 0 {
-            passes.push(Pass {
-                kernel: &folded.x_kernel,
-                bindings: &folded.x_bindings,
-                workgroups: rows_of(whole_x as u64),
-            });
-        }
-        gpu.submit(&passes, None);
+        gpu.submit(
+            &[Pass {
+                kernel: &folded.values_kernel,
+                bindings: &folded.values_bindings,
+                workgroups: rows_of(layout.entries as u64),
+            }],
+            None,
+        );
         Ok(())
     }
 
@@ -273,7 +262,7 @@ impl GpuMapper {
         samples: u32,
         grid: &Grid,
     ) -> Result<ChunkDispatch, GpuError> {
-        let dispatch = ChunkDispatch::of(self, lines, grid.dims[0] as u64)?;
+        let dispatch = ChunkDispatch::of(self, lines, grid.dims[0] as u64, folded.layout.x_alone)?;
         let mut params = folded.base.packed.params;
         params.counts = [folded.layout.entries, 0, folded.terms, samples];
         params.chunk = [
@@ -337,7 +326,8 @@ impl GpuMapper {
                 ))
                 .into());
         }
-        let lines = (limit / nx).clamp(1, ChunkDispatch::max_lines(self, nx));
+        let x_alone = FoldedLayout::new(machine, grid).x_alone;
+        let lines = (limit / nx).clamp(1, ChunkDispatch::max_lines(self, nx, x_alone));
         let chunks = grid.chunks(lines * nx);
         let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
@@ -376,10 +366,11 @@ impl GpuMapper {
         mut on_batch: impl FnMut(usize),
     ) -> Result<Vec<FieldStats>, GpuError> {
         let nx = grid.dims[0] as u64;
-        let chunks = grid.chunks(ChunkDispatch::max_lines(self, nx) * nx);
+        let x_alone = FoldedLayout::new(machine, grid).x_alone;
+        let chunks = grid.chunks(ChunkDispatch::max_lines(self, nx, x_alone) * nx);
         let mut most_groups = 1;
         for &(_, lines) in &chunks {
-            most_groups = most_groups.max(ChunkDispatch::of(self, lines, nx)?.groups());
+            most_groups = most_groups.max(ChunkDispatch::of(self, lines, nx, x_alone)?.groups());
         }
         let partial = std::mem::size_of::<Partial>() as u64;
         let folded = self.prepare_folded(
@@ -398,7 +389,7 @@ impl GpuMapper {
             let batch_stats = &mut stats[done..done + samples];
             let mut best: Vec<(f64, u64)> = vec![(-1.0, u64::MAX); samples];
             for &chunk in &chunks {
-                let groups = ChunkDispatch::of(self, chunk.1, nx)?.groups();
+                let groups = ChunkDispatch::of(self, chunk.1, nx, x_alone)?.groups();
                 let bytes = samples as u64 * groups * partial;
                 let slot = &folded.slots[0];
                 let submission =
@@ -422,19 +413,29 @@ impl GpuMapper {
 }
 
 impl GpuMapper {
-    /// How `folded_main` divides lines of `nx` points among its invocations: one line each, and
-    /// on a CPU adapter, which runs an invocation's points one after another, the whole line, so
-    /// that its line's axes are composed once (measured on lavapipe: about 4.7 µs an invocation,
-    /// 0.11 µs a point).
-    pub fn folded_tiling(&self, nx: u64) -> Tiling {
+    /// How `folded_main` divides the lines of `machine` over `grid` among its invocations.
+    pub fn folded_tiling(&self, machine: &Machine, grid: &Grid) -> Tiling {
+        self.tiling_of_folded(
+            grid.dims[0] as u64,
+            FoldedLayout::new(machine, grid).x_alone,
+        )
+    }
+
+    /// Where X alone varies along a line, the point pass's tiling (a point reads X's part of i
+    /// once for all of an invocation's lines); otherwise one line an invocation. On a CPU
+    /// adapter, which runs an invocation's points one after another, each invocation takes
+    /// whole lines, so that their other axes are composed once (measured on lavapipe: about
+    /// 4.7 µs an invocation, 0.11 µs a point, with the span's axes composed per point). A
+    /// tiling set by hand ([`GpuMapper::set_tiling`]) is taken as it is.
+    fn tiling_of_folded(&self, nx: u64, x_alone: bool) -> Tiling {
         let own = self.tiling();
-        let points_per_lane = if self.gpu.is_software() {
+        let points_per_lane = if self.gpu.is_software() && own == super::SOFTWARE_TILING {
             own.points_per_lane.max(nx)
         } else {
             own.points_per_lane
         };
         Tiling {
-            lines_per_lane: 1,
+            lines_per_lane: if x_alone { own.lines_per_lane } else { 1 },
             points_per_lane,
         }
     }
@@ -452,7 +453,9 @@ impl GpuMapper {
     ) -> Result<([Vec<f64>; 2], bool), GpuError> {
         check_error_angles(machine, grid)?;
         let nx = grid.dims[0] as u64;
-        let lines = (self.max_chunk_points() / nx).clamp(1, ChunkDispatch::max_lines(self, nx));
+        let x_alone = FoldedLayout::new(machine, grid).x_alone;
+        let lines =
+            (self.max_chunk_points() / nx).clamp(1, ChunkDispatch::max_lines(self, nx, x_alone));
         let chunks = grid.chunks(lines * nx);
         let chunk_lines = chunks.iter().map(|&(_, l)| l).max().unwrap_or(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;

@@ -81,13 +81,13 @@ pub(super) enum SampledKernel {
     /// The tables of the errors of a machine with errors of other axes' positions
     /// (`folded_values_main`).
     FoldedValues,
-    /// Its map (`folded_main`): X alone varying along a line or not, the field stored or reduced.
+    /// Its map (`folded_main`): X alone varying along a line or not, the field stored or
+    /// reduced, lines per invocation.
     Folded {
         x_alone: bool,
         reduce: bool,
+        lines_per_lane: u32,
     },
-    /// X's whole errors summed from its parts (`folded_x_main`).
-    FoldedX,
     /// The reduce pass of a shape of machine and a tiling.
     Reduce(PointVariant),
 }

@@ -128,12 +128,16 @@ impl GpuMapper {
             SampledKernel::Groups => ("groups_sampled_main", Vec::new()),
             SampledKernel::Positions => ("positions_main", Vec::new()),
             SampledKernel::FoldedValues => ("folded_values_main", Vec::new()),
-            SampledKernel::FoldedX => ("folded_x_main", Vec::new()),
-            SampledKernel::Folded { x_alone, reduce } => (
+            SampledKernel::Folded {
+                x_alone,
+                reduce,
+                lines_per_lane,
+            } => (
                 "folded_main",
                 vec![
                     ("FOLD_X_ALONE", f64::from(u8::from(x_alone))),
                     ("FOLD_REDUCE", f64::from(u8::from(reduce))),
+                    ("LINES_PER_LANE", f64::from(lines_per_lane)),
                 ],
             ),
             SampledKernel::Reduce(variant) => ("points_reduce_main", variant.constants().to_vec()),
