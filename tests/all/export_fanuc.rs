@@ -159,6 +159,38 @@ fn fanuc_pitch_of_a_scale_error_by_hand() {
     assert!((r.before.max_mm - 0.04).abs() < 1e-9);
 }
 
+#[test]
+fn fanuc_points_span_the_travel() {
+    // N points from the start of the travel span it in N − 1 intervals, the last at its end:
+    // 11 points over 0–400 mm at 40 mm, 0–600 at 60, 0–200 at 20; where the travel does not
+    // divide into whole µm, the interval is rounded up and the last point lies just beyond.
+    let m = machine(&fixture("scale-x").replace("range = [0.0, 300.0]", "range = [0.0, 600.0]"));
+    let inputs = Inputs::default();
+    let exported = export::export(fanuc(), &request(&m, &inputs, TableSize::Points(11))).unwrap();
+    let t = pitch_tables(&exported.files);
+    for (axis, (table, length)) in t.iter().zip([400.0, 600.0, 200.0]).enumerate() {
+        let last_mm =
+            table.reference_mm + (table.last - table.reference) as f64 * table.interval_mm;
+        assert_eq!(table.last - table.first + 1, 11, "axis {axis}: {table:?}");
+        assert!(
+            (table.interval_mm - length / 10.0).abs() < 1e-9,
+            "axis {axis}: {table:?}"
+        );
+        assert!(
+            (last_mm - length).abs() < 1e-9,
+            "axis {axis}: last point at {last_mm}"
+        );
+    }
+    let odd = machine(&fixture("scale-x").replace("range = [0.0, 300.0]", "range = [0.0, 700.0]"));
+    let exported = export::export(fanuc(), &request(&odd, &inputs, TableSize::Points(4))).unwrap();
+    let y = &pitch_tables(&exported.files)[1];
+    // 700 mm in 3 intervals: 233.334 mm (rounded up to the µm), the last point at 700.002 mm.
+    assert!((y.interval_mm - 233.334).abs() < 1e-9, "{y:?}");
+    assert_eq!(y.last - y.first + 1, 4);
+    let x = &pitch_tables(&exported.files)[0];
+    assert!(x.reference_mm + (x.last - x.reference) as f64 * x.interval_mm >= 400.0);
+}
+
 const STEPS: &str = r#"
 name = "stepped X"
 chain = "FYXFZ"

@@ -27,8 +27,8 @@ fn fanuc_writes_parameters_pitch_data_and_notes() {
         .stdout(
             predicate::str::contains("fanuc: FANUC pitch error compensation")
                 .and(predicate::str::contains(
-                    // 21 points: the finest interval in whole µm whose 21 steps reach the end of the travel.
-                    "table Y pitch          points 128-148 (reference 128) at 0.000 to 1904.780 mm, interval 95.239 mm, magnification 1; bidirectional, negative-direction points 512-532",
+                    // 21 points span the 2000 mm travel: 20 intervals of 100 mm.
+                    "table Y pitch          points 128-148 (reference 128) at 0.000 to 2000.000 mm, interval 100.000 mm, magnification 1; bidirectional, negative-direction points 512-532",
                 ))
                 .and(predicate::str::contains("residual measured on   41 x 41 x 41 points"))
                 .and(predicate::str::contains("cannot hold"))

@@ -27,8 +27,8 @@
 
 use super::read::read_tables;
 use super::tables::{
-    first_number, floor_div, real, PitchControl, PitchTable, ReverseTable, AXES, DETECTION_UNIT_MM,
-    INCREMENT_RANGE, MAX_MAGNIFICATION, NUMBERS_PER_TABLE,
+    ceil_div, first_number, floor_div, real, PitchControl, PitchTable, ReverseTable, AXES,
+    DETECTION_UNIT_MM, INCREMENT_RANGE, MAX_MAGNIFICATION, NUMBERS_PER_TABLE,
 };
 use super::write::write_files;
 use crate::export::error::ExportError;
@@ -92,10 +92,11 @@ impl Format for FanucPitch {
     }
 }
 
-/// The interval, detection units, that puts at most `n` points (grid positions whose interval
-/// reaches into the travel) over `[lo, hi]` from the reference `reference`: the smallest.
+/// The interval, detection units, that puts at most `n` points over `[lo, hi]` from the
+/// reference `reference`, the first at or below the travel's start and the last at or beyond its
+/// end (so `n` points from the start span the travel in `n − 1` intervals): the smallest.
 fn interval_for(lo: i64, hi: i64, reference: i64, n: usize) -> i64 {
-    let count = |d: i64| floor_div(hi - reference, d) - floor_div(lo - reference, d) + 1;
+    let count = |d: i64| ceil_div(hi - reference, d) - floor_div(lo - reference, d) + 1;
     let (mut small, mut large) = (1, (hi - lo).max(1));
     if count(small) <= n as i64 {
         return small;
@@ -130,7 +131,8 @@ fn fit_table(
         None => interval_for(lo, hi, reference, n),
     };
     let j_lo = floor_div(lo - reference, interval);
-    let j_hi = floor_div(hi - reference, interval);
+    // The last point at or beyond the end of the travel: the table spans it.
+    let j_hi = ceil_div(hi - reference, interval);
     let first = j_lo + 1;
     let (first, last) = (first.min(0), j_hi.max(1));
     let count = last - first + 1;

@@ -81,6 +81,11 @@ pub fn floor_div(a: i64, b: i64) -> i64 {
     a.div_euclid(b)
 }
 
+/// The smallest integer at or above `a / b`, `b > 0`.
+pub fn ceil_div(a: i64, b: i64) -> i64 {
+    -floor_div(-a, b)
+}
+
 impl PitchTable {
     /// The grid indices the table defines: from the section below its first point to its last.
     pub fn index_range(&self) -> (i64, i64) {
