@@ -97,6 +97,11 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
         size,
         evaluation_points: args.residual_grid,
         written_by: written_by(),
+        file_name: args
+            .out
+            .as_deref()
+            .and_then(|p| p.file_name())
+            .map(|n| n.to_string_lossy().into_owned()),
     };
     if let Some(list) = &args.sweep_points {
         return sweep(format, &request, list, &args);
@@ -257,6 +262,7 @@ fn sweep(
         let asked = Request {
             size: TableSize::Points(n),
             written_by: request.written_by.clone(),
+            file_name: request.file_name.clone(),
             ..*request
         };
         let exported = export::export(format, &asked).map_err(|e| flag_of(e, "--sweep-points"));

@@ -248,6 +248,8 @@ pub struct Fitting<'a> {
     /// Lines every file's header carries: who wrote it, the machine, the inputs, the pose, the
     /// sign convention; each format comments them in its own way.
     pub header: Vec<String>,
+    /// The name the file of a one-file format is written as, where the request gives one.
+    pub file_name: Option<String>,
     field: Field,
 }
 
@@ -279,6 +281,7 @@ impl<'a> Fitting<'a> {
             pose,
             ranges,
             header,
+            file_name: None,
             field,
         })
     }

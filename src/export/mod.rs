@@ -81,6 +81,9 @@ pub struct Request<'a> {
     pub evaluation_points: Option<usize>,
     /// The first line of every file's header: who wrote it, when, with which command.
     pub written_by: String,
+    /// The name the file of a one-file format is written as (`None`: the format's own), for
+    /// a file that names itself (Klipper's `[include …]`).
+    pub file_name: Option<String>,
 }
 
 /// What an export wrote and what it leaves.
@@ -238,7 +241,8 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
         format!("pose (rotary axes, degrees): {pose_words}"),
     ];
     let spec = format.spec();
-    let fitting = Fitting::new(machine, inputs, request.pose, header)?;
+    let mut fitting = Fitting::new(machine, inputs, request.pose, header)?;
+    fitting.file_name = request.file_name.clone();
     let ranges = fitting.ranges;
     let (points, spacing) = table_points(spec, request.size, &ranges)?;
     let files = format.write(&fitting, points, spacing)?;

@@ -22,6 +22,7 @@ pub fn request<'a>(machine: &'a Machine, inputs: &'a Inputs, size: TableSize) ->
         size,
         evaluation_points: None,
         written_by: "Written by the tests".into(),
+        file_name: None,
     }
 }
 

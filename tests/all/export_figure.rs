@@ -67,6 +67,7 @@ fn compute(machine: &str, format: &str, points: usize) -> Row {
         size: TableSize::Points(points),
         evaluation_points: None,
         written_by: String::new(),
+        file_name: None,
     };
     let r = export::export(export::format_named(format).unwrap(), &request)
         .unwrap()

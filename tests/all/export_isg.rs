@@ -27,6 +27,7 @@ fn request<'a>(m: &'a Machine, inputs: &'a Inputs, size: TableSize, pose: Comman
         size,
         evaluation_points: None,
         written_by: "Written by the tests".into(),
+        file_name: None,
     }
 }
 

@@ -47,11 +47,13 @@ impl Format for Klipper {
         _spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError> {
         let skew = Skew::fit(fitting)?.rounded(DECIMALS);
+        // printer.cfg includes the file by the name it is written as.
+        let file = fitting.file_name.clone().unwrap_or_else(|| FILE.into());
         let mut text: String = fitting.header.iter().map(|l| format!("# {l}\n")).collect();
         text += "# Klipper skew correction: the factors describe the machine (x_real = x + xy*y + xz*z,\n";
         text += "# y_real = y + yz*z); Klipper sends x - y*xy - z*(xz - xy*yz), y - z*yz for x, y, z.\n";
         text += &format!(
-            "# Load: [include {FILE}] in printer.cfg, RESTART; in the start G-code after G28:\n# SKEW_PROFILE LOAD={PROFILE}; in the end G-code: SET_SKEW CLEAR=1. Check with GET_CURRENT_SKEW.\n"
+            "# Load: [include {file}] in printer.cfg (beside it), RESTART; in the start G-code after G28:\n# SKEW_PROFILE LOAD={PROFILE}; in the end G-code: SET_SKEW CLEAR=1. Check with GET_CURRENT_SKEW.\n"
         );
         let lengths: Vec<String> = skew
             .named()
@@ -74,10 +76,7 @@ impl Format for Klipper {
         ] {
             text += &format!("{key} = {v:.DECIMALS$}\n");
         }
-        Ok(vec![WrittenFile {
-            name: FILE.into(),
-            text,
-        }])
+        Ok(vec![WrittenFile { name: file, text }])
     }
 
     fn read(

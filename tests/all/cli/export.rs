@@ -296,9 +296,15 @@ fn skew_formats_refuse_what_they_cannot_hold_naming_the_flag() {
         .stderr(predicate::str::starts_with(
             "warning: the klipper table leaves a larger largest error than the machine has without it",
         ));
-    assert!(std::fs::read_to_string(&out)
-        .unwrap()
-        .contains("[skew_correction volmap]\nxy_skew = "));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("[skew_correction volmap]\nxy_skew = "));
+    // printer.cfg includes it by the name it was written as.
+    let name = out.file_name().unwrap().to_string_lossy().into_owned();
+    assert!(
+        text.contains(&format!("# Load: [include {name}] in printer.cfg")),
+        "{text}"
+    );
+    assert!(name != "volmap_skew.cfg");
 }
 
 /// `--help` names every format volmap writes, and which of them write a folder.
