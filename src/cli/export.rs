@@ -42,6 +42,12 @@ pub struct ExportArgs {
     pose: PoseArg,
     #[command(flatten)]
     inputs: InputsArg,
+    /// The tool's length, mm, along the machine file's tool direction (its tool offset's, or
+    /// −Z): the tables and the residual are for this tool (a control that takes the length from
+    /// its tool data, ISG's, is given the direction alone); default: the machine file's tool
+    /// offset.
+    #[arg(long)]
+    tool_length: Option<f64>,
     /// Refuse the export (write nothing, exit 2) when the largest residual is above this, mm.
     #[arg(long)]
     max_residual: Option<f64>,
@@ -102,6 +108,7 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
             .as_deref()
             .and_then(|p| p.file_name())
             .map(|n| n.to_string_lossy().into_owned()),
+        tool_length_mm: args.tool_length,
     };
     if let Some(list) = &args.sweep_points {
         return sweep(format, &request, list, &args);
@@ -163,6 +170,7 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
         | ExportError::Unrepresentable { .. } => Some("--format"),
         ExportError::BadEvaluationGrid { .. } => Some("--residual-grid"),
         ExportError::Singular => Some("--pose"),
+        ExportError::BadToolLength(_) => Some("--tool-length"),
         ExportError::MissingAxes { .. } | ExportError::NoSolution { .. } => Some("--machine"),
         _ => None,
     };
@@ -180,6 +188,7 @@ fn print_report(r: &Report) {
     outln!("{}: {} for {}", r.format, r.controller, r.machine);
     outln!("  inputs                 {}", r.inputs);
     outln!("  pose                   {}", r.pose);
+    outln!("  tool                   {}", r.tool);
     for t in &r.tables {
         outln!("  table {:<16} {}", t.name, t.size);
     }

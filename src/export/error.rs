@@ -13,6 +13,8 @@ pub enum ExportError {
     MissingAxes { chain: String, missing: String },
     #[error("the linear axes do not span X, Y and Z at the pose")]
     Singular,
+    #[error("a tool length of {0} mm: a length is a finite number of mm, 0 or more")]
+    BadToolLength(f64),
     #[error("no command puts the real tool tip on the target X={:.3} Y={:.3} Z={:.3} mm (the Newton steps do not converge): the machine's errors are too large", at_mm[0], at_mm[1], at_mm[2])]
     NoSolution { at_mm: [f64; 3] },
     #[error("{format} holds fixed factors, not tables: there is no table size to choose")]

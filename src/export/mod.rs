@@ -84,6 +84,32 @@ pub struct Request<'a> {
     /// The name the file of a one-file format is written as (`None`: the format's own), for
     /// a file that names itself (Klipper's `[include …]`).
     pub file_name: Option<String>,
+    /// The tool's length, mm, along the machine file's tool direction ([`tool_direction`]);
+    /// `None`: the machine file's tool offset as it is.
+    pub tool_length_mm: Option<f64>,
+}
+
+/// The direction of the machine's tool, from the spindle's end to the tool tip in the spindle
+/// frame: its tool offset's, or −Z where it has none (a tool pointing down the spindle).
+pub fn tool_direction(machine: &Machine) -> [f64; 3] {
+    let o = machine.tool_offset_mm;
+    let length = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+    if length > 0.0 {
+        [o[0] / length, o[1] / length, o[2] / length]
+    } else {
+        [0.0, 0.0, -1.0]
+    }
+}
+
+/// `machine` with its tool `length_mm` long along [`tool_direction`].
+pub fn with_tool_length(machine: &Machine, length_mm: f64) -> Result<Machine, ExportError> {
+    if !(length_mm.is_finite() && length_mm >= 0.0) {
+        return Err(ExportError::BadToolLength(length_mm));
+    }
+    let direction = tool_direction(machine);
+    let mut m = machine.clone();
+    m.tool_offset_mm = direction.map(|c| c * length_mm);
+    Ok(m)
 }
 
 /// What an export wrote and what it leaves.
@@ -96,6 +122,9 @@ pub struct Report {
     pub inputs: String,
     /// The rotary axes' positions in words (`B=30 C=0`), or `none`.
     pub pose: String,
+    /// The tool the tables and the residual are for, in words: its length, direction and
+    /// where the length comes from.
+    pub tool: String,
     pub files: Vec<String>,
     pub tables: Vec<TableInfo>,
     pub grid: EvaluationGrid,
@@ -134,6 +163,19 @@ pub fn pose_text(machine: &Machine, pose: &Command) -> String {
         .map(|l| format!("{l}={}", pose[l.index()]))
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// The tool of `machine` in words: length, direction, and whether the length was asked for.
+fn tool_text(machine: &Machine, asked: bool) -> String {
+    let o = machine.tool_offset_mm;
+    let length = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+    let [x, y, z] = tool_direction(machine);
+    let from = if asked {
+        "the length asked for"
+    } else {
+        "the machine file's tool offset"
+    };
+    format!("{length:.3} mm along ({x:.6}, {y:.6}, {z:.6}) in the spindle frame ({from})")
 }
 
 /// The points per axis (`None`: a fixed-factor format) and the spacing asked for, checked
@@ -231,14 +273,23 @@ pub fn table_points(
 
 /// Fits, writes (in memory), reads back and measures an export of `request` in `format`.
 pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportError> {
-    let machine = request.machine;
+    let sized;
+    let machine = match request.tool_length_mm {
+        Some(length) => {
+            sized = with_tool_length(request.machine, length)?;
+            &sized
+        }
+        None => request.machine,
+    };
     let inputs = request.inputs;
     let pose_words = pose_text(machine, &request.pose);
+    let tool_words = tool_text(machine, request.tool_length_mm.is_some());
     let header = vec![
         request.written_by.clone(),
         format!("machine: {}", machine.name),
         format!("inputs: {}", inputs.describe(machine)),
         format!("pose (rotary axes, degrees): {pose_words}"),
+        format!("tool: {tool_words}"),
     ];
     let spec = format.spec();
     let mut fitting = Fitting::new(machine, inputs, request.pose, header)?;
@@ -285,6 +336,7 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
         machine: machine.name.clone(),
         inputs: inputs.describe(machine),
         pose: pose_words,
+        tool: tool_words,
         files: files.iter().map(|f| f.name.clone()).collect(),
         tables,
         grid,

@@ -23,6 +23,7 @@ pub fn request<'a>(machine: &'a Machine, inputs: &'a Inputs, size: TableSize) ->
         evaluation_points: None,
         written_by: "Written by the tests".into(),
         file_name: None,
+        tool_length_mm: None,
     }
 }
 

@@ -68,6 +68,7 @@ fn compute(machine: &str, format: &str, points: usize) -> Row {
         evaluation_points: None,
         written_by: String::new(),
         file_name: None,
+        tool_length_mm: None,
     };
     let r = export::export(export::format_named(format).unwrap(), &request)
         .unwrap()

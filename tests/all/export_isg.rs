@@ -28,6 +28,7 @@ fn request<'a>(m: &'a Machine, inputs: &'a Inputs, size: TableSize, pose: Comman
         evaluation_points: None,
         written_by: "Written by the tests".into(),
         file_name: None,
+        tool_length_mm: None,
     }
 }
 
@@ -67,8 +68,15 @@ fn letter(c: char) -> AxisLetter {
 }
 
 /// The control's model: `nominal` (errors cleared) with every parameter of `text` linear
-/// between its nodes, the end values outside.
+/// between its nodes, the end values outside; the tool vector N0 a direction, the tool as long
+/// as `nominal`'s (the active tool's data).
 fn model(nominal: &Machine, text: &str) -> Machine {
+    let length = nominal
+        .tool_offset_mm
+        .iter()
+        .map(|c| c * c)
+        .sum::<f64>()
+        .sqrt();
     let mut m = nominal.without_errors();
     for (header, rows) in blocks(text) {
         let args: Vec<usize> = (0..header.len())
@@ -79,7 +87,7 @@ fn model(nominal: &Machine, text: &str) -> Machine {
             if args.is_empty() {
                 let v = rows[0][p];
                 match chars[..] {
-                    ['N', '0', c] => m.tool_offset_mm["XYZ".find(c).unwrap()] = v,
+                    ['N', '0', c] => m.tool_offset_mm["XYZ".find(c).unwrap()] = v * length,
                     [c, '0', a] => {
                         m.axis_mut(letter(a)).unwrap().location["XYZABC".find(c).unwrap()] = v
                     }
@@ -161,7 +169,8 @@ range = [0.0, 200.0]
 #[test]
 fn isg_writes_the_errors_themselves_by_hand() {
     // The ERRORS, unchanged in sign: EXX 4 µm at 400 mm (a straight line: two nodes suffice),
-    // EBX a constant, the squareness EC0Y as position error C0Y, the tool as N0.
+    // EBX a constant, the squareness EC0Y as position error C0Y, the tool's direction as the
+    // unit vector N0 (the control takes the length from its tool data).
     let m = machine(HAND);
     let inputs = Inputs::default();
     let exported =
@@ -178,7 +187,7 @@ fn isg_writes_the_errors_themselves_by_hand() {
             "0.000020000000",
             "0.000000000",
             "0.000000000",
-            "-100.000000000",
+            "-1.000000000",
         ],
         vec!["#"],
         vec!["X", "EXX"],
@@ -219,6 +228,77 @@ fn isg_writes_the_errors_themselves_by_hand() {
     let r = &exported.report;
     assert!(r.before.max_mm > 0.005);
     assert!(r.residual.max_mm < 3e-8, "{:?}", r.residual);
+}
+
+#[test]
+fn isg_writes_the_tool_direction_and_measures_the_residual_for_the_tool_length_asked() {
+    // EBX = 3 µrad tilts the tool: 0.3 µm at 100 mm, 1.2 µm at 400 mm. The files say the same
+    // for both lengths (N0 a unit vector); the control applies them with its tool's length.
+    let m = machine(HAND);
+    let inputs = Inputs::default();
+    let mut asked = request(&m, &inputs, TableSize::Default, [0.0; 6]);
+    asked.tool_length_mm = Some(400.0);
+    let long = export::export(isg(), &asked).unwrap();
+    let short = export::export(isg(), &request(&m, &inputs, TableSize::Default, [0.0; 6])).unwrap();
+    let errors = |e: &export::Export| {
+        file(&e.files, "volcomp_errors.csv")
+            .lines()
+            .filter(|l| !l.starts_with("//"))
+            .map(String::from)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(errors(&long), errors(&short));
+    assert!(long
+        .report
+        .tool
+        .starts_with("400.000 mm along (0.000000, 0.000000, -1.000000)"));
+    assert!(
+        long.report.tool.ends_with("(the length asked for)"),
+        "{}",
+        long.report.tool
+    );
+    assert!(
+        short.report.tool.starts_with("100.000 mm"),
+        "{}",
+        short.report.tool
+    );
+    assert!(file(&long.files, "volcomp_errors.csv").contains("tool: 400.000 mm"));
+    // The error the tool's tilt adds grows with its length: EBX·L along X.
+    let tilt = |e: &export::Export| e.report.before.max_mm;
+    assert!(
+        tilt(&long) - tilt(&short) > 0.0008,
+        "{} {}",
+        tilt(&long),
+        tilt(&short)
+    );
+    // The squareness's end effect (the correction takes X past its travel) at the longer tool.
+    assert!(
+        long.report.residual.max_mm < 5e-8,
+        "{:?}",
+        long.report.residual
+    );
+    // A tool vector that is not a unit vector does not read: the control would scale the tool.
+    let mut files = long.files.clone();
+    for f in files.iter_mut().filter(|f| f.name == "volcomp_errors.csv") {
+        f.text = f.text.replace("-1.000000000", "-400.000000000");
+    }
+    let fitting = export::Fitting::new(&m, &inputs, [0.0; 6], Vec::new()).unwrap();
+    let error = isg()
+        .read_for(&files, &fitting)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        error.contains("volcomp_errors.csv") && error.contains("not a unit vector"),
+        "{error}"
+    );
+    // A length that is not one is refused.
+    asked.tool_length_mm = Some(-1.0);
+    let error = export::export(isg(), &asked)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(error.contains("a tool length of -1 mm"), "{error}");
 }
 
 const PIECEWISE: &str = r#"

@@ -362,7 +362,15 @@ impl IsgControl {
         for (letter, _) in axis_numbers(&nominal) {
             get(&letter.to_string().to_ascii_lowercase())?;
         }
+        // The tool's length is the active tool's (the machine's, as asked); the files give its
+        // direction.
+        let tool_length_mm = {
+            let o = fitting.machine.tool_offset_mm;
+            (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt()
+        };
         let mut machine = nominal;
+        machine.tool_offset_mm = [0.0; 3];
+        let mut direction: Option<(usize, [f64; 3])> = None;
         let mut tables = Vec::new();
         let mut constants = 0;
         for p in &parameters {
@@ -408,7 +416,8 @@ impl IsgControl {
                         let d = index(*a)
                             .filter(|&d| d < 3)
                             .ok_or_else(|| err("tool vector component"))?;
-                        machine.tool_offset_mm[d] = v;
+                        let (_, n) = direction.get_or_insert((p.line, [0.0; 3]));
+                        n[d] = v;
                     } else {
                         let own = axis_of(*a).ok_or_else(|| err("no such axis in the chain"))?;
                         let n = index(*c).expect("checked name");
@@ -421,6 +430,20 @@ impl IsgControl {
                     ))
                 }
             }
+        }
+        if let Some((line, n)) = direction {
+            let norm = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            // Written to 1e-9: a unit vector within rounding.
+            if (norm - 1.0).abs() > 1e-6 {
+                return Err(read_error(
+                    ERRORS,
+                    line,
+                    format!("the tool vector N0 ({}, {}, {}) is not a unit vector (length {norm}): the control takes the tool's length from its tool data", n[0], n[1], n[2]),
+                ));
+            }
+            machine.tool_offset_mm = n.map(|c| c / norm * tool_length_mm);
+        } else if tool_length_mm > 0.0 {
+            return Err(read_error(ERRORS, 0, "no tool vector N0X, N0Y, N0Z"));
         }
         if constants > 0 {
             tables.insert(

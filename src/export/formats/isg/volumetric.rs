@@ -161,15 +161,15 @@ impl Format for Isg {
                 tables.push(tabulate(&machine, name, args, &value, &count, spacing_mm)?);
             }
         }
-        for (d, v) in machine.tool_offset_mm.iter().enumerate() {
-            if machine.tool_offset_mm != [0.0; 3] {
-                constants.push(Parameter {
-                    name: format!("N0{}", COMPONENT_NAMES[d]),
-                    arguments: Vec::new(),
-                    nodes: Vec::new(),
-                    values: vec![*v],
-                });
-            }
+        // The tool vector is a unit vector: the control takes the tool's length from the
+        // active tool's data (TF5280, tool vector N0).
+        for (d, v) in crate::export::tool_direction(&machine).iter().enumerate() {
+            constants.push(Parameter {
+                name: format!("N0{}", COMPONENT_NAMES[d]),
+                arguments: Vec::new(),
+                nodes: Vec::new(),
+                values: vec![*v],
+            });
         }
         let rows = usize::from(!constants.is_empty())
             + tables.iter().map(|t| t.values.len()).sum::<usize>();
