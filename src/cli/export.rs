@@ -48,6 +48,11 @@ pub struct ExportArgs {
     /// offset.
     #[arg(long)]
     tool_length: Option<f64>,
+    /// The version of the control the files are for, where a format is written differently
+    /// for each: linuxcnc `2.9` (the current stable release: joint compensation files alone,
+    /// no squareness) or `2.10` (with matrixkins); default: the first.
+    #[arg(long)]
+    control: Option<String>,
     /// Refuse the export (write nothing, exit 2) when the largest residual is above this, mm.
     #[arg(long)]
     max_residual: Option<f64>,
@@ -109,6 +114,7 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
             .and_then(|p| p.file_name())
             .map(|n| n.to_string_lossy().into_owned()),
         tool_length_mm: args.tool_length,
+        control: args.control.clone(),
     };
     if let Some(list) = &args.sweep_points {
         return sweep(format, &request, list, &args);
@@ -171,6 +177,9 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
         ExportError::BadEvaluationGrid { .. } => Some("--residual-grid"),
         ExportError::Singular => Some("--pose"),
         ExportError::BadToolLength(_) => Some("--tool-length"),
+        ExportError::NoControlChoice { .. } | ExportError::UnknownControl { .. } => {
+            Some("--control")
+        }
         ExportError::MissingAxes { .. } | ExportError::NoSolution { .. } => Some("--machine"),
         _ => None,
     };
@@ -272,6 +281,7 @@ fn sweep(
             size: TableSize::Points(n),
             written_by: request.written_by.clone(),
             file_name: request.file_name.clone(),
+            control: request.control.clone(),
             ..*request
         };
         let exported = export::export(format, &asked).map_err(|e| flag_of(e, "--sweep-points"));

@@ -15,6 +15,14 @@ pub enum ExportError {
     Singular,
     #[error("a tool length of {0} mm: a length is a finite number of mm, 0 or more")]
     BadToolLength(f64),
+    #[error("{format} is written one way for every control: there is no control to choose")]
+    NoControlChoice { format: &'static str },
+    #[error("`{control}` is not a control {format} is written for (controls: {known})")]
+    UnknownControl {
+        format: &'static str,
+        control: String,
+        known: String,
+    },
     #[error("no command puts the real tool tip on the target X={:.3} Y={:.3} Z={:.3} mm (the Newton steps do not converge): the machine's errors are too large", at_mm[0], at_mm[1], at_mm[2])]
     NoSolution { at_mm: [f64; 3] },
     #[error("{format} holds fixed factors, not tables: there is no table size to choose")]

@@ -250,6 +250,9 @@ pub struct Fitting<'a> {
     pub header: Vec<String>,
     /// The name the file of a one-file format is written as, where the request gives one.
     pub file_name: Option<String>,
+    /// The version or generation of the control the files are written for, where the format
+    /// has a choice.
+    pub control: Option<&'static str>,
     field: Field,
 }
 
@@ -282,6 +285,7 @@ impl<'a> Fitting<'a> {
             ranges,
             header,
             file_name: None,
+            control: None,
             field,
         })
     }

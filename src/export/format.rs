@@ -96,6 +96,15 @@ pub struct Spec {
 pub trait Format: Sync {
     /// The format's facts: its `SPEC`.
     fn spec(&self) -> &'static Spec;
+    /// The versions or generations of the control the format is written for, the default
+    /// first (none: one layout for every control).
+    fn controls(&self) -> &'static [&'static str] {
+        &[]
+    }
+    /// The facts of the format written for `control` (one of [`Format::controls`]).
+    fn spec_for(&self, _control: Option<&str>) -> &'static Spec {
+        self.spec()
+    }
     /// Fits the tables to the correction and writes them as the control reads them; `points`
     /// is the size the core checked against [`Spec::limits`] (per axis; `None` for
     /// [`Nodes::Fixed`]), `spacing_mm` set where a spacing was asked for.

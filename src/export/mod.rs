@@ -87,6 +87,31 @@ pub struct Request<'a> {
     /// The tool's length, mm, along the machine file's tool direction ([`tool_direction`]);
     /// `None`: the machine file's tool offset as it is.
     pub tool_length_mm: Option<f64>,
+    /// The version or generation of the control ([`Format::controls`]; `None`: the default).
+    pub control: Option<String>,
+}
+
+/// The control `asked` for among `format`'s, or its default.
+pub fn control_of(
+    format: &dyn Format,
+    asked: Option<&str>,
+) -> Result<Option<&'static str>, ExportError> {
+    let known = format.controls();
+    let name = format.spec().name;
+    match asked {
+        None => Ok(known.first().copied()),
+        Some(_) if known.is_empty() => Err(ExportError::NoControlChoice { format: name }),
+        Some(c) => known
+            .iter()
+            .find(|k| **k == c)
+            .copied()
+            .map(Some)
+            .ok_or_else(|| ExportError::UnknownControl {
+                format: name,
+                control: c.to_string(),
+                known: known.join(", "),
+            }),
+    }
 }
 
 /// The direction of the machine's tool, from the spindle's end to the tool tip in the spindle
@@ -284,16 +309,21 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     let inputs = request.inputs;
     let pose_words = pose_text(machine, &request.pose);
     let tool_words = tool_text(machine, request.tool_length_mm.is_some());
-    let header = vec![
+    let control = control_of(format, request.control.as_deref())?;
+    let mut header = vec![
         request.written_by.clone(),
         format!("machine: {}", machine.name),
         format!("inputs: {}", inputs.describe(machine)),
         format!("pose (rotary axes, degrees): {pose_words}"),
         format!("tool: {tool_words}"),
     ];
-    let spec = format.spec();
+    if let Some(c) = control {
+        header.push(format!("control: {} {c}", format.spec().name));
+    }
+    let spec = format.spec_for(control);
     let mut fitting = Fitting::new(machine, inputs, request.pose, header)?;
     fitting.file_name = request.file_name.clone();
+    fitting.control = control;
     let ranges = fitting.ranges;
     let (points, spacing) = table_points(spec, request.size, &ranges)?;
     let files = format.write(&fitting, points, spacing)?;

@@ -24,6 +24,7 @@ pub fn request<'a>(machine: &'a Machine, inputs: &'a Inputs, size: TableSize) ->
         written_by: "Written by the tests".into(),
         file_name: None,
         tool_length_mm: None,
+        control: None,
     }
 }
 

@@ -69,6 +69,8 @@ fn compute(machine: &str, format: &str, points: usize) -> Row {
         written_by: String::new(),
         file_name: None,
         tool_length_mm: None,
+        // The figure shows LinuxCNC with matrixkins.
+        control: (format == "linuxcnc").then(|| "2.10".into()),
     };
     let r = export::export(export::format_named(format).unwrap(), &request)
         .unwrap()

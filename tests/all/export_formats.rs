@@ -20,6 +20,10 @@ fn exported(
 ) -> export::Export {
     let mut r = request(m, inputs, size);
     r.evaluation_points = Some(n);
+    // LinuxCNC with matrixkins, unless a test asks for 2.9 itself.
+    if format == "linuxcnc" {
+        r.control = Some("2.10".into());
+    }
     export::export(export::format_named(format).unwrap(), &r).unwrap()
 }
 
@@ -390,6 +394,51 @@ fn skew_formats_refuse_a_machine_without_squareness_and_take_no_table_size() {
             format!("{format} holds fixed factors, not tables: there is no table size to choose")
         );
     }
+}
+
+#[test]
+fn linuxcnc_2_9_writes_the_joint_files_alone_and_leaves_the_squareness() {
+    // vmc-li2015's squareness EC0Y: matrixkins holds it on 2.10; 2.9 has no matrixkins, so the
+    // configuration keeps trivkins, reads back with C the identity, and says what is left.
+    let li = embedded::load("vmc-li2015").unwrap();
+    let inputs = Inputs::default();
+    let mut r = request(&li, &inputs, TableSize::Points(9));
+    r.evaluation_points = Some(21);
+    let linuxcnc = export::format_named("linuxcnc").unwrap();
+    let stable = export::export(linuxcnc, &r).unwrap();
+    r.control = Some("2.10".into());
+    let master = export::export(linuxcnc, &r).unwrap();
+    let names = |e: &export::Export| e.files.iter().map(|f| f.name.clone()).collect::<Vec<_>>();
+    assert!(
+        !names(&stable).iter().any(|n| n.ends_with(".hal")),
+        "{:?}",
+        names(&stable)
+    );
+    assert!(names(&master).iter().any(|n| n.ends_with(".hal")));
+    let ini = text(&stable, "linuxcnc.ini");
+    assert!(
+        ini.contains("(LinuxCNC 2.9)") && !ini.contains("[KINS]"),
+        "{ini}"
+    );
+    assert!(ini.contains("squareness) are NOT held"));
+    assert!(ini.contains("# control: linuxcnc 2.9"));
+    assert!(stable.report.controller.starts_with("LinuxCNC 2.9"));
+    let named =
+        |e: &export::Export, key: &str| e.report.not_held.iter().find(|n| n.error == key).cloned();
+    let square = named(&stable, "EC0Y").expect("EC0Y listed on 2.9");
+    assert!(square.not_held_mm > 0.001, "{square:?}");
+    assert!(named(&master, "EC0Y").is_none());
+    assert!(stable.report.residual.max_mm > master.report.residual.max_mm);
+    // The versions it knows, and only those.
+    r.control = Some("2.8".into());
+    let error = export::export(linuxcnc, &r)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        error.contains("`2.8` is not a control linuxcnc is written for (controls: 2.9, 2.10)"),
+        "{error}"
+    );
 }
 
 #[test]

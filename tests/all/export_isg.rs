@@ -29,6 +29,7 @@ fn request<'a>(m: &'a Machine, inputs: &'a Inputs, size: TableSize, pose: Comman
         written_by: "Written by the tests".into(),
         file_name: None,
         tool_length_mm: None,
+        control: None,
     }
 }
 

@@ -41,26 +41,57 @@ const TERMS: [[Term; 3]; 3] = [
     [Term::Slope, Term::Slope, Term::Curve],
 ];
 
+/// The versions `--control` takes: the current stable release first (2.9.10 in November 2026),
+/// then 2.10, the first with matrixkins (not in any 2.9 tag).
+const CONTROLS: &[&str] = &["2.9", "2.10"];
+
+const LIMITS: Limits = Limits {
+    nodes: Nodes::Free,
+    min_points: 2,
+    max_points: MAX_ENTRIES,
+    min_spacing_mm: 0.0,
+    default_points: MAX_ENTRIES,
+    source: "LinuxCNC's EMCMOT_COMP_SIZE",
+};
+
+/// LinuxCNC 2.10: joint compensation files and matrixkins.
 const SPEC: Spec = Spec {
     name: "linuxcnc",
-    title: "LinuxCNC (joint compensation files, matrixkins)",
+    title: "LinuxCNC 2.10 (joint compensation files, matrixkins)",
     layout: Layout::Folder,
-    limits: Limits {
-        nodes: Nodes::Free,
-        min_points: 2,
-        max_points: MAX_ENTRIES,
-        min_spacing_mm: 0.0,
-        default_points: MAX_ENTRIES,
-        source: "LinuxCNC's EMCMOT_COMP_SIZE",
-    },
+    limits: LIMITS,
     structure: Structure::Additive(TERMS),
     holds: "per joint, its correction along its own axis as a function of its own position, forward and reverse; with matrixkins one constant linear map of X, Y, Z (squareness); not straightness, angular errors' Abbe terms, sag or other errors that vary with another axis's position nonlinearly, nor rotary axes",
     uses_direction: true,
 };
 
+/// LinuxCNC 2.9: joint compensation files alone (trivkins).
+const SPEC_2_9: Spec = Spec {
+    title: "LinuxCNC 2.9 (joint compensation files; no matrixkins, so no squareness)",
+    structure: Structure::Additive([
+        [Term::Curve, Term::None, Term::None],
+        [Term::None, Term::Curve, Term::None],
+        [Term::None, Term::None, Term::Curve],
+    ]),
+    holds: "per joint, its correction along its own axis as a function of its own position, forward and reverse; not squareness (matrixkins comes with LinuxCNC 2.10), straightness, angular errors' Abbe terms, sag or other errors of another axis's position, nor rotary axes",
+    ..SPEC
+};
+
 impl Format for LinuxCnc {
     fn spec(&self) -> &'static Spec {
         &SPEC
+    }
+
+    fn controls(&self) -> &'static [&'static str] {
+        CONTROLS
+    }
+
+    fn spec_for(&self, control: Option<&str>) -> &'static Spec {
+        if control == Some("2.9") {
+            &SPEC_2_9
+        } else {
+            &SPEC
+        }
     }
 
     fn write(
@@ -74,11 +105,19 @@ impl Format for LinuxCnc {
         for (k, row) in slopes_only.iter_mut().enumerate() {
             row[k] = Term::None;
         }
+        // LinuxCNC 2.9 has no matrixkins: C stays the identity (trivkins).
+        let with_kinematics = fitting.control != Some("2.9");
         let skew = fitting.additive(fitting.field(), slopes_only, Default::default())?;
         // C = I + S, written to 12 decimals; the trims are fitted against C as written.
         let c: [[f64; 3]; 3] = std::array::from_fn(|k| {
             std::array::from_fn(|i| {
-                let v = if i == k { 1.0 } else { skew.slopes[k][i] };
+                let v = if i == k {
+                    1.0
+                } else if with_kinematics {
+                    skew.slopes[k][i]
+                } else {
+                    0.0
+                };
                 round(v, COEFFICIENT_DECIMALS)
             })
         });
@@ -247,11 +286,14 @@ fn joint_table(
 /// The INI lines that load the files.
 fn ini_snippet(fitting: &Fitting, uses_kinematics: bool) -> String {
     let mut text: String = fitting.header.iter().map(|l| format!("# {l}\n")).collect();
-    text += "# Add these lines to the machine's INI file (LinuxCNC 2.8 or later), with the files\n";
+    let version = fitting.control.unwrap_or(CONTROLS[0]);
+    text += &format!(
+        "# Add these lines to the machine's INI file (LinuxCNC {version}), with the files\n"
+    );
     text += "# beside it; then restart LinuxCNC and home. Joints 0, 1, 2 are X, Y, Z, in mm\n";
     text += "# ([TRAJ]LINEAR_UNITS = mm); volmap's axis zeros are the joints' home zeros.\n";
     if uses_kinematics {
-        text += "# matrixkins needs LinuxCNC 2.10 (master); the HAL file must load after the one\n";
+        text += "# matrixkins came with LinuxCNC 2.10; the HAL file must load after the one\n";
         text +=
             "# that does `loadrt [KINS]KINEMATICS`. Joints 3, 4, 5 are A, B, C (matrixkins(9)).\n";
         // matrixkins passes the joints after X, Y, Z through to A, B, C in order.
@@ -264,6 +306,10 @@ fn ini_snippet(fitting: &Fitting, uses_kinematics: bool) -> String {
             .unwrap_or(3);
         text += &format!("\n[KINS]\nKINEMATICS = matrixkins\nJOINTS = {joints}\n");
         text += &format!("\n[HAL]\nHALFILE = {HAL}\n");
+    } else if version == "2.9" {
+        text +=
+            "# LinuxCNC 2.9 has no matrixkins (it came with 2.10): the kinematics stay trivkins,\n";
+        text += "# and the correction's linear cross terms (squareness) are NOT held (the report says how much).\n";
     } else {
         text += "# The correction has no linear cross terms: the kinematics stay trivkins.\n";
     }

@@ -187,6 +187,8 @@ fn linuxcnc_writes_a_folder_of_joint_files_and_ini_lines() {
     volmap()
         .args(["export", "--machine", "gantry-2m", "--format", "linuxcnc"])
         .args([
+            "--control",
+            "2.10",
             "--points",
             "9",
             "--approach",
