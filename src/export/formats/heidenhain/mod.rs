@@ -38,7 +38,7 @@ pub struct Heidenhain;
 
 const SPEC: Spec = Spec {
     name: "heidenhain",
-    title: "HEIDENHAIN TNC (nonlinear axis error compensation, *.COM and *.CMA)",
+    title: "HEIDENHAIN (nonlinear axis error compensation, *.COM and *.CMA, the MANUALplus 620 layout)",
     layout: Layout::Folder,
     limits: Limits {
         nodes: Nodes::Free,

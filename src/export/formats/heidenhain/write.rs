@@ -173,13 +173,21 @@ fn row(fields: &[String], widths: &[(&str, usize)]) -> String {
 
 fn com_table(i: usize, t: &ComTable) -> String {
     let mut text = begin(AXIS_KEYS[i], ".COM");
-    let names: Vec<String> = COM_COLUMNS.iter().map(|(n, _)| n.to_string()).collect();
-    text += &row(&names, &COM_COLUMNS);
+    // The BACKLASH column only where its rows carry it: the header names what the rows hold.
+    let columns = if t.backlash.is_some() {
+        &COM_COLUMNS[..]
+    } else {
+        &COM_COLUMNS[..COM_COLUMNS.len() - 1]
+    };
+    let names: Vec<String> = columns.iter().map(|(n, _)| n.to_string()).collect();
+    text += &row(&names, columns);
     for (n, q) in t.axispos.iter().enumerate() {
         let mut fields = vec![n.to_string(), number(*q)];
         fields.extend(t.columns.iter().map(|c| number(c[n])));
-        fields.push(t.backlash.as_ref().map_or(String::new(), |b| number(b[n])));
-        text += &row(&fields, &COM_COLUMNS);
+        if let Some(b) = &t.backlash {
+            fields.push(number(b[n]));
+        }
+        text += &row(&fields, columns);
     }
     text += "[END]\n";
     text
