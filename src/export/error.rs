@@ -13,6 +13,8 @@ pub enum ExportError {
     MissingAxes { chain: String, missing: String },
     #[error("the linear axes do not span X, Y and Z at the pose")]
     Singular,
+    #[error("{format}: its files with the report written into them do not read back as the files without it")]
+    ReportChangesTables { format: &'static str },
     #[error("a tool length of {0} mm: a length is a finite number of mm, 0 or more")]
     BadToolLength(f64),
     #[error("{format} is written one way for every control: there is no control to choose")]

@@ -101,6 +101,11 @@ pub trait Format: Sync {
     fn controls(&self) -> &'static [&'static str] {
         &[]
     }
+    /// What starts a comment line where the format's one file may end in comments (`# `, `; `):
+    /// the report is written there. `None`: no comments (or a folder format).
+    fn comment_prefix(&self) -> Option<&'static str> {
+        None
+    }
     /// The facts of the format written for `control` (one of [`Format::controls`]).
     fn spec_for(&self, _control: Option<&str>) -> &'static Spec {
         self.spec()

@@ -37,6 +37,7 @@ pub mod fitting;
 pub mod format;
 pub mod formats;
 pub mod nodes;
+pub mod provenance;
 pub mod residual;
 
 use std::path::{Path, PathBuf};
@@ -173,7 +174,11 @@ pub struct Report {
 pub struct Export {
     /// The format's facts: where its files go, its name for messages.
     pub spec: &'static Spec,
+    /// The files the control reads.
     pub files: Vec<format::WrittenFile>,
+    /// The report written beside them in a folder format's folder
+    /// ([`provenance::REPORT_FILE`]; a one-file format carries it as comments).
+    pub report_file: Option<format::WrittenFile>,
     pub report: Report,
 }
 
@@ -326,7 +331,7 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     fitting.control = control;
     let ranges = fitting.ranges;
     let (points, spacing) = table_points(spec, request.size, &ranges)?;
-    let files = format.write(&fitting, points, spacing)?;
+    let mut files = format.write(&fitting, points, spacing)?;
     let control = format.read_for(&files, &fitting)?;
     let tables = control.tables();
     let table_points = tables.iter().map(|t| t.points).max().unwrap_or(2);
@@ -360,7 +365,7 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     let coarse: [Vec<f64>; 3] =
         std::array::from_fn(|d| fitting.travel(d, fitting::AVERAGING_POINTS));
     let structural_mm = fitting::structural_remainder(fitting.field(), structure, &coarse)?;
-    let report = Report {
+    let mut report = Report {
         format: spec.name,
         controller: spec.title,
         machine: machine.name.clone(),
@@ -379,9 +384,30 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
         structural_mm,
         not_held,
     };
+    // The report goes where the tables are kept, and the files are read back with it.
+    let lines = provenance::report_lines(&report);
+    let report_file = provenance::attach(format, &mut files, &fitting.header, &lines);
+    let sample: Vec<[f64; 3]> = residual::targets(&report.grid, &ranges)
+        .into_iter()
+        .step_by(97)
+        .collect();
+    provenance::check_read_back(
+        format,
+        &files,
+        &fitting,
+        control.as_ref(),
+        &sample,
+        &inputs.approach,
+    )?;
+    report.files = files
+        .iter()
+        .chain(&report_file)
+        .map(|f| f.name.clone())
+        .collect();
     Ok(Export {
         spec,
         files,
+        report_file,
         report,
     })
 }
@@ -416,11 +442,15 @@ impl Export {
                     ));
                 }
                 std::fs::create_dir_all(out).map_err(|e| FileError::write(out, e))?;
-                self.files.iter().map(|f| out.join(&f.name)).collect()
+                self.files
+                    .iter()
+                    .chain(&self.report_file)
+                    .map(|f| out.join(&f.name))
+                    .collect()
             }
         };
         let mut pending = Vec::new();
-        for (path, file) in paths.iter().zip(&self.files) {
+        for (path, file) in paths.iter().zip(self.files.iter().chain(&self.report_file)) {
             let mut atomic = AtomicFile::create(path, 1 << 16)?;
             use std::io::Write;
             atomic

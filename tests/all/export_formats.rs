@@ -338,8 +338,15 @@ fn marlin_holds_a_pure_skew_where_it_corrects_and_nothing_elsewhere() {
     let gcode = text(&e, "volmap_skew.gcode");
     let line = gcode.lines().find(|l| l.starts_with("M852 ")).unwrap();
     assert!(
-        gcode.contains("\nG21\nM852 ") && gcode.ends_with("\nM500\n"),
+        gcode.contains("\nG21\nM852 ") && gcode.contains("\nM500\n"),
         "{gcode}"
+    );
+    // After M500 only the report, as comments.
+    let after = &gcode[gcode.find("\nM500\n").unwrap() + 6..];
+    assert!(after.lines().all(|l| l.starts_with("; ")), "{after}");
+    assert!(
+        after.contains("; residual with these tables: largest "),
+        "{after}"
     );
     // Fixed decimals (Marlin reads no exponent) into 32-bit floats.
     assert!(!line.contains('e') && !line.contains('E'));
@@ -439,6 +446,48 @@ fn linuxcnc_2_9_writes_the_joint_files_alone_and_leaves_the_squareness() {
         error.contains("`2.8` is not a control linuxcnc is written for (controls: 2.9, 2.10)"),
         "{error}"
     );
+}
+
+#[test]
+fn every_export_carries_its_residual_where_its_tables_are_kept() {
+    // The residual, the error before and what the format cannot hold, with the machine: as
+    // comments at the end of a one-file format's file (which still reads as without them), in
+    // volmap-report.txt beside a folder format's files.
+    let li = embedded::load("vmc-li2015").unwrap();
+    let inputs = Inputs::default();
+    for format in export::formats::FORMATS {
+        let name = format.spec().name;
+        let mut r = request(&li, &inputs, TableSize::Points(5));
+        r.evaluation_points = Some(11);
+        if format.spec().limits.nodes == export::Nodes::Fixed {
+            r.size = TableSize::Default;
+        }
+        let e = export::export(*format, &r).unwrap();
+        let residual = format!(
+            "residual with these tables: largest {:.3} um",
+            e.report.residual.max_mm * 1e3
+        );
+        let text = match format.spec().layout {
+            export::Layout::File => {
+                assert!(e.report_file.is_none(), "{name}");
+                e.files[0].text.clone()
+            }
+            export::Layout::Folder => {
+                let report = e.report_file.as_ref().expect("a report file");
+                assert_eq!(report.name, "volmap-report.txt");
+                assert!(e.report.files.contains(&report.name), "{name}");
+                assert!(report.text.contains("machine: 3-axis VMC"), "{name}");
+                report.text.clone()
+            }
+        };
+        assert!(text.contains(&residual), "{name}: {residual} in\n{text}");
+        assert!(text.contains("error before: largest "), "{name}");
+        let cannot = match e.report.not_held.first() {
+            Some(n) => format!("cannot hold: {} ", n.error),
+            None => "cannot hold: nothing".into(),
+        };
+        assert!(text.contains(&cannot), "{name}: {cannot} in\n{text}");
+    }
 }
 
 #[test]

@@ -44,6 +44,10 @@ impl Format for GridCsv {
         &SPEC
     }
 
+    fn comment_prefix(&self) -> Option<&'static str> {
+        Some("# ")
+    }
+
     fn write(
         &self,
         fitting: &Fitting,

@@ -40,6 +40,10 @@ impl Format for Klipper {
         &SPEC
     }
 
+    fn comment_prefix(&self) -> Option<&'static str> {
+        Some("# ")
+    }
+
     fn write(
         &self,
         fitting: &Fitting,

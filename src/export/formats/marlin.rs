@@ -46,6 +46,10 @@ impl Format for Marlin {
         &SPEC
     }
 
+    fn comment_prefix(&self) -> Option<&'static str> {
+        Some("; ")
+    }
+
     fn write(
         &self,
         fitting: &Fitting,

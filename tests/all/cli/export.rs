@@ -218,11 +218,18 @@ fn linuxcnc_writes_a_folder_of_joint_files_and_ini_lines() {
         names,
         [
             "linuxcnc.ini",
+            "volmap-report.txt",
             "volmap_joint0_X.comp",
             "volmap_joint1_Y.comp",
             "volmap_joint2_Z.comp",
             "volmap_matrixkins.hal"
         ]
+    );
+    let report = std::fs::read_to_string(out.join("volmap-report.txt")).unwrap();
+    assert!(report.starts_with("Written by volmap "), "{report}");
+    assert!(
+        report.contains("\nresidual with these tables: largest "),
+        "{report}"
     );
     // The rows come first: LinuxCNC stops reading at the first line that is not three numbers.
     let x = std::fs::read_to_string(out.join("volmap_joint0_X.comp")).unwrap();

@@ -49,6 +49,10 @@ impl Format for FanucLattice {
         &SPEC
     }
 
+    fn comment_prefix(&self) -> Option<&'static str> {
+        Some("# ")
+    }
+
     fn write(
         &self,
         fitting: &Fitting,
