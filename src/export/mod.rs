@@ -115,11 +115,17 @@ pub fn control_of(
     }
 }
 
+/// The length of the machine's tool: its tool offset's, mm.
+pub fn tool_length_mm(machine: &Machine) -> f64 {
+    let o = machine.tool_offset_mm;
+    (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt()
+}
+
 /// The direction of the machine's tool, from the spindle's end to the tool tip in the spindle
 /// frame: its tool offset's, or −Z where it has none (a tool pointing down the spindle).
 pub fn tool_direction(machine: &Machine) -> [f64; 3] {
     let o = machine.tool_offset_mm;
-    let length = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+    let length = tool_length_mm(machine);
     if length > 0.0 {
         [o[0] / length, o[1] / length, o[2] / length]
     } else {
@@ -197,8 +203,7 @@ pub fn pose_text(machine: &Machine, pose: &Command) -> String {
 
 /// The tool of `machine` in words: length, direction, and whether the length was asked for.
 fn tool_text(machine: &Machine, asked: bool) -> String {
-    let o = machine.tool_offset_mm;
-    let length = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+    let length = tool_length_mm(machine);
     let [x, y, z] = tool_direction(machine);
     let from = if asked {
         "the length asked for"

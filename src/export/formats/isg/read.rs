@@ -364,10 +364,7 @@ impl IsgControl {
         }
         // The tool's length is the active tool's (the machine's, as asked); the files give its
         // direction.
-        let tool_length_mm = {
-            let o = fitting.machine.tool_offset_mm;
-            (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt()
-        };
+        let tool_length_mm = crate::export::tool_length_mm(fitting.machine);
         let mut machine = nominal;
         machine.tool_offset_mm = [0.0; 3];
         let mut direction: Option<(usize, [f64; 3])> = None;
