@@ -77,17 +77,7 @@ pub(super) fn bench_gpu_kernels(
         Row::new("GPU kernel", points, kernel_seconds),
     ];
     on_step("GPU kernel + readback");
-    let mut readback = Vec::with_capacity(runs);
-    for _ in 0..runs {
-        let (done, s) = timed(|| {
-            gpu.run(machine, grid, None, |_, _, data| -> Result<(), GpuError> {
-                std::hint::black_box(data);
-                Ok(())
-            })
-        });
-        done?;
-        readback.push(s);
-    }
+    let readback = time_maps(gpu, machine, grid, runs)?;
     let readback_s = Spread::of(&readback).median;
     rows.push(Row::new("GPU kernel + readback", points, readback));
     Ok(GpuKernels {
@@ -156,28 +146,40 @@ pub(super) fn bench_gpu_per_point(
     on_step: &mut impl FnMut(&str),
 ) -> Result<Row, BenchError> {
     on_step("GPU map passes + readback");
-    let map = |grid: &Grid| {
-        gpu.run(machine, grid, None, |_, _, data| -> Result<(), GpuError> {
-            std::hint::black_box(data);
-            Ok(())
-        })
-    };
     // Compile the kernel on one line first: the clock is for the map, not the driver.
-    map(&Grid {
+    let line = Grid {
         dims: [grid.dims[0], 1, 1],
         ..grid.clone()
-    })?;
-    let mut seconds = Vec::with_capacity(runs);
-    for _ in 0..runs {
-        let (done, s) = timed(|| map(grid));
-        done?;
-        seconds.push(s);
-    }
+    };
+    time_maps(gpu, machine, &line, 1)?;
+    let seconds = time_maps(gpu, machine, grid, runs)?;
     Ok(Row::new(
         "GPU map passes + readback",
         grid.points(),
         seconds,
     ))
+}
+
+/// The seconds of `runs` GPU maps of `grid` with their readback, each chunk read back and
+/// dropped.
+fn time_maps(
+    gpu: &GpuMapper,
+    machine: &Machine,
+    grid: &Grid,
+    runs: usize,
+) -> Result<Vec<f64>, BenchError> {
+    let mut seconds = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let (done, s) = timed(|| {
+            gpu.run(machine, grid, None, |_, _, data| -> Result<(), GpuError> {
+                std::hint::black_box(data);
+                Ok(())
+            })
+        });
+        done?;
+        seconds.push(s);
+    }
+    Ok(seconds)
 }
 
 /// The f64 reference on one thread (the baseline) and the CPU engine on all cores.
