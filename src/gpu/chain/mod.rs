@@ -12,6 +12,7 @@ mod mapper;
 pub mod pack;
 mod positions;
 mod sampled;
+mod timing;
 
 pub use mapper::GpuMapper;
 pub use pack::{pack, MachineShape, Packed, PointVariant};
@@ -22,7 +23,8 @@ use crate::model::grid::Grid;
 use crate::model::Machine;
 
 /// The chain kernel's WGSL source: `shaders/deviation.wgsl` (transforms in deviation form),
-/// `shaders/chain.wgsl` (buffers, the axis and group passes), `shaders/points.wgsl` (the point
+/// `shaders/chain.wgsl` (buffers, the axis and group passes), `shaders/errors.wgsl` (error values
+/// and the deviations of sampled machines), `shaders/points.wgsl` (the point
 /// pass, its reduce variant, the write-only kernel), `shaders/positions.wgsl` (the chain at
 /// arbitrary positions) and `shaders/folded.wgsl` (machines whose errors read other axes),
 /// joined in that order.
@@ -31,6 +33,8 @@ pub const CHAIN_WGSL: &str = concat!(
     "\n",
     include_str!("../../../shaders/chain.wgsl"),
     "\n",
+    include_str!("../../../shaders/errors.wgsl"),
+    "\n",
     include_str!("../../../shaders/points.wgsl"),
     "\n",
     include_str!("../../../shaders/positions.wgsl"),
@@ -38,9 +42,10 @@ pub const CHAIN_WGSL: &str = concat!(
     include_str!("../../../shaders/folded.wgsl")
 );
 /// The files [`CHAIN_WGSL`] is joined from, in order, in `shaders/`.
-pub const CHAIN_WGSL_FILES: [&str; 5] = [
+pub const CHAIN_WGSL_FILES: [&str; 6] = [
     "deviation.wgsl",
     "chain.wgsl",
+    "errors.wgsl",
     "points.wgsl",
     "positions.wgsl",
     "folded.wgsl",
