@@ -91,20 +91,19 @@ impl ChunkDispatch {
 }
 
 impl GpuMapper {
-    /// Uploads `machine`, compiles the kernels and sizes the buffers for batches of up to
-    /// `samples` machines whose chunks' results take `result_bytes(batch)`: the field of one
-    /// chunk, or with `reduce` the partials of a batch (`result_bytes(1)` per machine).
+    /// Uploads `machine` with its tables' `layout` over `grid`, compiles the kernels and sizes
+    /// the buffers for batches of up to `samples` machines whose chunks' results take
+    /// `result_bytes(batch)`: the field of one chunk, or with `reduce` the partials of a batch
+    /// (`result_bytes(1)` per machine).
     fn prepare_folded(
         &self,
-        machine: &Machine,
-        perturbations: &[Perturbation],
-        grid: &Grid,
+        (machine, perturbations): (&Machine, &[Perturbation]),
+        (grid, layout): (&Grid, FoldedLayout),
         (samples, slots): (usize, usize),
         reduce: bool,
         result_bytes: impl Fn(u64) -> u64,
     ) -> Result<Folded, GpuError> {
         let base = Base::new(machine, perturbations, grid);
-        let layout = FoldedLayout::new(machine, grid);
         let binding = self.gpu.max_storage_binding_bytes();
         if layout.bytes() > binding {
             return Err(self.error(format!(
@@ -326,12 +325,15 @@ impl GpuMapper {
                 ))
                 .into());
         }
-        let x_alone = FoldedLayout::new(machine, grid).x_alone;
+        let layout = FoldedLayout::new(machine, grid);
+        let x_alone = layout.x_alone;
         let lines = (limit / nx).clamp(1, ChunkDispatch::max_lines(self, nx, x_alone));
         let chunks = grid.chunks(lines * nx);
         let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
-        let folded = self.prepare_folded(machine, &[], grid, (1, 2), false, |_| chunk_bytes)?;
+        let folded = self.prepare_folded((machine, &[]), (grid, layout), (1, 2), false, |_| {
+            chunk_bytes
+        })?;
         self.fold_batch(&folded, machine, &[], &[Vec::new()], grid)?;
         let mut deliver = |submission, slot: &Slot, (first, lines): (u64, u64)| {
             let bytes = lines * nx * BYTES_PER_POINT;
@@ -366,7 +368,8 @@ impl GpuMapper {
         mut on_batch: impl FnMut(usize),
     ) -> Result<Vec<FieldStats>, GpuError> {
         let nx = grid.dims[0] as u64;
-        let x_alone = FoldedLayout::new(machine, grid).x_alone;
+        let layout = FoldedLayout::new(machine, grid);
+        let x_alone = layout.x_alone;
         let chunks = grid.chunks(ChunkDispatch::max_lines(self, nx, x_alone) * nx);
         let mut most_groups = 1;
         for &(_, lines) in &chunks {
@@ -374,9 +377,8 @@ impl GpuMapper {
         }
         let partial = std::mem::size_of::<Partial>() as u64;
         let folded = self.prepare_folded(
-            machine,
-            perturbations,
-            grid,
+            (machine, perturbations),
+            (grid, layout),
             (rows.len(), 1),
             true,
             |batch| batch * most_groups * partial,
@@ -453,14 +455,17 @@ impl GpuMapper {
     ) -> Result<([Vec<f64>; 2], bool), GpuError> {
         check_error_angles(machine, grid)?;
         let nx = grid.dims[0] as u64;
-        let x_alone = FoldedLayout::new(machine, grid).x_alone;
-        let lines =
-            (self.max_chunk_points() / nx).clamp(1, ChunkDispatch::max_lines(self, nx, x_alone));
+        let layout = FoldedLayout::new(machine, grid);
+        let lines = (self.max_chunk_points() / nx)
+            .clamp(1, ChunkDispatch::max_lines(self, nx, layout.x_alone));
         let chunks = grid.chunks(lines * nx);
         let chunk_lines = chunks.iter().map(|&(_, l)| l).max().unwrap_or(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
         let slots = chunks.len().min(2);
-        let folded = self.prepare_folded(machine, &[], grid, (1, slots), false, |_| chunk_bytes)?;
+        let folded =
+            self.prepare_folded((machine, &[]), (grid, layout), (1, slots), false, |_| {
+                chunk_bytes
+            })?;
         self.fold_batch(&folded, machine, &[], &[Vec::new()], grid)?;
         let write_only = self.write_only_kernel(1)?;
         let ceiling_bindings: Vec<_> = folded
@@ -501,26 +506,12 @@ impl GpuMapper {
                 None => Ok(()),
             }
         };
-        let warming = std::time::Instant::now();
-        loop {
-            pass(false, None)?;
-            pass(true, None)?;
-            if warming.elapsed().as_secs_f64() >= warm_up_s {
-                break;
-            }
-        }
-        let timer = self.gpu.timer(chunks.len());
-        let mut seconds = [Vec::with_capacity(runs), Vec::with_capacity(runs)];
-        for _ in 0..runs.max(1) {
-            for (k, ceiling) in [false, true].into_iter().enumerate() {
-                let start = std::time::Instant::now();
-                pass(ceiling, timer.as_ref())?;
-                seconds[k].push(match &timer {
-                    Some(t) => self.gpu.timed_seconds(t, chunks.len() as u32)?,
-                    None => start.elapsed().as_secs_f64(),
-                });
-            }
-        }
-        Ok((seconds, timer.is_some()))
+        let (mut seconds, timestamps) =
+            self.take_turns(2, chunks.len(), (runs, warm_up_s), |k, timer| {
+                pass(k == 1, timer)
+            })?;
+        let ceiling = seconds.pop().expect("the ceiling's runs");
+        let kernel = seconds.pop().expect("the kernel's runs");
+        Ok(([kernel, ceiling], timestamps))
     }
 }

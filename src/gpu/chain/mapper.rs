@@ -1,14 +1,14 @@
 //! The chain kernel on an open device: the per-map passes, the chunks planned per tiling, the
 //! point pass dispatched chunk by chunk with the readback of one overlapping the compute of the
-//! next, and the kernels timed for `volmap bench`.
+//! next (the kernels timed for `volmap bench`: [`super::timing`]).
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 use super::pack::{pack, MachineShape, Packed, PointVariant};
 use super::{
-    check_error_angles, KernelChoice, Tiling, TimedKernel, BYTES_PER_POINT, CHAIN_WGSL,
-    DEFAULT_CHUNK_POINTS, DEFAULT_CHUNK_POINTS_HARDWARE, HARDWARE_TILING, SOFTWARE_TILING,
+    check_error_angles, KernelChoice, Tiling, BYTES_PER_POINT, CHAIN_WGSL, DEFAULT_CHUNK_POINTS,
+    DEFAULT_CHUNK_POINTS_HARDWARE, HARDWARE_TILING, SOFTWARE_TILING,
 };
 use crate::gpu::device::{self, Buffer, Gpu, Pass, Readback};
 use crate::gpu::layout::{DevData, Params, WORKGROUP_SIZE};
@@ -25,8 +25,8 @@ struct InFlight {
 
 /// How one tiling dispatches a chunk: its pipelines, their bindings to each chunk's buffers,
 /// how the invocations divide the lines.
-struct Plan {
-    tiling: Tiling,
+pub(super) struct Plan {
+    pub tiling: Tiling,
     /// Points per invocation (`Params::chunk[2]`).
     points_per_invocation: u32,
     /// Invocations that share a group of lines (`Params::chunk[3]`).
@@ -41,12 +41,12 @@ struct Plan {
 
 /// A map ready to run: the machine on the device, its axis values and groups computed, the
 /// chunks planned for one or more tilings.
-struct Prepared {
+pub(super) struct Prepared {
     params: Params,
     nx: u64,
-    chunks: Vec<(u64, u64)>,
+    pub chunks: Vec<(u64, u64)>,
     in_flight: Vec<InFlight>,
-    plans: Vec<Plan>,
+    pub plans: Vec<Plan>,
 }
 
 /// What the per-map passes leave on the device for the point pass.
@@ -257,7 +257,7 @@ impl GpuMapper {
 
     /// Uploads the machine, computes its axis values and groups, and plans the chunks for each
     /// of `tilings`.
-    fn prepare(
+    pub(super) fn prepare(
         &self,
         machine: &Machine,
         grid: &Grid,
@@ -431,7 +431,7 @@ impl GpuMapper {
 
     /// Submits chunk `n` of `prepared` with plan `plan` into its buffers, with or without the copy
     /// to the host.
-    fn submit_chunk(
+    pub(super) fn submit_chunk(
         &self,
         prepared: &Prepared,
         plan: usize,
@@ -515,89 +515,5 @@ impl GpuMapper {
         self.gpu.read(submission, &chunk.staging, bytes, |data| {
             on_chunk(first_line, lines, bytemuck::cast_slice(data))
         })?
-    }
-
-    /// The seconds one pass over the whole grid takes on the device, every run of `runs`, for
-    /// each of `kernels`, and whether timestamp queries timed them. The kernels take turns, run
-    /// after run, so a ceiling and the kernel it bounds are measured under the same conditions.
-    /// Before the clock starts every kernel passes over the grid for at least `warm_up_s`
-    /// seconds (once at least): the driver's lazy work done and the device's clocks up, whatever
-    /// ran before.
-    pub fn time_kernels(
-        &self,
-        machine: &Machine,
-        grid: &Grid,
-        kernels: &[TimedKernel],
-        runs: usize,
-        warm_up_s: f64,
-    ) -> Result<(Vec<Vec<f64>>, bool), GpuError> {
-        let mut tilings: Vec<Tiling> = Vec::new();
-        for kernel in kernels {
-            if !tilings.contains(&kernel.tiling) {
-                tilings.push(kernel.tiling);
-            }
-        }
-        let prepared = self.prepare(machine, grid, None, &tilings)?;
-        let plan_of = |kernel: &TimedKernel| {
-            prepared
-                .plans
-                .iter()
-                .position(|p| p.tiling == kernel.tiling)
-                .expect("a plan per tiling")
-        };
-        let pass = |kernel: &TimedKernel, timer: Option<&device::Timer>| {
-            let plan = plan_of(kernel);
-            let mut last = None;
-            for n in 0..prepared.chunks.len() {
-                let timed = timer.map(|t| (t, n as u32));
-                last = Some(self.submit_chunk(&prepared, plan, n, kernel.choice, false, timed));
-            }
-            match last {
-                Some(last) => self.gpu.wait(last),
-                None => Ok(()),
-            }
-        };
-        let warming = std::time::Instant::now();
-        loop {
-            for kernel in kernels {
-                pass(kernel, None)?;
-            }
-            if warming.elapsed().as_secs_f64() >= warm_up_s {
-                break;
-            }
-        }
-        let timer = self.gpu.timer(prepared.chunks.len());
-        let mut seconds = vec![Vec::with_capacity(runs); kernels.len()];
-        for _ in 0..runs.max(1) {
-            for (k, kernel) in kernels.iter().enumerate() {
-                let start = std::time::Instant::now();
-                pass(kernel, timer.as_ref())?;
-                seconds[k].push(match &timer {
-                    Some(t) => self.gpu.timed_seconds(t, prepared.chunks.len() as u32)?,
-                    None => start.elapsed().as_secs_f64(),
-                });
-            }
-        }
-        Ok((seconds, timer.is_some()))
-    }
-
-    /// [`GpuMapper::time_kernels`] for one kernel with this device's tiling: the fastest of
-    /// `runs`, after one pass.
-    pub fn time_kernel(
-        &self,
-        machine: &Machine,
-        grid: &Grid,
-        choice: KernelChoice,
-        runs: usize,
-    ) -> Result<(f64, bool), GpuError> {
-        let kernel = TimedKernel {
-            choice,
-            tiling: self.tiling,
-        };
-        let (seconds, timestamps) = self.time_kernels(machine, grid, &[kernel], runs, 0.0)?;
-        Ok((
-            seconds[0].iter().copied().fold(f64::INFINITY, f64::min),
-            timestamps,
-        ))
     }
 }
