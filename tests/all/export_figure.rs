@@ -181,9 +181,10 @@ fn residual_against_table_size_of_the_embedded_machines() {
         figure.write(&svg).unwrap();
     }
     // The figure is drawn from the stored values (a PNG of it beside the test's files to look at).
-    figure
-        .write(&PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("export-residual.png"))
-        .unwrap();
+    // The folder is made by cargo where the suite is built, not where its binary is carried.
+    let scratch = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    std::fs::create_dir_all(&scratch).unwrap();
+    figure.write(&scratch.join("export-residual.png")).unwrap();
     assert_eq!(
         std::fs::read_to_string(&svg).unwrap(),
         figure.svg().unwrap()

@@ -224,21 +224,33 @@ fn peak_memory_of_sample(dir: &Path, field: &Path, count: usize) -> u64 {
     peak_kb * 1024
 }
 
-/// Not timed: the same bound holds for 200,000 and 2,000,000 points. Holding every point, its
-/// row and its answer takes about 300 bytes a point, 600 MB for the larger file.
+/// Not timed: 2,000,000 points take no more memory than 200,000 (within 64 MiB, where holding
+/// every point, its row and its answer takes about 300 bytes a point, 540 MB more), and neither
+/// more than 256 MiB. The allowance is for the allocator's per-thread arenas, which grow with
+/// the cores and the load (on a 16-core machine running the suite a peak passed 160 MiB).
 #[cfg(target_os = "linux")]
 #[test]
 fn memory_stays_flat_in_the_number_of_points() {
     let dir = tempfile::tempdir().unwrap();
     let field = field(dir.path());
-    let bound = 160 << 20;
-    for count in [200_000, 2_000_000] {
-        let peak = peak_memory_of_sample(dir.path(), &field, count);
-        assert!(
-            peak < bound,
-            "{count} points: {peak} bytes resident at the peak"
-        );
-    }
+    let bound = 256 << 20;
+    let peaks: Vec<u64> = [200_000, 2_000_000]
+        .into_iter()
+        .map(|count| {
+            let peak = peak_memory_of_sample(dir.path(), &field, count);
+            assert!(
+                peak < bound,
+                "{count} points: {peak} bytes resident at the peak"
+            );
+            peak
+        })
+        .collect();
+    assert!(
+        peaks[1] < peaks[0] + (64 << 20),
+        "resident at the peak: {} bytes for 200,000 points, {} for 2,000,000",
+        peaks[0],
+        peaks[1]
+    );
 }
 
 /// The samples (CSV rows without the position columns) `volmap sample` writes.
