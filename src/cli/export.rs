@@ -53,6 +53,11 @@ pub struct ExportArgs {
     /// no squareness) or `2.10` (with matrixkins); default: the first.
     #[arg(long)]
     control: Option<String>,
+    /// fanuc: the pitch error compensation point numbers the tables may take, `FIRST-LAST`
+    /// (the control's pool, or the part of it no other axis uses), in six equal blocks: X, Y,
+    /// Z travelling +, then X, Y, Z travelling −; default 0-1023.
+    #[arg(long, value_parser = parse_point_numbers)]
+    point_numbers: Option<[i64; 2]>,
     /// Refuse the export (write nothing, exit 2) when the largest residual is above this, mm.
     #[arg(long)]
     max_residual: Option<f64>,
@@ -69,6 +74,14 @@ pub struct ExportArgs {
     plot: Option<PathBuf>,
     #[command(flatten)]
     json: JsonArg,
+}
+
+/// `FIRST-LAST`, two whole numbers.
+fn parse_point_numbers(text: &str) -> Result<[i64; 2], String> {
+    let bad = || format!("`{text}`: expected FIRST-LAST, two whole numbers, e.g. 0-1023");
+    let (first, last) = text.split_once('-').ok_or_else(bad)?;
+    let number = |t: &str| t.trim().parse::<i64>().map_err(|_| bad());
+    Ok([number(first)?, number(last)?])
 }
 
 pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
@@ -115,6 +128,7 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
             .map(|n| n.to_string_lossy().into_owned()),
         tool_length_mm: args.tool_length,
         control: args.control.clone(),
+        point_numbers: args.point_numbers,
     };
     if let Some(list) = &args.sweep_points {
         return sweep(format, &request, list, &args);
@@ -179,6 +193,9 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
         ExportError::BadToolLength(_) => Some("--tool-length"),
         ExportError::NoControlChoice { .. } | ExportError::UnknownControl { .. } => {
             Some("--control")
+        }
+        ExportError::NoPointNumbers { .. } | ExportError::BadPointNumbers { .. } => {
+            Some("--point-numbers")
         }
         ExportError::MissingAxes { .. } | ExportError::NoSolution { .. } => Some("--machine"),
         _ => None,

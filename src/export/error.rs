@@ -17,6 +17,10 @@ pub enum ExportError {
     ReportChangesTables { format: &'static str },
     #[error("a tool length of {0} mm: a length is a finite number of mm, 0 or more")]
     BadToolLength(f64),
+    #[error("{format} does not number its compensation points: there are no point numbers to give")]
+    NoPointNumbers { format: &'static str },
+    #[error("point numbers {first}-{last}: {why}")]
+    BadPointNumbers { first: i64, last: i64, why: String },
     #[error("{format} is written one way for every control: there is no control to choose")]
     NoControlChoice { format: &'static str },
     #[error("`{control}` is not a control {format} is written for (controls: {known})")]

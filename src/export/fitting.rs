@@ -253,6 +253,9 @@ pub struct Fitting<'a> {
     /// The version or generation of the control the files are written for, where the format
     /// has a choice.
     pub control: Option<&'static str>,
+    /// The compensation point numbers the tables may take (first, last), where the request
+    /// gives them.
+    pub point_numbers: Option<[i64; 2]>,
     field: Field,
 }
 
@@ -286,6 +289,7 @@ impl<'a> Fitting<'a> {
             header,
             file_name: None,
             control: None,
+            point_numbers: None,
             field,
         })
     }

@@ -101,6 +101,11 @@ pub trait Format: Sync {
     fn controls(&self) -> &'static [&'static str] {
         &[]
     }
+    /// Whether the tables take numbers from a pool of compensation points the request may give
+    /// ([`Request::point_numbers`](crate::export::Request::point_numbers)).
+    fn numbers_points(&self) -> bool {
+        false
+    }
     /// What starts a comment line where the format's one file may end in comments (`# `, `; `):
     /// the report is written there. `None`: no comments (or a folder format).
     fn comment_prefix(&self) -> Option<&'static str> {

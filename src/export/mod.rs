@@ -90,6 +90,9 @@ pub struct Request<'a> {
     pub tool_length_mm: Option<f64>,
     /// The version or generation of the control ([`Format::controls`]; `None`: the default).
     pub control: Option<String>,
+    /// The compensation point numbers the tables may take, first and last, for a format that
+    /// numbers them ([`Format::numbers_points`]); `None`: the format's default.
+    pub point_numbers: Option<[i64; 2]>,
 }
 
 /// The control `asked` for among `format`'s, or its default.
@@ -334,6 +337,14 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
     let mut fitting = Fitting::new(machine, inputs, request.pose, header)?;
     fitting.file_name = request.file_name.clone();
     fitting.control = control;
+    if let Some(numbers) = request.point_numbers {
+        if !format.numbers_points() {
+            return Err(ExportError::NoPointNumbers {
+                format: format.spec().name,
+            });
+        }
+        fitting.point_numbers = Some(numbers);
+    }
     let ranges = fitting.ranges;
     let (points, spacing) = table_points(spec, request.size, &ranges)?;
     let mut files = format.write(&fitting, points, spacing)?;

@@ -25,6 +25,7 @@ pub fn request<'a>(machine: &'a Machine, inputs: &'a Inputs, size: TableSize) ->
         file_name: None,
         tool_length_mm: None,
         control: None,
+        point_numbers: None,
     }
 }
 

@@ -143,13 +143,14 @@ fn fanuc_pitch_of_a_scale_error_by_hand() {
     let files = &exported.files;
     assert_eq!(
         file(files, "PITCHPRM.TXT"),
-        "%\nN03620Q1A1P0A2P128A3P256\nN03621Q1A1P0A2P128A3P256\nN03622Q1A1P8A2P134A3P260\n\
+        "%\nN03620Q1A1P0A2P170A3P340\nN03621Q1A1P0A2P170A3P340\nN03622Q1A1P8A2P176A3P344\n\
          N03623Q1A1P1A2P1A3P1\nN03624Q1A1P50.000A2P50.000A3P50.000\n%\n"
     );
     let d = data(file(files, "PITCH.TXT"));
     let x: Vec<i64> = (0..=8).map(|n| d[&n]).collect();
     assert_eq!(x, [0, -5, -5, -5, -5, -5, -5, -5, -5]);
-    assert!((128..=134).chain(256..=260).all(|n| d[&n] == 0));
+    // Point numbers 0-1023 in six blocks of 170: Y's table from 170, Z's from 340.
+    assert!((170..=176).chain(340..=344).all(|n| d[&n] == 0));
     assert_eq!(d.len(), 9 + 7 + 5);
     // The staircase holds −5j µm on [50j, 50j + 50): the error grows 1e-4 mm per mm inside the
     // interval. On the 41-point grid (10 mm) the worst is 40 mm into the first interval: 4 µm.
@@ -216,14 +217,15 @@ fn fanuc_holds_a_positioning_error_constant_between_its_points_to_rounding() {
         let t = pitch_tables(&exported.files);
         assert_eq!(t[0].increments, [0, 3, 4, 5, 0]);
         let reverse = t[0].reverse.as_ref().expect("a bidirectional X table");
-        // 3627: +6 µm at the reference position travelling −; its table from point 384 on.
-        assert_eq!((reverse.0, reverse.1), (384, 6));
+        // 3627: +6 µm at the reference position travelling −; its table from point 510 on
+        // (the fourth block of 170).
+        assert_eq!((reverse.0, reverse.1), (510, 6));
         assert_eq!(reverse.2, [0, 3, 4, 5, 0]);
         assert!(t[1].reverse.is_none() && t[2].reverse.is_none());
         let r = &exported.report;
         assert!(r.before.max_mm > 0.0119, "{approach} {:?}", r.before);
         assert!(r.residual.max_mm < 1e-9, "{approach} {:?}", r.residual);
-        assert!(file(&exported.files, "PITCHPRM.TXT").contains("N03626Q1A1P384\nN03627Q1A1P6\n"));
+        assert!(file(&exported.files, "PITCHPRM.TXT").contains("N03626Q1A1P510\nN03627Q1A1P6\n"));
     }
 }
 
@@ -362,9 +364,12 @@ fn fanuc_refuses_what_its_tables_cannot_take() {
         Err(e) => e.to_string(),
         Ok(_) => panic!("{size:?} accepted"),
     };
-    assert!(refused(TableSize::Points(129)).starts_with(
-        "129 points is more than a fanuc table holds: at most 128 (FANUC pitch error compensation"
-    ));
+    let too_many = refused(TableSize::Points(171));
+    assert!(
+        too_many.starts_with("171 points along ")
+            && too_many.contains("is more than a fanuc table holds: at most 170 (FANUC pitch error compensation"),
+        "{too_many}"
+    );
     assert!(refused(TableSize::Spacing(0.5))
         .starts_with("a spacing of 0.5 mm is below the smallest a fanuc table takes: 1 mm"));
     // A squareness is no axis's error along itself: the tables hold nothing of it.
@@ -516,10 +521,64 @@ fn fanuc_reading_back_names_the_file_and_line_of_what_does_not_read() {
     );
     assert_eq!(
         broken("PITCHPRM.TXT", "N03621Q1A1P0", "N03621Q1A1P5"),
-        "reading back PITCHPRM.TXT: line 2: axis 1: 3621 <= 3620 < 3622 within 0-1023 fails: 5, 0, 8"
+        "reading back PITCHPRM.TXT: line 2: axis 1: 3621 <= 3620 < 3622 within 0-9999 fails: 5, 0, 8"
     );
     assert_eq!(
         broken("PITCHPRM.TXT", "A3P50.000\n%\n", "A3P50.000\n"),
         "reading back PITCHPRM.TXT: line 6: no closing `%`"
     );
+    // Y's table moved onto X's point numbers: the control would keep one value for both.
+    let mut files = written.clone();
+    let params = files.iter_mut().find(|f| f.name == "PITCHPRM.TXT").unwrap();
+    for (from, to) in [
+        ("N03620Q1A1P0A2P170", "N03620Q1A1P0A2P2"),
+        ("N03621Q1A1P0A2P170", "N03621Q1A1P0A2P2"),
+        ("N03622Q1A1P8A2P176", "N03622Q1A1P8A2P8"),
+    ] {
+        assert!(params.text.contains(from), "{from}");
+        params.text = params.text.replacen(from, to, 1);
+    }
+    match fanuc().read_for(&files, &fitting) {
+        Err(e) => assert_eq!(
+            e.to_string(),
+            "reading back PITCHPRM.TXT: line 3: the tables of axes 1 (0-8) and 2 (2-8) share point numbers"
+        ),
+        Ok(_) => panic!("overlapping tables read"),
+    }
+}
+
+#[test]
+fn fanuc_tables_take_six_blocks_of_the_point_numbers_given() {
+    // 512-767: 256 numbers, six blocks of 42: X, Y, Z travelling + from 512, 554, 596; X's
+    // bidirectional table from 638.
+    let m = machine(STEPS);
+    let inputs = Inputs::parse("", "X=-", &m).unwrap();
+    let asked = |size| export::Request {
+        point_numbers: Some([512, 767]),
+        ..request(&m, &inputs, size)
+    };
+    let exported = export::export(fanuc(), &asked(TableSize::Spacing(50.0))).unwrap();
+    let t = pitch_tables(&exported.files);
+    assert_eq!(
+        t.iter().map(|t| t.first).collect::<Vec<_>>(),
+        [512, 554, 596]
+    );
+    assert_eq!(t[0].reverse.as_ref().expect("bidirectional").0, 638);
+    assert!(exported.report.residual.max_mm < 1e-9);
+    // 43 points fit no block of 42; 42 do.
+    let refused = export::export(fanuc(), &asked(TableSize::Points(43)))
+        .err()
+        .expect("43 points refused")
+        .to_string();
+    assert!(refused.contains("at most 42 (FANUC pitch error compensation"), "{refused}");
+    assert!(export::export(fanuc(), &asked(TableSize::Points(42))).is_ok());
+    // Numbers no table can take.
+    let bad = export::Request {
+        point_numbers: Some([0, 10]),
+        ..request(&m, &inputs, TableSize::Default)
+    };
+    assert!(matches!(
+        export::export(fanuc(), &bad),
+        Err(ExportError::BadPointNumbers { first: 0, last: 10, .. })
+    ));
 }

@@ -71,6 +71,7 @@ fn compute(machine: &str, format: &str, points: usize) -> Row {
         tool_length_mm: None,
         // The figure shows LinuxCNC with matrixkins.
         control: (format == "linuxcnc").then(|| "2.10".into()),
+        point_numbers: None,
     };
     let r = export::export(export::format_named(format).unwrap(), &request)
         .unwrap()

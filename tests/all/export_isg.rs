@@ -30,6 +30,7 @@ fn request<'a>(m: &'a Machine, inputs: &'a Inputs, size: TableSize, pose: Comman
         file_name: None,
         tool_length_mm: None,
         control: None,
+        point_numbers: None,
     }
 }
 

@@ -28,7 +28,7 @@ fn fanuc_writes_parameters_pitch_data_and_notes() {
             predicate::str::contains("fanuc: FANUC pitch error compensation")
                 .and(predicate::str::contains(
                     // 21 points span the 2000 mm travel: 20 intervals of 100 mm.
-                    "table Y pitch          points 128-148 (reference 128) at 0.000 to 2000.000 mm, interval 100.000 mm, magnification 1; bidirectional, negative-direction points 512-532",
+                    "table Y pitch          points 170-190 (reference 170) at 0.000 to 2000.000 mm, interval 100.000 mm, magnification 1; bidirectional, negative-direction points 680-700",
                 ))
                 .and(predicate::str::contains("residual measured on   41 x 41 x 41 points"))
                 .and(predicate::str::contains("cannot hold"))
@@ -38,8 +38,8 @@ fn fanuc_writes_parameters_pitch_data_and_notes() {
         .iter()
         .map(|n| std::fs::read_to_string(out.join(n)).unwrap())
         .collect();
-    assert!(names[0].starts_with("%\nN03620Q1A1P0A2P128A3P256\n"));
-    assert!(names[0].contains("N03626Q1A2P512\n"));
+    assert!(names[0].starts_with("%\nN03620Q1A1P0A2P170A3P340\n"));
+    assert!(names[0].contains("N03626Q1A2P680\n"));
     assert!(names[1].starts_with("%\nN10000P0\n") && names[1].ends_with("%\n"));
     assert!(names[2].contains("set 3605#0 = 1"));
     no_temporaries(&out);
@@ -105,8 +105,20 @@ fn bad_requests_exit_2_naming_the_problem() {
     let machine = |p: &std::path::Path| p.display().to_string();
     let cases: Vec<(Vec<String>, &str)> = vec![
         (
-            vec!["--machine".into(), "vmc-li2015".into(), "--format".into(), "fanuc".into(), "--points".into(), "129".into()],
-            "error: --points: 129 points is more than a fanuc table holds: at most 128",
+            vec!["--machine".into(), "vmc-li2015".into(), "--format".into(), "fanuc".into(), "--points".into(), "101".into(), "--point-numbers".into(), "0-599".into()],
+            "error: --points: 101 points along X",
+        ),
+        (
+            vec!["--machine".into(), "vmc-li2015".into(), "--format".into(), "fanuc".into(), "--point-numbers".into(), "0-10".into()],
+            "error: --point-numbers: point numbers 0-10: six tables (X, Y, Z each way) need at least 12 numbers",
+        ),
+        (
+            vec!["--machine".into(), "vmc-li2015".into(), "--format".into(), "fanuc".into(), "--point-numbers".into(), "0-10000".into()],
+            "error: --point-numbers: point numbers 0-10000: they must lie within 0-9999",
+        ),
+        (
+            vec!["--machine".into(), "vmc-li2015".into(), "--format".into(), "klipper".into(), "--point-numbers".into(), "0-99".into()],
+            "error: --point-numbers: klipper does not number its compensation points",
         ),
         (
             vec!["--machine".into(), "vmc-li2015".into(), "--format".into(), "fanuc".into(), "--spacing".into(), "0.5".into()],

@@ -27,8 +27,9 @@
 
 use super::read::read_tables;
 use super::tables::{
-    ceil_div, first_number, floor_div, real, PitchControl, PitchTable, ReverseTable, AXES,
-    DETECTION_UNIT_MM, INCREMENT_RANGE, MAX_MAGNIFICATION, NUMBERS_PER_TABLE,
+    ceil_div, first_number, floor_div, numbers_per_table, real, PitchControl, PitchTable,
+    ReverseTable, AXES, DEFAULT_NUMBERS, DETECTION_UNIT_MM, INCREMENT_RANGE, LAST_NUMBER,
+    MAX_MAGNIFICATION,
 };
 use super::write::write_files;
 use crate::export::error::ExportError;
@@ -45,10 +46,10 @@ const SPEC: Spec = Spec {
     limits: Limits {
         nodes: Nodes::Equidistant,
         min_points: 2,
-        max_points: NUMBERS_PER_TABLE as usize,
+        max_points: ((LAST_NUMBER + 1) / 6) as usize,
         min_spacing_mm: 1.0,
         default_points: 41,
-        source: "FANUC pitch error compensation: 128 compensation points per axis, volmap's block of the 1024-point pool",
+        source: "FANUC pitch error compensation: a sixth of the point numbers given (default 0-1023, the pool of the 0i parameter manuals) per axis and direction",
     },
     structure: Structure::Additive([
         [Term::Curve, Term::None, Term::None],
@@ -64,6 +65,10 @@ impl Format for FanucPitch {
         &SPEC
     }
 
+    fn numbers_points(&self) -> bool {
+        true
+    }
+
     fn write(
         &self,
         fitting: &Fitting,
@@ -71,10 +76,12 @@ impl Format for FanucPitch {
         spacing_mm: Option<f64>,
     ) -> Result<Vec<WrittenFile>, ExportError> {
         let points = points.unwrap_or([SPEC.limits.default_points; 3]);
+        let numbers = fitting.point_numbers.unwrap_or(DEFAULT_NUMBERS);
+        check_numbers(numbers)?;
         let mut tables = Vec::new();
         let mut at_reference_mm = Vec::new();
         for (axis, &n) in points.iter().enumerate() {
-            let (table, offset) = fit_table(fitting, axis, n, spacing_mm)?;
+            let (table, offset) = fit_table(fitting, numbers, axis, n, spacing_mm)?;
             tables.push(table);
             at_reference_mm.push(offset);
         }
@@ -90,6 +97,22 @@ impl Format for FanucPitch {
             tables: read_tables(files)?,
         }))
     }
+}
+
+/// Point numbers `numbers` (first, last) within 0…[`LAST_NUMBER`], a sixth of them two or more.
+fn check_numbers(numbers: [i64; 2]) -> Result<(), ExportError> {
+    let [first, last] = numbers;
+    let why = if first < 0 || last > LAST_NUMBER {
+        format!("they must lie within 0-{LAST_NUMBER} (data numbers 10000 + point)")
+    } else if numbers_per_table(numbers) < SPEC.limits.min_points as i64 {
+        format!(
+            "six tables (X, Y, Z each way) need at least {} numbers",
+            6 * SPEC.limits.min_points
+        )
+    } else {
+        return Ok(());
+    };
+    Err(ExportError::BadPointNumbers { first, last, why })
 }
 
 /// The interval, detection units, that puts at most `n` points over `[lo, hi]` from the
@@ -117,6 +140,7 @@ fn interval_for(lo: i64, hi: i64, reference: i64, n: usize) -> i64 {
 /// correction at the reference position travelling +, mm, which the table leaves.
 fn fit_table(
     fitting: &Fitting,
+    numbers: [i64; 2],
     axis: usize,
     n: usize,
     spacing_mm: Option<f64>,
@@ -136,7 +160,8 @@ fn fit_table(
     let first = j_lo + 1;
     let (first, last) = (first.min(0), j_hi.max(1));
     let count = last - first + 1;
-    if count > NUMBERS_PER_TABLE {
+    let per_table = numbers_per_table(numbers);
+    if count > per_table {
         let limits = SPEC.limits;
         return Err(ExportError::TooManyPoints {
             format: SPEC.name,
@@ -148,11 +173,11 @@ fn fit_table(
                 real(reference as f64 * DETECTION_UNIT_MM)
             ),
             points: count as usize,
-            max: limits.max_points,
+            max: per_table as usize,
             limits_from: limits.source,
         });
     }
-    let base = first_number(axis, false);
+    let base = first_number(numbers, axis, false);
     let mut table = PitchTable {
         axis,
         reference_units: reference,
@@ -219,7 +244,7 @@ fn fit_table(
         table.increments = inc_plus;
         if bidirectional {
             table.reverse = Some(ReverseTable {
-                first_number: first_number(axis, true),
+                first_number: first_number(numbers, axis, true),
                 at_reference: minus[at_ref],
                 increments: inc_minus,
             });

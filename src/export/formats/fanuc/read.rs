@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 
 use super::tables::{
     PitchTable, ReverseTable, AXES, DATA, DATA_NUMBER_BASE, DETECTION_UNIT_MM, INCREMENT_RANGE,
-    MAX_MAGNIFICATION, NOTES, NUMBERS_PER_TABLE, PARAMETERS, POOL, REFERENCE_LINE,
+    LAST_NUMBER, MAX_MAGNIFICATION, NOTES, PARAMETERS, REFERENCE_LINE,
 };
 use crate::export::error::{read_error, ExportError};
 use crate::export::format::WrittenFile;
@@ -116,11 +116,11 @@ pub fn read_tables(files: &[WrittenFile]) -> Result<Vec<PitchTable>, ExportError
     for (line, number, rest) in blocks(data)? {
         let name = &data.name;
         let point = number as i64 - DATA_NUMBER_BASE;
-        if !(0..POOL).contains(&point) {
+        if !(0..=LAST_NUMBER).contains(&point) {
             return Err(read_error(
                 name,
                 line,
-                format!("N{number}: point {point} is outside 0-{}", POOL - 1),
+                format!("N{number}: point {point} is outside 0-{LAST_NUMBER}"),
             ));
         }
         let value = rest
@@ -144,6 +144,8 @@ pub fn read_tables(files: &[WrittenFile]) -> Result<Vec<PitchTable>, ExportError
     let references = reference_positions(notes)?;
     let pname = parameters.name.as_str();
     let mut tables = Vec::new();
+    // Each table's point numbers (first, last), axis and the line that places them.
+    let mut spans: Vec<(i64, i64, usize, usize)> = Vec::new();
     for (&axis, &(line, _)) in values.get(&3620).into_iter().flatten() {
         let get = |number: u32| -> Result<Option<(usize, &str)>, ExportError> {
             Ok(values
@@ -165,24 +167,17 @@ pub fn read_tables(files: &[WrittenFile]) -> Result<Vec<PitchTable>, ExportError
             integer(pname, l, v)
         };
         let (reference, first, last) = (int(3620)?, int(3621)?, int(3622)?);
-        if !(first <= reference && reference < last && first >= 0 && last < POOL) {
+        if !(first <= reference && reference < last && first >= 0 && last <= LAST_NUMBER) {
             return Err(read_error(
                 pname,
                 line,
                 format!(
-                    "axis {}: 3621 <= 3620 < 3622 within 0-{} fails: {first}, {reference}, {last}",
+                    "axis {}: 3621 <= 3620 < 3622 within 0-{LAST_NUMBER} fails: {first}, {reference}, {last}",
                     axis + 1,
-                    POOL - 1
                 ),
             ));
         }
-        if last - first + 1 > NUMBERS_PER_TABLE {
-            return Err(read_error(
-                pname,
-                line,
-                format!("axis {}: more than {NUMBERS_PER_TABLE} points", axis + 1),
-            ));
-        }
+        spans.push((first, last, axis, need(3621)?.0));
         let magnification = match int(3623)? {
             0 => 1,
             m if (1..=MAX_MAGNIFICATION).contains(&m) => m,
@@ -218,9 +213,10 @@ pub fn read_tables(files: &[WrittenFile]) -> Result<Vec<PitchTable>, ExportError
         let reverse = match get(3626)? {
             Some((l, v)) => {
                 let from = integer(pname, l, v)?;
-                if from < 0 || from + last - first >= POOL {
+                if from < 0 || from + last - first > LAST_NUMBER {
                     return Err(read_error(pname, l, format!("3626 = {from}")));
                 }
+                spans.push((from, from + last - first, axis, l));
                 Some(ReverseTable {
                     first_number: from,
                     at_reference: int(3627)?,
@@ -248,6 +244,22 @@ pub fn read_tables(files: &[WrittenFile]) -> Result<Vec<PitchTable>, ExportError
             increments: take(first)?,
             reverse,
         });
+    }
+    // The control keeps one value per point number: two tables over one number would share it.
+    spans.sort();
+    for pair in spans.windows(2) {
+        let ((a0, a1, a, _), (b0, b1, b, line)) = (pair[0], pair[1]);
+        if b0 <= a1 {
+            return Err(read_error(
+                pname,
+                line,
+                format!(
+                    "the tables of axes {} ({a0}-{a1}) and {} ({b0}-{b1}) share point numbers",
+                    a + 1,
+                    b + 1
+                ),
+            ));
+        }
     }
     Ok(tables)
 }

@@ -13,8 +13,11 @@ pub const DATA: &str = "PITCH.TXT";
 pub const NOTES: &str = "NOTES.TXT";
 /// Pitch error compensation data blocks are numbered from 10000 (point 0).
 pub const DATA_NUMBER_BASE: i64 = 10000;
-/// Point numbers of the pool, 0…1023.
-pub const POOL: i64 = 1024;
+/// The point numbers the tables take when none are given: 0…1023, the pool of pitch error
+/// compensation points the FANUC 0i parameter manuals give parameters 3620–3622.
+pub const DEFAULT_NUMBERS: [i64; 2] = [0, 1023];
+/// The largest point number volmap writes: data numbers run 10000 + point, five digits.
+pub const LAST_NUMBER: i64 = 9999;
 /// The notes' line that gives the reference positions, which the reader takes from it.
 pub const REFERENCE_LINE: &str = "reference position (machine coordinate, parameter 1240):";
 
@@ -34,14 +37,16 @@ pub const DETECTION_UNIT_MM: f64 = 0.001;
 pub const INCREMENT_RANGE: [i64; 2] = [-128, 127];
 /// The largest magnification (3623) volmap writes.
 pub const MAX_MAGNIFICATION: i64 = 100;
-/// Compensation point numbers per axis and direction (between 3621 and 3622).
-pub const NUMBERS_PER_TABLE: i64 = 128;
+/// Six equal blocks of the point numbers `numbers` (first, last), one per axis and direction,
+/// each at most this many numbers: X Y Z travelling + first, then X Y Z travelling −.
+pub fn numbers_per_table(numbers: [i64; 2]) -> i64 {
+    (numbers[1] - numbers[0] + 1) / 6
+}
 
 /// The first point number of axis `axis`'s table for travel in the positive direction (or, for
-/// `negative`, of its bidirectional table): blocks of 128 numbers in the pool 0…1023, X Y Z
-/// positive from 0, X Y Z negative from 384.
-pub fn first_number(axis: usize, negative: bool) -> i64 {
-    axis as i64 * NUMBERS_PER_TABLE + if negative { 3 * NUMBERS_PER_TABLE } else { 0 }
+/// `negative`, of its bidirectional table) among the point numbers `numbers`.
+pub fn first_number(numbers: [i64; 2], axis: usize, negative: bool) -> i64 {
+    numbers[0] + (axis as i64 + if negative { 3 } else { 0 }) * numbers_per_table(numbers)
 }
 
 /// One axis's pitch error compensation as the control holds it.
