@@ -21,14 +21,14 @@ const NEGLIGIBLE_MM: f64 = 1e-6;
 pub struct ExportArgs {
     #[command(flatten)]
     machine: MachineArg,
-    /// The controller format: grid-csv, linuxcnc, klipper, marlin, siemens, heidenhain, fanuc,
-    /// fanuc-3d, isg or isg-axis (see docs/export/ for each format's tables, limits and how to
-    /// load them).
+    /// The controller format: grid-csv, linuxcnc, klipper, marlin, rrf, rrf-heightmap, siemens,
+    /// heidenhain, fanuc, fanuc-3d, isg or isg-axis (see docs/export/ for each format's tables,
+    /// limits and how to load them).
     #[arg(long)]
     format: String,
-    /// Where to write: the file for a one-file format (grid-csv, klipper, marlin, fanuc-3d), a
-    /// folder (created) for a format of several files (linuxcnc, siemens, heidenhain, fanuc, isg,
-    /// isg-axis).
+    /// Where to write: the file for a one-file format (grid-csv, klipper, marlin, rrf, fanuc-3d),
+    /// a folder (created) for a format of several files or a file and a report (linuxcnc,
+    /// rrf-heightmap, siemens, heidenhain, fanuc, isg, isg-axis).
     #[arg(long, required_unless_present = "sweep_points")]
     out: Option<PathBuf>,
     /// Spacing between table nodes, mm (per axis, the nodes from the start of each travel to

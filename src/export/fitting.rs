@@ -42,6 +42,9 @@ pub enum Structure {
     /// Per axis `k`, a function of its own position plus a function of the other two axes'
     /// positions together: `d_k = f_k(q_k) + g_k(q_i, q_j)` (an axis table and a plane table).
     AxisAndPlane,
+    /// Z's correction alone, one function of X and Y together (a bed height map):
+    /// `d = (0, 0, h(q_x, q_y))`.
+    ZOfXY,
 }
 
 /// One term of an [`Structure::Additive`] correction.
@@ -397,6 +400,7 @@ pub fn structural_remainder(
     let terms = match structure {
         Structure::Grid => return Ok(0.0),
         Structure::AxisAndPlane => return axis_and_plane_remainder(field, grid),
+        Structure::ZOfXY => return z_of_xy_remainder(field, grid),
         Structure::Additive(terms) => terms,
     };
     let fit = additive_fit(field, terms, grid, grid.clone())?;
@@ -422,6 +426,23 @@ pub fn structural_remainder(
             ((d[0] - f[0]).powi(2) + (d[1] - f[1]).powi(2) + (d[2] - f[2]).powi(2)).sqrt()
         })
         .fold(0.0, f64::max))
+}
+
+/// [`structural_remainder`] of [`Structure::ZOfXY`]: the least-squares `h(x, y)` on a factorial
+/// grid is Z's correction's mean along Z at each (x, y); X's and Y's corrections are all left.
+fn z_of_xy_remainder(field: &Field, grid: &[Vec<f64>; 3]) -> Result<f64, ExportError> {
+    let mut largest = 0.0f64;
+    for &x in &grid[0] {
+        for &y in &grid[1] {
+            let targets: Vec<[f64; 3]> = grid[2].iter().map(|&z| [x, y, z]).collect();
+            let d = field.corrections(&targets)?;
+            let h = mean(&d.iter().map(|v| v[2]).collect::<Vec<_>>());
+            for v in &d {
+                largest = largest.max((v[0] * v[0] + v[1] * v[1] + (v[2] - h).powi(2)).sqrt());
+            }
+        }
+    }
+    Ok(largest)
 }
 
 /// [`structural_remainder`] of [`Structure::AxisAndPlane`]: on a factorial grid the

@@ -201,7 +201,7 @@ range = [0.0, 200.0]
     assert!(y.iter().all(|r| r[1] == 0.0 && r[2] == 0.0));
 }
 
-fn squareness_machine(c: f64) -> Machine {
+pub fn squareness_machine(c: f64) -> Machine {
     machine(&format!(
         r#"
 name = "square"
@@ -284,7 +284,7 @@ fn klipper_skew_of_a_squareness_alone_is_minus_tan_c() {
 
 /// Squareness of Y to X and of Z to both, with the scale errors that make the axis directions
 /// unit upper triangular (`d_Y = (xy, 1, 0)`, `d_Z = (xz, yz, 1)`): a pure skew.
-fn pure_skew() -> (Machine, [f64; 3]) {
+pub fn pure_skew() -> (Machine, [f64; 3]) {
     let (c, a, b): (f64, f64, f64) = (3.0e-4, -2.0e-4, 5.0e-4);
     let m = machine(&format!(
         r#"

@@ -14,6 +14,7 @@ mod export;
 mod export_fanuc;
 mod export_figure;
 mod export_formats;
+mod export_rrf;
 mod export_heidenhain;
 mod export_isg;
 mod export_isg_axis;

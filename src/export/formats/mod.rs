@@ -13,6 +13,8 @@ mod isg;
 mod klipper;
 mod linuxcnc;
 mod marlin;
+mod rrf;
+mod rrf_heightmap;
 mod siemens;
 mod skew;
 
@@ -24,6 +26,8 @@ pub static FORMATS: &[&dyn Format] = &[
     &linuxcnc::LinuxCnc,
     &klipper::Klipper,
     &marlin::Marlin,
+    &rrf::Rrf,
+    &rrf_heightmap::RrfHeightMap,
     &siemens::Siemens,
     &heidenhain::Heidenhain,
     &fanuc::pitch::FanucPitch,
