@@ -21,14 +21,14 @@ const NEGLIGIBLE_MM: f64 = 1e-6;
 pub struct ExportArgs {
     #[command(flatten)]
     machine: MachineArg,
-    /// The controller format: grid-csv, linuxcnc, klipper, marlin, rrf, rrf-heightmap, siemens,
-    /// heidenhain, fanuc, fanuc-3d, isg or isg-axis (see docs/export/ for each format's tables,
+    /// The controller format: grid-csv, linuxcnc, klipper, klipper-twist, marlin, rrf,
+    /// rrf-heightmap, siemens, heidenhain, fanuc, fanuc-3d, isg or isg-axis (see docs/export/ for each format's tables,
     /// limits and how to load them).
     #[arg(long)]
     format: String,
-    /// Where to write: the file for a one-file format (grid-csv, klipper, marlin, rrf, fanuc-3d),
-    /// a folder (created) for a format of several files or a file and a report (linuxcnc,
-    /// rrf-heightmap, siemens, heidenhain, fanuc, isg, isg-axis).
+    /// Where to write: the file for a one-file format (grid-csv, klipper, klipper-twist, marlin,
+    /// rrf, fanuc-3d), a folder (created) for a format of several files or a file and a report
+    /// (linuxcnc, rrf-heightmap, siemens, heidenhain, fanuc, isg, isg-axis).
     #[arg(long, required_unless_present = "sweep_points")]
     out: Option<PathBuf>,
     /// Spacing between table nodes, mm (per axis, the nodes from the start of each travel to
@@ -58,6 +58,10 @@ pub struct ExportArgs {
     /// Z travelling +, then X, Y, Z travelling −; default 0-1023.
     #[arg(long, value_parser = parse_point_numbers)]
     point_numbers: Option<[i64; 2]>,
+    /// klipper-twist: the probe's offset from the nozzle, `X,Y` mm (Klipper's `[probe]`
+    /// x_offset, y_offset).
+    #[arg(long, value_parser = parse_probe_offset, allow_hyphen_values = true)]
+    probe_offset: Option<[f64; 2]>,
     /// Refuse the export (write nothing, exit 2) when the largest residual is above this, mm.
     #[arg(long)]
     max_residual: Option<f64>,
@@ -82,6 +86,14 @@ fn parse_point_numbers(text: &str) -> Result<[i64; 2], String> {
     let (first, last) = text.split_once('-').ok_or_else(bad)?;
     let number = |t: &str| t.trim().parse::<i64>().map_err(|_| bad());
     Ok([number(first)?, number(last)?])
+}
+
+/// `X,Y`, two numbers, mm.
+fn parse_probe_offset(text: &str) -> Result<[f64; 2], String> {
+    let bad = || format!("`{text}`: expected X,Y in mm, e.g. 25,-10");
+    let (x, y) = text.split_once(',').ok_or_else(bad)?;
+    let number = |t: &str| t.trim().parse::<f64>().map_err(|_| bad());
+    Ok([number(x)?, number(y)?])
 }
 
 pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
@@ -129,6 +141,7 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
         tool_length_mm: args.tool_length,
         control: args.control.clone(),
         point_numbers: args.point_numbers,
+        probe_offset_mm: args.probe_offset,
     };
     if let Some(list) = &args.sweep_points {
         return sweep(format, &request, list, &args);
@@ -197,6 +210,9 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
         ExportError::NoPointNumbers { .. } | ExportError::BadPointNumbers { .. } => {
             Some("--point-numbers")
         }
+        ExportError::NoProbeOffset { .. }
+        | ExportError::NoProbe { .. }
+        | ExportError::BadProbeOffset { .. } => Some("--probe-offset"),
         ExportError::MissingAxes { .. } | ExportError::NoSolution { .. } => Some("--machine"),
         _ => None,
     };

@@ -17,7 +17,15 @@ pub enum ExportError {
     ReportChangesTables { format: &'static str },
     #[error("a tool length of {0} mm: a length is a finite number of mm, 0 or more")]
     BadToolLength(f64),
-    #[error("{format} does not number its compensation points: there are no point numbers to give")]
+    #[error("{format} corrects a probe's readings: it needs the probe's offset from the nozzle (Klipper's [probe] x_offset, y_offset)")]
+    NoProbeOffset { format: &'static str },
+    #[error("{format} corrects no probe: there is no probe offset to give")]
+    NoProbe { format: &'static str },
+    #[error("probe offset {x_mm}, {y_mm} mm: both must be finite")]
+    BadProbeOffset { x_mm: f64, y_mm: f64 },
+    #[error(
+        "{format} does not number its compensation points: there are no point numbers to give"
+    )]
     NoPointNumbers { format: &'static str },
     #[error("point numbers {first}-{last}: {why}")]
     BadPointNumbers { first: i64, last: i64, why: String },

@@ -259,6 +259,8 @@ pub struct Fitting<'a> {
     /// The compensation point numbers the tables may take (first, last), where the request
     /// gives them.
     pub point_numbers: Option<[i64; 2]>,
+    /// The probe's offset from the nozzle (X, Y, mm), where the request gives it.
+    pub probe_offset_mm: Option<[f64; 2]>,
     field: Field,
 }
 
@@ -293,6 +295,7 @@ impl<'a> Fitting<'a> {
             file_name: None,
             control: None,
             point_numbers: None,
+            probe_offset_mm: None,
             field,
         })
     }

@@ -106,6 +106,11 @@ pub trait Format: Sync {
     fn numbers_points(&self) -> bool {
         false
     }
+    /// Whether the tables correct a probe's readings, so the request must give the probe's
+    /// offset from the nozzle ([`Request::probe_offset_mm`](crate::export::Request::probe_offset_mm)).
+    fn takes_probe_offset(&self) -> bool {
+        false
+    }
     /// What starts a comment line where the format's one file may end in comments (`# `, `; `):
     /// the report is written there. `None`: no comments (or a folder format).
     fn comment_prefix(&self) -> Option<&'static str> {

@@ -93,6 +93,9 @@ pub struct Request<'a> {
     /// The compensation point numbers the tables may take, first and last, for a format that
     /// numbers them ([`Format::numbers_points`]); `None`: the format's default.
     pub point_numbers: Option<[i64; 2]>,
+    /// The probe's offset from the nozzle, X and Y, mm, in the machine's axes (Klipper's
+    /// `[probe] x_offset, y_offset`), for a format that corrects a probe's readings.
+    pub probe_offset_mm: Option<[f64; 2]>,
 }
 
 /// The control `asked` for among `format`'s, or its default.
@@ -344,6 +347,17 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
             });
         }
         fitting.point_numbers = Some(numbers);
+    }
+    if let Some([x_mm, y_mm]) = request.probe_offset_mm {
+        if !format.takes_probe_offset() {
+            return Err(ExportError::NoProbe {
+                format: format.spec().name,
+            });
+        }
+        if !(x_mm.is_finite() && y_mm.is_finite()) {
+            return Err(ExportError::BadProbeOffset { x_mm, y_mm });
+        }
+        fitting.probe_offset_mm = Some([x_mm, y_mm]);
     }
     let ranges = fitting.ranges;
     let (points, spacing) = table_points(spec, request.size, &ranges)?;

@@ -26,6 +26,7 @@ pub fn request<'a>(machine: &'a Machine, inputs: &'a Inputs, size: TableSize) ->
         tool_length_mm: None,
         control: None,
         point_numbers: None,
+        probe_offset_mm: None,
     }
 }
 

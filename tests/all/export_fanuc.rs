@@ -367,7 +367,9 @@ fn fanuc_refuses_what_its_tables_cannot_take() {
     let too_many = refused(TableSize::Points(171));
     assert!(
         too_many.starts_with("171 points along ")
-            && too_many.contains("is more than a fanuc table holds: at most 170 (FANUC pitch error compensation"),
+            && too_many.contains(
+                "is more than a fanuc table holds: at most 170 (FANUC pitch error compensation"
+            ),
         "{too_many}"
     );
     assert!(refused(TableSize::Spacing(0.5))
@@ -570,7 +572,10 @@ fn fanuc_tables_take_six_blocks_of_the_point_numbers_given() {
         .err()
         .expect("43 points refused")
         .to_string();
-    assert!(refused.contains("at most 42 (FANUC pitch error compensation"), "{refused}");
+    assert!(
+        refused.contains("at most 42 (FANUC pitch error compensation"),
+        "{refused}"
+    );
     assert!(export::export(fanuc(), &asked(TableSize::Points(42))).is_ok());
     // Numbers no table can take.
     let bad = export::Request {
@@ -579,6 +584,10 @@ fn fanuc_tables_take_six_blocks_of_the_point_numbers_given() {
     };
     assert!(matches!(
         export::export(fanuc(), &bad),
-        Err(ExportError::BadPointNumbers { first: 0, last: 10, .. })
+        Err(ExportError::BadPointNumbers {
+            first: 0,
+            last: 10,
+            ..
+        })
     ));
 }

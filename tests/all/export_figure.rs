@@ -72,6 +72,7 @@ fn compute(machine: &str, format: &str, points: usize) -> Row {
         // The figure shows LinuxCNC with matrixkins.
         control: (format == "linuxcnc").then(|| "2.10".into()),
         point_numbers: None,
+        probe_offset_mm: None,
     };
     let r = export::export(export::format_named(format).unwrap(), &request)
         .unwrap()

@@ -462,6 +462,9 @@ fn every_export_carries_its_residual_where_its_tables_are_kept() {
         if format.spec().limits.nodes == export::Nodes::Fixed {
             r.size = TableSize::Default;
         }
+        if format.takes_probe_offset() {
+            r.probe_offset_mm = Some([20.0, -30.0]);
+        }
         let e = export::export(*format, &r).unwrap();
         let residual = format!(
             "residual with these tables: largest {:.3} um",

@@ -31,6 +31,7 @@ fn request<'a>(m: &'a Machine, inputs: &'a Inputs, size: TableSize, pose: Comman
         tool_length_mm: None,
         control: None,
         point_numbers: None,
+        probe_offset_mm: None,
     }
 }
 

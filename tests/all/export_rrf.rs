@@ -55,7 +55,11 @@ fn rrf_holds_a_pure_skew_to_the_rounding_of_its_floats() {
     for d in 0..3 {
         assert!((t[d] - hand[d]).abs() < 1e-10, "{t:?} vs {hand:?}");
     }
-    assert!(!text.lines().find(|l| l.starts_with("M556")).unwrap().contains('e'));
+    assert!(!text
+        .lines()
+        .find(|l| l.starts_with("M556"))
+        .unwrap()
+        .contains('e'));
     let twin = Twin::of(&m);
     let (max, rms) = residual(&twin, &dense(&m, 21), |p| rrf_command(t, p));
     assert!(max < 1e-8, "{max}");
@@ -64,7 +68,10 @@ fn rrf_holds_a_pure_skew_to_the_rounding_of_its_floats() {
     assert!(e.report.before.max_mm > 0.09);
     // The report after the line, as comments.
     let after = &text[text.find("\nM556 ").unwrap() + 1..];
-    assert!(after.lines().skip(1).all(|l| l.starts_with("; ")), "{after}");
+    assert!(
+        after.lines().skip(1).all(|l| l.starts_with("; ")),
+        "{after}"
+    );
 }
 
 #[test]
@@ -77,7 +84,10 @@ fn rrf_squareness_alone_is_a_positive_x_for_an_obtuse_angle() {
     let line = text.lines().find(|l| l.starts_with("M556 ")).unwrap();
     assert_eq!(
         line,
-        format!("M556 S100 X{:.10} Y0.0000000000 Z0.0000000000 P0", 100.0 * c.tan())
+        format!(
+            "M556 S100 X{:.10} Y0.0000000000 Z0.0000000000 P0",
+            100.0 * c.tan()
+        )
     );
     assert!(m556(text)[0] > 0.0);
 }
@@ -111,7 +121,10 @@ fn rrf_reads_m556_as_the_firmware_does() {
     let c = with("M556 S100 ", "M556 ").unwrap().command(&t, &approach);
     assert_eq!(c, t);
     // S must be positive.
-    let e = with("M556 S100 ", "M556 S0 ").err().expect("S0 refused").to_string();
+    let e = with("M556 S100 ", "M556 S0 ")
+        .err()
+        .expect("S0 refused")
+        .to_string();
     assert!(e.contains("the length must be greater than zero"), "{e}");
 }
 
@@ -212,7 +225,9 @@ fn rrf_heightmap_of_a_tilted_bed_holds_it_to_the_micrometre() {
     }
     // The first row is the least Y: the heights change along a row by X's slope alone.
     assert!((map.heights[1] - map.heights[0]).abs() > 2e-3);
-    let (max, rms) = residual(&twin, &dense(&m, 21), |t| [t[0], t[1], t[2] + map.height(t[0], t[1])]);
+    let (max, rms) = residual(&twin, &dense(&m, 21), |t| {
+        [t[0], t[1], t[2] + map.height(t[0], t[1])]
+    });
     assert!(max <= 5e-4 + 1e-9, "{max}");
     assert!((e.report.residual.max_mm - max).abs() < 1e-9);
     assert!((e.report.residual.rms_mm - rms).abs() < 1e-9);
@@ -225,7 +240,9 @@ fn rrf_heightmap_of_a_tilted_bed_holds_it_to_the_micrometre() {
 #[test]
 fn rrf_heightmap_keeps_the_firmwares_limits_and_reading() {
     let m = tilted();
-    let refused = exported(&m, "rrf-heightmap", TableSize::Points(22)).err().unwrap();
+    let refused = exported(&m, "rrf-heightmap", TableSize::Points(22))
+        .err()
+        .unwrap();
     assert!(
         refused.to_string().starts_with(
             "484 points over X and Y together (22 x 22) is more than a rrf-heightmap table holds: at most 441"
@@ -253,7 +270,15 @@ fn rrf_heightmap_keeps_the_firmwares_limits_and_reading() {
             Ok(_) => panic!("`{to}` read"),
         }
     };
-    let first = written[0].text.lines().nth(3).unwrap().split(',').next().unwrap().to_string();
+    let first = written[0]
+        .text
+        .lines()
+        .nth(3)
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .to_string();
     assert_eq!(
         broken(&format!("\n{first},"), "\n0,"),
         "reading back heightmap.csv: line 4: column 1: a bare 0 is a point not probed (write 0.000)"

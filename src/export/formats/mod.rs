@@ -11,6 +11,7 @@ mod grid_csv;
 mod heidenhain;
 mod isg;
 mod klipper;
+mod klipper_twist;
 mod linuxcnc;
 mod marlin;
 mod rrf;
@@ -25,6 +26,7 @@ pub static FORMATS: &[&dyn Format] = &[
     &grid_csv::GridCsv,
     &linuxcnc::LinuxCnc,
     &klipper::Klipper,
+    &klipper_twist::KlipperTwist,
     &marlin::Marlin,
     &rrf::Rrf,
     &rrf_heightmap::RrfHeightMap,

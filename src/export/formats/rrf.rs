@@ -70,7 +70,11 @@ impl Format for Rrf {
         let fit = fitting.additive(fitting.field(), TERMS, Default::default())?;
         let deviation = |slope: f64| {
             let text = format!("{:.DECIMALS$}", slope * LENGTH_MM);
-            if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') {
+            if text
+                .trim_start_matches('-')
+                .chars()
+                .all(|c| c == '0' || c == '.')
+            {
                 format!("{:.DECIMALS$}", 0.0)
             } else {
                 text
@@ -78,9 +82,11 @@ impl Format for Rrf {
         };
         let (xy, xz, yz) = (fit.slopes[0][1], fit.slopes[0][2], fit.slopes[1][2]);
         let mut text: String = fitting.header.iter().map(|l| format!("; {l}\n")).collect();
-        text += "; RepRapFirmware axis skew compensation: over S mm, X is the deviation of X along Y\n";
+        text +=
+            "; RepRapFirmware axis skew compensation: over S mm, X is the deviation of X along Y\n";
         text += "; (tanXY), Y of Y along Z (tanYZ), Z of X along Z (tanXZ); with P0 the firmware sends\n";
-        text += "; x + tanXY*y + tanXZ*z, y + tanYZ*z, z for every move (positive: an obtuse angle).\n";
+        text +=
+            "; x + tanXY*y + tanXZ*z, y + tanYZ*z, z for every move (positive: an obtuse angle).\n";
         text += "; Load: put the M556 line in config.g (M500 does not save it) or M98 P\"volmap_skew.g\"\n";
         text += "; from there; check with M556 alone (\"Axis compensations - XY: ..., YZ: ..., ZX: ...\").\n";
         text += &format!(
@@ -121,9 +127,10 @@ impl Format for Rrf {
                     // The firmware looks only for the letters it knows.
                     continue;
                 };
-                let value: f32 = chars.as_str().parse().map_err(|_| {
-                    read_error(&file.name, n + 1, format!("`{word}` is no number"))
-                })?;
+                let value: f32 = chars
+                    .as_str()
+                    .parse()
+                    .map_err(|_| read_error(&file.name, n + 1, format!("`{word}` is no number")))?;
                 seen[slot] = Some(value);
             }
             if let Some(s) = seen[0] {

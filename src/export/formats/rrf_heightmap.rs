@@ -122,7 +122,10 @@ impl Format for RrfHeightMap {
             if hi - lo < 1.0 {
                 return Err(ExportError::Unrepresentable {
                     format: SPEC.name,
-                    message: format!("a grid spans 1 mm or more; the travel along axis {d} spans {} mm", hi - lo),
+                    message: format!(
+                        "a grid spans 1 mm or more; the travel along axis {d} spans {} mm",
+                        hi - lo
+                    ),
                 });
             }
             mins[d] = (lo * 100.0).round() / 100.0;
@@ -140,12 +143,16 @@ impl Format for RrfHeightMap {
         let mut heights = Vec::with_capacity(nx * ny);
         for j in 0..ny {
             for i in 0..nx {
-                let targets: Vec<[f64; 3]> = zs.iter().map(|&z| [node(0, i), node(1, j), z]).collect();
+                let targets: Vec<[f64; 3]> =
+                    zs.iter().map(|&z| [node(0, i), node(1, j), z]).collect();
                 let d = fitting.field().corrections(&targets)?;
                 heights.push(d.iter().map(|v| v[2]).sum::<f64>() / zs.len() as f64);
             }
         }
-        let rounded: Vec<f64> = heights.iter().map(|h| (h * 1000.0).round() / 1000.0).collect();
+        let rounded: Vec<f64> = heights
+            .iter()
+            .map(|h| (h * 1000.0).round() / 1000.0)
+            .collect();
         let (lowest, highest) = rounded
             .iter()
             .fold((f64::MAX, f64::MIN), |(a, b), &h| (a.min(h), b.max(h)));
@@ -199,7 +206,11 @@ fn read_map(file: &WrittenFile) -> Result<HeightMap, ExportError> {
     };
     let (n, heading) = next("heading")?;
     if !heading.starts_with(HEADING) {
-        return Err(read_error(name, n, format!("the heading must start `{HEADING}`")));
+        return Err(read_error(
+            name,
+            n,
+            format!("the heading must start `{HEADING}`"),
+        ));
     }
     let (n, labels) = next("labels")?;
     if !labels.starts_with(LABELS) {
@@ -212,21 +223,38 @@ fn read_map(file: &WrittenFile) -> Result<HeightMap, ExportError> {
         return Err(read_error(name, n, "the grid needs 11 parameters"));
     }
     if fields[0] != "X" || fields[1] != "Y" {
-        return Err(read_error(name, n, format!("axes `{}`, `{}`: volmap reads an X-Y grid", fields[0], fields[1])));
+        return Err(read_error(
+            name,
+            n,
+            format!(
+                "axes `{}`, `{}`: volmap reads an X-Y grid",
+                fields[0], fields[1]
+            ),
+        ));
     }
     let real = |k: usize| -> Result<f64, ExportError> {
         let f = fields[k].trim_start();
-        f.parse::<f32>()
-            .map(f64::from)
-            .map_err(|_| read_error(name, n, format!("parameter {} `{}` is no number", k + 1, fields[k])))
+        f.parse::<f32>().map(f64::from).map_err(|_| {
+            read_error(
+                name,
+                n,
+                format!("parameter {} `{}` is no number", k + 1, fields[k]),
+            )
+        })
     };
     let whole = |k: usize| -> Result<usize, ExportError> {
         let f = fields[k].trim_start();
         let digits: String = f.chars().take_while(|c| c.is_ascii_digit()).collect();
         if k < 10 && digits.len() != f.len() || digits.is_empty() {
-            return Err(read_error(name, n, format!("parameter {} `{}` is no whole number", k + 1, fields[k])));
+            return Err(read_error(
+                name,
+                n,
+                format!("parameter {} `{}` is no whole number", k + 1, fields[k]),
+            ));
         }
-        digits.parse().map_err(|_| read_error(name, n, format!("parameter {} is too large", k + 1)))
+        digits
+            .parse()
+            .map_err(|_| read_error(name, n, format!("parameter {} is too large", k + 1)))
     };
     let (min0, max0, min1, max1) = (real(2)?, real(3)?, real(4)?, real(5)?);
     let radius = real(6)?;
@@ -240,9 +268,14 @@ fn read_map(file: &WrittenFile) -> Result<HeightMap, ExportError> {
         return bad("each spacing must be 0.1 mm or more".into());
     }
     if radius >= 0.0 {
-        return bad(format!("radius {radius}: volmap reads a rectangular grid (radius -1)"));
+        return bad(format!(
+            "radius {radius}: volmap reads a rectangular grid (radius -1)"
+        ));
     }
-    if nums[0] * nums[1] > MAX_GRID_POINTS || nums[0] > MAX_ROW_POINTS || nums.iter().any(|&k| k < 2) {
+    if nums[0] * nums[1] > MAX_GRID_POINTS
+        || nums[0] > MAX_ROW_POINTS
+        || nums.iter().any(|&k| k < 2)
+    {
         return bad(format!(
             "{} x {} points: 2 to {MAX_ROW_POINTS} a row, at most {MAX_GRID_POINTS} in all",
             nums[0], nums[1]
@@ -252,10 +285,18 @@ fn read_map(file: &WrittenFile) -> Result<HeightMap, ExportError> {
     for _ in 0..nums[1] {
         let (n, row) = next("more rows: the grid has fewer rows than num1")?;
         if row.is_empty() {
-            return Err(read_error(name, n, "an empty line where a row of heights belongs"));
+            return Err(read_error(
+                name,
+                n,
+                "an empty line where a row of heights belongs",
+            ));
         }
         if row.len() > MAX_ROW_POINTS * 8 {
-            return Err(read_error(name, n, "the row is longer than the firmware's line buffer"));
+            return Err(read_error(
+                name,
+                n,
+                "the row is longer than the firmware's line buffer",
+            ));
         }
         let mut rest = row;
         for column in 1..=nums[0] {
@@ -263,14 +304,26 @@ fn read_map(file: &WrittenFile) -> Result<HeightMap, ExportError> {
             let end = rest.find(',').unwrap_or(rest.len());
             let cell = &rest[..end];
             if cell == "0" {
-                return Err(read_error(name, n, format!("column {column}: a bare 0 is a point not probed (write 0.000)")));
+                return Err(read_error(
+                    name,
+                    n,
+                    format!("column {column}: a bare 0 is a point not probed (write 0.000)"),
+                ));
             }
-            let h: f32 = cell
-                .parse()
-                .map_err(|_| read_error(name, n, format!("column {column}: number expected, `{cell}`")))?;
+            let h: f32 = cell.parse().map_err(|_| {
+                read_error(
+                    name,
+                    n,
+                    format!("column {column}: number expected, `{cell}`"),
+                )
+            })?;
             heights.push(h as f64);
             if end == rest.len() && column < nums[0] {
-                return Err(read_error(name, n, format!("{column} heights where the row needs {}", nums[0])));
+                return Err(read_error(
+                    name,
+                    n,
+                    format!("{column} heights where the row needs {}", nums[0]),
+                ));
             }
             rest = &rest[(end + 1).min(rest.len())..];
         }
@@ -295,7 +348,12 @@ impl Control for HeightMap {
             name: "height map".into(),
             size: format!(
                 "{} x {} points from X {:.2} Y {:.2}, spacing {:.2} x {:.2} mm",
-                self.nums[0], self.nums[1], self.mins[0], self.mins[1], self.spacings[0], self.spacings[1]
+                self.nums[0],
+                self.nums[1],
+                self.mins[0],
+                self.mins[1],
+                self.spacings[0],
+                self.spacings[1]
             ),
             points: self.nums[0].max(self.nums[1]),
         }]

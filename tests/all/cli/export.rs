@@ -322,7 +322,14 @@ fn rrf_writes_m556_and_a_height_map_folder() {
     let dir = tempfile::tempdir().unwrap();
     let skew = dir.path().join("skew.g");
     volmap()
-        .args(["export", "--machine", "vmc-li2015", "--format", "rrf", "--out"])
+        .args([
+            "export",
+            "--machine",
+            "vmc-li2015",
+            "--format",
+            "rrf",
+            "--out",
+        ])
         .arg(&skew)
         .assert()
         .success()
@@ -331,10 +338,19 @@ fn rrf_writes_m556_and_a_height_map_folder() {
     let text = std::fs::read_to_string(&skew).unwrap();
     let code: Vec<&str> = text.lines().filter(|l| !l.starts_with(';')).collect();
     assert_eq!(code.len(), 1, "{text}");
-    assert!(code[0].starts_with("M556 S100 X") && code[0].ends_with(" P0"), "{text}");
+    assert!(
+        code[0].starts_with("M556 S100 X") && code[0].ends_with(" P0"),
+        "{text}"
+    );
     let folder = dir.path().join("rrf");
     volmap()
-        .args(["export", "--machine", "vmc-li2015", "--format", "rrf-heightmap"])
+        .args([
+            "export",
+            "--machine",
+            "vmc-li2015",
+            "--format",
+            "rrf-heightmap",
+        ])
         .args(["--spacing", "100", "--out"])
         .arg(&folder)
         .assert()
@@ -359,6 +375,48 @@ fn rrf_writes_m556_and_a_height_map_folder() {
             "error: --points: 900 points over X and Y together (30 x 30) is more than a rrf-heightmap table holds: at most 441",
         ));
     assert!(!dir.path().join("too-many").exists());
+}
+
+#[test]
+fn klipper_twist_takes_the_probe_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("twist.cfg");
+    volmap()
+        .args([
+            "export",
+            "--machine",
+            "gantry-2m",
+            "--format",
+            "klipper-twist",
+        ])
+        .args(["--probe-offset", "-25,40", "--out"])
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "table twist along X    11 values from 25.000 to 3000.000 mm",
+        ));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        text.contains("\n[axis_twist_compensation]\nz_compensations: "),
+        "{text}"
+    );
+    assert!(text.contains("x_offset -25.000, y_offset 40.000 mm"));
+    for (flags, message) in [
+        (vec!["--format", "klipper-twist"], "error: --probe-offset: klipper-twist corrects a probe's readings: it needs the probe's offset"),
+        (vec!["--format", "klipper-twist", "--probe-offset", "25"], "error: invalid value '25' for '--probe-offset <PROBE_OFFSET>': `25`: expected X,Y in mm"),
+        (vec!["--format", "marlin", "--probe-offset", "1,2"], "error: --probe-offset: marlin corrects no probe"),
+    ] {
+        volmap()
+            .args(["export", "--machine", "gantry-2m"])
+            .args(&flags)
+            .arg("--out")
+            .arg(dir.path().join("bad.cfg"))
+            .assert()
+            .code(2)
+            .stderr(predicate::str::starts_with(message));
+        assert!(!dir.path().join("bad.cfg").exists());
+    }
 }
 
 #[test]
