@@ -67,9 +67,13 @@ enum Command {
     /// rewriting it (and, with --compensate, along its compensated program).
     Trace(cli::trace::TraceArgs),
     /// Write the machine's correction as a controller's compensation table (LinuxCNC, Klipper,
-    /// Marlin, SINUMERIK, HEIDENHAIN, FANUC, ISG/TwinCAT, a generic 3-D grid), with the residual
-    /// the control leaves applying it.
+    /// Marlin, RepRapFirmware, SINUMERIK, HEIDENHAIN, FANUC, ISG/TwinCAT, a generic 3-D grid),
+    /// with the residual the control leaves applying it.
     Export(cli::export::ExportArgs),
+    /// Print the shell's completion script for volmap (bash, zsh, fish, powershell, elvish).
+    Completions(cli::completions::CompletionsArgs),
+    /// Write a man page per command into a folder.
+    Man(cli::man::ManArgs),
     /// Print this command line's reference as Markdown (the page `docs/cli.md`).
     #[command(hide = true)]
     CliReference,
@@ -95,6 +99,8 @@ fn main() -> ExitCode {
         Command::Compensate(args) => cli::compensate::run(args),
         Command::Trace(args) => cli::trace::run(args),
         Command::Export(args) => cli::export::run(args),
+        Command::Completions(args) => cli::completions::run(args, Cli::command()),
+        Command::Man(args) => cli::man::run(args, Cli::command()),
         Command::CliReference => cli::reference::run(Cli::command()),
     };
     result.unwrap_or_else(|failure| {

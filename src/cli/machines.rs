@@ -21,8 +21,10 @@ pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
             .find(|(n, _)| n == name)
             .ok_or_else(|| {
                 let names: Vec<&str> = embedded::EMBEDDED.iter().map(|(n, _)| *n).collect();
+                let hint = embedded::nearest(name)
+                    .map_or(String::new(), |n| format!("; did you mean `{n}`?"));
                 Failure::input(format!(
-                    "--show: `{}` is not an embedded machine (they are {})",
+                    "--show: `{}` is not an embedded machine{hint} (they are {})",
                     volmap::error::excerpt(name),
                     names.join(", ")
                 ))

@@ -53,5 +53,17 @@ pub fn load_reaching(name_or_path: &str, reach: Reach) -> Result<Machine, Machin
     }
     Err(MachineError::UnknownMachine {
         name: name_or_path.to_string(),
+        suggestion: nearest(name_or_path).map(str::to_string),
     })
+}
+
+/// The embedded machine whose name is nearest to `name` (Jaro-Winkler above 0.8, as a
+/// misspelled subcommand is matched), if any.
+pub fn nearest(name: &str) -> Option<&'static str> {
+    EMBEDDED
+        .iter()
+        .map(|(n, _)| (*n, strsim::jaro_winkler(name, n)))
+        .filter(|(_, score)| *score > 0.8)
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(n, _)| n)
 }

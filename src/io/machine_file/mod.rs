@@ -82,8 +82,12 @@ pub enum MachineError {
         #[source]
         source: CsvError,
     },
-    #[error("no embedded machine is called `{name}` and no file `{name}` exists (`volmap machines` lists the embedded ones)")]
-    UnknownMachine { name: String },
+    #[error("no embedded machine is called `{name}` and no file `{name}` exists{}(`volmap machines` lists the embedded ones)", .suggestion.as_ref().map_or(" ".to_string(), |s| format!("; did you mean `{s}`? ")))]
+    UnknownMachine {
+        name: String,
+        /// The embedded machine whose name is nearest, where one is near.
+        suggestion: Option<String>,
+    },
 }
 
 input_errors!(MachineError);

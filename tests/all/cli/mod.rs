@@ -29,6 +29,7 @@ mod query;
 mod refusals;
 mod sample;
 mod shards;
+mod shell;
 mod standards;
 mod standards_frames;
 mod sweep;
