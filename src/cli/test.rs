@@ -144,7 +144,8 @@ enum TestKind {
         #[arg(long)]
         axis: String,
         /// The sphere's centre in the workpiece frame, `X,Y,Z` mm (default: the tool tip at
-        /// mid-travel).
+        /// mid-travel where the linear axes can follow it over the sweep, else the nearest they
+        /// can follow: towards a table's axis or on it, then over the travels).
         #[arg(long, value_parser = parse_xyz, allow_hyphen_values = true)]
         sphere: Option<[f64; 3]>,
         /// First angle, degrees (default: the start of the travel).

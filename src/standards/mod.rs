@@ -76,7 +76,7 @@ pub enum StandardsError {
     Csv(#[from] CsvError),
     #[error("{0}")]
     Parameter(String),
-    #[error("{what}: {axis}={} lies outside the travel of {axis} ({lo} to {hi})", crate::error::shown(*.value))]
+    #[error("{what}: {axis}={} lies outside the travel of {axis} ({lo} to {hi})", position_shown(*.value))]
     OutsideTravel {
         what: String,
         axis: AxisLetter,
@@ -512,4 +512,20 @@ pub fn largest_difference(result: &TestResult) -> Option<f64> {
             .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
             .fold(0.0, f64::max)
     })
+}
+
+/// A position in an error message: a computed one to 4 decimals (0.1 µm, 1e-4°), trailing
+/// zeros cut; a huge or tiny one as [`crate::error::shown`] writes it.
+fn position_shown(value: f64) -> String {
+    if value.is_finite() && value.abs() < 1e7 {
+        let text = format!("{value:.4}");
+        let text = text.trim_end_matches('0').trim_end_matches('.');
+        if text == "-0" {
+            "0".into()
+        } else {
+            text.into()
+        }
+    } else {
+        crate::error::shown(value)
+    }
 }

@@ -26,7 +26,8 @@ pub struct RTestSpec {
     /// The rotary axis under test: A, B or C.
     pub axis: String,
     /// The sphere's centre in the workpiece frame (commanded coordinates at the pose); default:
-    /// where the tool tip is at the middle of the linear travels.
+    /// where the tool tip is at the middle of the linear travels, if the linear axes can follow
+    /// it over the sweep, else the nearest sphere they can follow (`default_sphere`).
     pub sphere_mm: Option<[f64; 3]>,
     /// Angles from, to and step (degrees); default: the axis's travel in 10° steps.
     pub from_deg: Option<f64>,
@@ -78,14 +79,6 @@ pub(crate) fn rtest_with(
             setup.machine().chain.hwang_notation()
         ))
     })?;
-    let (lo, hi) = setup.travel_box()?;
-    let sphere = match spec.sphere_mm {
-        Some(s) => Vector3::from(s),
-        None => {
-            let mid = setup.command((lo + hi) / 2.0);
-            setup.twin().ideal_tip(&mid)
-        }
-    };
     let angles: Vec<f64> = match measured {
         Some(m) => m.columns[0].clone(),
         None => {
@@ -109,6 +102,10 @@ pub(crate) fn rtest_with(
                 .map(|i| from + i as f64 * spec.step_deg)
                 .collect()
         }
+    };
+    let sphere = match spec.sphere_mm {
+        Some(s) => Vector3::from(s),
+        None => default_sphere(setup, letter, &angles)?,
     };
     let mut curves: Vec<Vec<f64>> = vec![Vec::new(); 3];
     let command_at = |angle: f64| {
@@ -179,8 +176,10 @@ pub(crate) fn rtest_with(
         ballbar: None,
         unit: super::ErrorUnit::Mm,
         title: format!(
-            "R-test of {letter}: sphere at ({:.1}, {:.1}, {:.1}) mm (workpiece frame)",
-            sphere.x, sphere.y, sphere.z
+            "R-test of {letter}: sphere at ({}, {}, {}) mm (workpiece frame)",
+            tenths(sphere.x),
+            tenths(sphere.y),
+            tenths(sphere.z)
         ),
         position_label: format!("{letter} (deg)"),
         positions: angles,
@@ -193,4 +192,87 @@ pub(crate) fn rtest_with(
         inputs: setup.describe_inputs(&moving, "from the sweep"),
         moving_axes: moving.iter().map(|l| l.as_char()).collect(),
     })
+}
+
+/// Fractions of each linear travel the default sphere is looked for at, the middle first.
+const SPHERE_FRACTIONS: [f64; 7] = [0.5, 0.375, 0.625, 0.25, 0.75, 0.125, 0.875];
+
+/// The default sphere: the tool tip at mid-travel where the linear axes can follow it over every
+/// angle of the sweep; else the tip at the nearest point of a grid over the travels (the
+/// fractions above of each) that they can follow. None: the error of the mid-travel sphere,
+/// with what to give instead.
+fn default_sphere(
+    setup: &Setup,
+    letter: AxisLetter,
+    angles: &[f64],
+) -> Result<Vector3<f64>, StandardsError> {
+    let (lo, hi) = setup.travel_box()?;
+    let reachable = |sphere: Vector3<f64>| -> Result<(), StandardsError> {
+        for &angle in angles {
+            let mut command = setup.pose;
+            command[letter.index()] = angle;
+            let command = setup.nominal_command_for_tip(sphere, &command)?;
+            setup.check_travel(&command, &format!("R-test of {letter} at {letter}={angle}°"))?;
+        }
+        Ok(())
+    };
+    let mut candidates = Vec::new();
+    for fx in SPHERE_FRACTIONS {
+        for fy in SPHERE_FRACTIONS {
+            for fz in SPHERE_FRACTIONS {
+                let f = Vector3::new(fx, fy, fz);
+                let at = lo + (hi - lo).component_mul(&f);
+                let distance = (f - Vector3::repeat(0.5)).norm();
+                candidates.push((distance, setup.twin().ideal_tip(&setup.command(at))));
+            }
+        }
+    }
+    candidates.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mid = candidates[0].1;
+    let first = reachable(mid);
+    if first.is_ok() {
+        return Ok(mid);
+    }
+    // A sphere on a table's axis stays put while the axis turns: its commands half a turn apart
+    // average to the axis, so spheres between the mid-travel one and the axis follow circles
+    // the travels may hold, the largest first.
+    let mut toward_axis = Vec::new();
+    let mut half_turn = setup.pose;
+    half_turn[letter.index()] += 180.0;
+    if let (Ok(here), Ok(there)) = (
+        setup.nominal_command_for_tip(mid, &setup.pose),
+        setup.nominal_command_for_tip(mid, &half_turn),
+    ) {
+        let mut centre = setup.pose;
+        for d in 0..3 {
+            centre[d] = (here[d] + there[d]) / 2.0;
+        }
+        let on_axis = setup.twin().ideal_tip(&centre);
+        for s in [0.75, 0.5, 0.25, 0.125, 0.0] {
+            toward_axis.push(on_axis + (mid - on_axis) * s);
+        }
+    }
+    for sphere in toward_axis
+        .into_iter()
+        .chain(candidates[1..].iter().map(|c| c.1))
+    {
+        if reachable(sphere).is_ok() {
+            return Ok(sphere);
+        }
+    }
+    let why = first.err().map(|e| e.to_string()).unwrap_or_default();
+    Err(parameter(format!(
+        "no sphere at {} points over the travels can be followed over the whole sweep ({why}): give the sphere (sphere_mm) or fewer angles (from_deg, to_deg)",
+        candidates.len()
+    )))
+}
+
+/// `v` to 0.1 mm, a negative zero written 0.0.
+fn tenths(v: f64) -> String {
+    let text = format!("{v:.1}");
+    if text == "-0.0" {
+        "0.0".into()
+    } else {
+        text
+    }
 }

@@ -170,3 +170,37 @@ fn measured_rotary_runs_are_read_in_arcseconds_or_microradians() {
         .code(2)
         .stderr(predicates::str::contains("deviation_arcsec"));
 }
+
+#[test]
+fn the_default_r_test_runs_on_every_rotary_axis_of_every_embedded_machine() {
+    // The default sphere: the tip at mid-travel where the linear axes can follow it over the
+    // whole sweep, else one nearer the axis (on 5axis-hwang2014's C, whose axis stands at the
+    // corner of X and Y's travels, the axis itself).
+    for (name, _) in volmap::io::embedded::EMBEDDED {
+        let machine = volmap::io::embedded::load(name).unwrap();
+        for letter in machine.rotary_axes() {
+            let axis = letter.as_char().to_string();
+            let out = volmap()
+                .args(["test", "rtest", "--machine", name, "--axis", &axis])
+                .output()
+                .unwrap();
+            let text = String::from_utf8_lossy(&out.stdout);
+            assert!(
+                out.status.success(),
+                "{name} {axis}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            assert!(text.contains(&format!("R-test of {axis}: sphere at (")), "{text}");
+            assert!(!text.contains("-0.0,"), "{text}");
+        }
+    }
+    // A sphere the axes cannot follow: the position to 4 decimals, not 17 digits.
+    volmap()
+        .args(["test", "rtest", "--machine", "5axis-hwang2014", "--axis", "C"])
+        .args(["--sphere", "300,200,150", "--from", "0", "--to", "90"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "R-test of C at C=40°: Y=-39.6274 lies outside the travel of Y (0 to 600)",
+        ));
+}
