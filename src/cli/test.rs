@@ -55,6 +55,10 @@ struct Common {
     /// Draw the error curve, predicted and measured, into this file (.svg or .png).
     #[arg(long)]
     plot: Vec<PathBuf>,
+    /// Print the point-by-point rows however many there are (without it, a test of more than
+    /// 40 points prints its figures and diagnostics alone; --json always holds the rows).
+    #[arg(long)]
+    table: bool,
     #[command(flatten)]
     json: JsonArg,
 }
@@ -252,7 +256,7 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
             (common, result)
         }
     };
-    print_result(&result);
+    print_result(&result, common.table);
     for path in &common.plot {
         write_test_plot(path, &result)?;
     }
@@ -296,9 +300,12 @@ fn run_on_machine(
     Ok(result)
 }
 
-/// The point-by-point table (µm, or arc-seconds for a rotary axis) and the figures, predicted
-/// and measured side by side.
-fn print_result(result: &TestResult) {
+/// Rows printed without `--table`: a longer test (a circle every degree) prints its figures.
+const ROWS_PRINTED: usize = 40;
+
+/// The point-by-point table (µm, or arc-seconds for a rotary axis; with `all_rows` or at most
+/// [`ROWS_PRINTED`] rows) and the figures, predicted and measured side by side.
+fn print_result(result: &TestResult, all_rows: bool) {
     let (factor, unit) = result.unit.shown();
     let predicted_label = format!("predicted {unit}");
     let measured_label = format!("measured {unit}");
@@ -316,8 +323,19 @@ fn print_result(result: &TestResult) {
             units += &format!(" {measured_label:>cell$} {:>cell$}", "difference");
         }
     }
-    outln!("{header}\n{units}");
-    for (n, position) in result.positions.iter().enumerate() {
+    let rows = result.positions.len();
+    if !all_rows && rows > ROWS_PRINTED {
+        outln!("  {rows} points: --table prints them, --json writes them");
+    }
+    let shown = if all_rows || rows <= ROWS_PRINTED {
+        rows
+    } else {
+        0
+    };
+    if shown > 0 {
+        outln!("{header}\n{units}");
+    }
+    for (n, position) in result.positions.iter().enumerate().take(shown) {
         let mut row = format!("  {position:>width$.3}");
         for (c, curve) in result.predicted.iter().enumerate() {
             let p = curve[n] * factor;

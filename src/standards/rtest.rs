@@ -212,7 +212,10 @@ fn default_sphere(
             let mut command = setup.pose;
             command[letter.index()] = angle;
             let command = setup.nominal_command_for_tip(sphere, &command)?;
-            setup.check_travel(&command, &format!("R-test of {letter} at {letter}={angle}°"))?;
+            setup.check_travel(
+                &command,
+                &format!("R-test of {letter} at {letter}={angle}°"),
+            )?;
         }
         Ok(())
     };

@@ -190,13 +190,23 @@ fn the_default_r_test_runs_on_every_rotary_axis_of_every_embedded_machine() {
                 "{name} {axis}: {}",
                 String::from_utf8_lossy(&out.stderr)
             );
-            assert!(text.contains(&format!("R-test of {axis}: sphere at (")), "{text}");
+            assert!(
+                text.contains(&format!("R-test of {axis}: sphere at (")),
+                "{text}"
+            );
             assert!(!text.contains("-0.0,"), "{text}");
         }
     }
     // A sphere the axes cannot follow: the position to 4 decimals, not 17 digits.
     volmap()
-        .args(["test", "rtest", "--machine", "5axis-hwang2014", "--axis", "C"])
+        .args([
+            "test",
+            "rtest",
+            "--machine",
+            "5axis-hwang2014",
+            "--axis",
+            "C",
+        ])
         .args(["--sphere", "300,200,150", "--from", "0", "--to", "90"])
         .assert()
         .code(2)

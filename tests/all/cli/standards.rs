@@ -500,3 +500,50 @@ fn test_plots_of_extreme_finite_measurements_are_drawn() {
         "{stderr}"
     );
 }
+
+#[test]
+fn a_long_test_prints_its_figures_and_the_rows_on_request() {
+    let run = |table: bool| -> String {
+        let mut cmd = volmap();
+        cmd.args([
+            "test",
+            "circular",
+            "--plane",
+            "xy",
+            "--machine",
+            "vmc-li2015",
+        ]);
+        if table {
+            cmd.arg("--table");
+        }
+        let out = cmd.assert().success();
+        String::from_utf8(out.get_output().stdout.clone()).unwrap()
+    };
+    // A circle every degree: 360 points, the figures and the diagnostics without the rows.
+    let short = run(false);
+    assert!(
+        short.contains("  360 points: --table prints them, --json writes them\n"),
+        "{short}"
+    );
+    assert!(short.contains("G ") && short.contains("ballbar diagnostics"));
+    let row =
+        |l: &&str| l.trim_start().starts_with(|c: char| c.is_ascii_digit()) && l.contains(" | ");
+    assert_eq!(short.lines().filter(row).count(), 0, "{short}");
+    let long = run(true);
+    assert_eq!(long.lines().filter(row).count(), 360);
+    assert!(!long.contains("--table prints them"));
+    // A short test keeps its rows: positioning of X at 5 per metre.
+    let out = volmap()
+        .args([
+            "test",
+            "positioning",
+            "--axis",
+            "X",
+            "--machine",
+            "vmc-li2015",
+        ])
+        .assert()
+        .success();
+    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    assert!(text.lines().filter(row).count() >= 5, "{text}");
+}
