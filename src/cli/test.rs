@@ -380,42 +380,63 @@ fn print_result(result: &TestResult, all_rows: bool) {
     }
 }
 
-/// A circle's ballbar diagnostics, predicted and measured side by side.
+/// A circle's ballbar diagnostics, predicted and measured side by side; a reversal's step or
+/// spike and a cyclic error that do not stand above the detection limit read "not detected".
 fn print_ballbar(report: &standards::ballbar::BallbarReport) {
     let [u, v] = report.axes;
     outln!("\n  ballbar diagnostics (radius {} mm)", report.radius_mm);
-    let rows = |d: &standards::ballbar::Diagnostics| -> Vec<(String, f64)> {
+    let shown = |value: f64, found: bool| {
+        if found {
+            format!("{value:.3}")
+        } else {
+            "not detected".to_string()
+        }
+    };
+    let rows = |d: &standards::ballbar::Diagnostics| -> Vec<(String, String)> {
         let mut rows = vec![
             (
                 format!("squareness {u}{v} (µrad; angle − 90°)"),
-                d.squareness_urad,
+                format!("{:.3}", d.squareness_urad),
             ),
             (
                 format!("scale mismatch {u} − {v} (µm/m)"),
-                d.scale_mismatch_ppm,
+                format!("{:.3}", d.scale_mismatch_ppm),
             ),
             (
                 "scale mismatch over the radius (µm)".to_string(),
-                d.scale_mismatch_um,
+                format!("{:.3}", d.scale_mismatch_um),
             ),
-            (format!("backlash {u} (µm)"), d.backlash_um[0]),
-            (format!("backlash {v} (µm)"), d.backlash_um[1]),
+            (
+                format!("backlash {u} (µm)"),
+                format!("{:.3}", d.backlash_um[0]),
+            ),
+            (
+                format!("backlash {v} (µm)"),
+                format!("{:.3}", d.backlash_um[1]),
+            ),
         ];
         for r in &d.reversals {
             rows.push((
                 format!("reversal of {} at {}°: step (µm)", r.axis, r.angle_deg),
-                r.step_um,
+                shown(r.step_um, r.step_detected),
             ));
             rows.push((
                 format!("reversal of {} at {}°: spike (µm)", r.axis, r.angle_deg),
-                r.spike_um,
+                shown(r.spike_um, r.spike_detected),
             ));
         }
-        if let Some([cu, cv]) = d.cyclic_um {
-            rows.push((format!("cyclic error {u} (µm)"), cu));
-            rows.push((format!("cyclic error {v} (µm)"), cv));
+        if let (Some([cu, cv]), Some([fu, fv])) = (d.cyclic_um, d.cyclic_detected) {
+            rows.push((format!("cyclic error {u} (µm)"), shown(cu, fu)));
+            rows.push((format!("cyclic error {v} (µm)"), shown(cv, fv)));
         }
-        rows.push(("left by the figures, RMS (µm)".to_string(), d.residual_um));
+        rows.push((
+            "left by the figures, RMS (µm)".to_string(),
+            format!("{:.3}", d.residual_um),
+        ));
+        rows.push((
+            "detection limit, 3 × that RMS (µm)".to_string(),
+            format!("{:.3}", d.detection_um),
+        ));
         rows
     };
     let predicted = rows(&report.predicted);
@@ -431,9 +452,9 @@ fn print_ballbar(report: &standards::ballbar::BallbarReport) {
     }
     outln!("{header}");
     for (n, (name, value)) in predicted.iter().enumerate() {
-        let mut row = format!("  {name:<width$} {value:>12.3}");
+        let mut row = format!("  {name:<width$} {value:>12}");
         if let Some(m) = measured.as_ref().and_then(|m| m.get(n)) {
-            row += &format!(" {:>12.3}", m.1);
+            row += &format!(" {:>12}", m.1);
         }
         outln!("{row}");
     }

@@ -37,9 +37,24 @@ pub struct Diagnostics {
     /// The amplitude of each axis's cyclic error of the given pitch, µm.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cyclic_um: Option<[f64; 2]>,
+    /// Whether each cyclic error stands above [`Diagnostics::detection_um`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cyclic_detected: Option<[bool; 2]>,
     /// RMS of what the figures leave of the radial deviation, µm.
     pub residual_um: f64,
+    /// What a local feature (a reversal's step or spike, a cyclic error) must exceed to be
+    /// reported as found: [`DETECTION_FACTOR`] times the RMS the figures leave, and at least
+    /// [`DETECTION_FLOOR_UM`], µm.
+    pub detection_um: f64,
 }
+
+/// A reversal or cyclic error is found when its size exceeds this many times the RMS of what
+/// the figures leave: below, the run's other errors could make it (a model without reversal
+/// errors shows "spikes" of the fit's own leftovers).
+pub const DETECTION_FACTOR: f64 = 3.0;
+/// And at least this, µm: a fit that leaves nothing (a model whose errors the figures hold
+/// exactly) still leaves the arithmetic's nanometres, which are no finding.
+pub const DETECTION_FLOOR_UM: f64 = 0.01;
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Reversal {
@@ -47,6 +62,9 @@ pub struct Reversal {
     pub angle_deg: f64,
     pub step_um: f64,
     pub spike_um: f64,
+    /// Whether the step and the spike stand above [`Diagnostics::detection_um`].
+    pub step_detected: bool,
+    pub spike_detected: bool,
 }
 
 /// A circle's diagnostics, predicted and (where measured) measured.
@@ -127,6 +145,8 @@ pub fn diagnose(angles_deg: &[f64], radial_mm: &[f64], circle: &Circle) -> Optio
     let fitted = &design * &x;
     let residual = &observed - &fitted;
     let n = angles_deg.len();
+    let residual_um = (residual.norm_squared() / n as f64).sqrt() * 1e3;
+    let detection_um = (DETECTION_FACTOR * residual_um).max(DETECTION_FLOOR_UM);
     let mut reversals = Vec::new();
     for (axis, turning) in [(0, [0.0, 180.0]), (1, [90.0, 270.0])] {
         // Everything the fit explains but the turning axis's own backlash.
@@ -157,6 +177,8 @@ pub fn diagnose(angles_deg: &[f64], radial_mm: &[f64], circle: &Circle) -> Optio
                 angle_deg: angle,
                 step_um: step * 1e3,
                 spike_um: spike * 1e3,
+                step_detected: (step * 1e3).abs() > detection_um,
+                spike_detected: (spike * 1e3).abs() > detection_um,
             });
         }
     }
@@ -170,7 +192,9 @@ pub fn diagnose(angles_deg: &[f64], radial_mm: &[f64], circle: &Circle) -> Optio
         backlash_um: [x[5] * 1e3, x[6] * 1e3],
         reversals,
         cyclic_um: cyclic,
-        residual_um: (residual.norm_squared() / n as f64).sqrt() * 1e3,
+        cyclic_detected: cyclic.map(|c| c.map(|a| a > detection_um)),
+        residual_um,
+        detection_um,
     })
 }
 

@@ -66,6 +66,9 @@ fn a_backlash_is_a_step_where_its_axis_turns() {
                 "{direction}: {r:?} against {expected}"
             );
             assert!(r.spike_um.abs() < 0.01, "{r:?}");
+            // The fit holds the backlash exactly: X's steps are found, nothing else.
+            assert_eq!(r.step_detected, r.axis == 'X', "{r:?}");
+            assert!(!r.spike_detected, "{r:?}");
         }
         assert!(d.squareness_urad.abs() < 0.01, "{d:?}");
     }
@@ -101,6 +104,39 @@ fn a_cyclic_error_and_a_servo_spike_are_found_in_a_synthetic_run() {
         .find(|r| r.axis == 'X' && r.angle_deg == 180.0)
         .unwrap();
     assert!((spike.spike_um - 1.5).abs() < 0.05, "{spike:?}");
+    // Found: each within 5% and above three times what the figures leave.
+    assert!(
+        spike.spike_detected && d.cyclic_detected == Some([false, true]),
+        "{d:?}"
+    );
+    assert!((spike.spike_um - 1.5).abs() < 0.075 && (cy - 2.0).abs() < 0.1);
+    let others = d
+        .reversals
+        .iter()
+        .filter(|r| !(r.axis == 'X' && r.angle_deg == 180.0));
+    assert!(others.clone().all(|r| !r.spike_detected), "{d:?}");
+}
+
+#[test]
+fn a_model_without_reversal_or_cyclic_errors_shows_none() {
+    // vmc-li2015 has no reversal and no cyclic error: what the fit leaves near the turning
+    // points (its straightness and angular errors) is no spike, and no cyclic error of 10 mm.
+    let machine = volmap::io::embedded::load("vmc-li2015").unwrap();
+    let setup = Setup::new(&machine, "").unwrap();
+    let spec = standards::CircularSpec {
+        points: 360,
+        pitch_mm: Some(10.0),
+        ..circular_spec("XY", 100.0)
+    };
+    let result = standards::circular(&setup, &spec).unwrap();
+    let d = &result.ballbar.as_ref().unwrap().predicted;
+    assert!(d.residual_um > 0.1, "{d:?}");
+    assert!((d.detection_um - 3.0 * d.residual_um).abs() < 1e-12);
+    for r in &d.reversals {
+        assert!(!r.step_detected && !r.spike_detected, "{r:?}");
+        assert!(r.spike_um.abs() <= d.detection_um);
+    }
+    assert_eq!(d.cyclic_detected, Some([false, false]), "{d:?}");
 }
 
 #[test]
