@@ -8,6 +8,7 @@ use volmap::design::shards::Shard;
 use volmap::engine::map::{self, CheckResult, FieldStats, MapOptions};
 use volmap::engine::EngineError;
 use volmap::gpu::GpuError;
+use volmap::io::disk;
 use volmap::io::field::{Compression, FieldError, FieldInfo, Storage};
 use volmap::model::Machine;
 
@@ -112,10 +113,13 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     };
     let grid = sweep[0].clone();
     let grids = args.poses.poses.is_some().then_some(sweep);
-    if args
-        .out
-        .extension()
-        .is_none_or(|e| !e.eq_ignore_ascii_case("exr"))
+    // A device or a pipe (`/dev/null`) is written directly, whatever its name.
+    let device_out = disk::is_device(&args.out);
+    if !device_out
+        && args
+            .out
+            .extension()
+            .is_none_or(|e| !e.eq_ignore_ascii_case("exr"))
     {
         return Err(Failure::input(format!(
             "--out {}: a field file ends in .exr",
@@ -137,6 +141,12 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
                 "--vti writes the field of one pose; with --poses, `volmap plot slice --pose … --out FILE.vti` writes a slice of one",
             ));
         }
+    }
+    if !device_out {
+        check_space(
+            &args,
+            grid.points() * grids.as_ref().map_or(1, |g| g.len() as u64),
+        )?;
     }
     let (engine, note) = args.device.engine()?;
     if let Some(note) = note {
@@ -177,6 +187,58 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
         outln!("  VTK image   {}", vti.display());
     }
     Ok(print_check(summary.check.as_ref()))
+}
+
+/// Fields larger than this say their size when they start, bytes.
+const SAID_BYTES: u64 = 2_000_000_000;
+/// The most a compression stores a field in, against its FLOAT values (pxr24 stores about a
+/// tenth): a compressed field surely larger than the free space is refused.
+const BEST_COMPRESSION: u64 = 16;
+
+/// Refuses a field that cannot fit in the free space of its folder (uncompressed: its size;
+/// compressed: a sixteenth of it), and says the size of a large one.
+fn check_space(args: &MapArgs, points: u64) -> Result<(), Failure> {
+    let storage = args.storage.storage();
+    let value_bytes = if storage.half { 2 } else { 4 };
+    let bytes = points.saturating_mul(6 * value_bytes);
+    let folder = args.out.parent().unwrap_or(std::path::Path::new(""));
+    let gb = |b: u64| format!("{:.1} GB", b as f64 / 1e9);
+    let compressed = !matches!(storage.compression, Compression::None);
+    if let Some(free) = disk::free_bytes(folder) {
+        let least = if compressed {
+            bytes / BEST_COMPRESSION
+        } else {
+            bytes
+        };
+        if least > free {
+            return Err(Failure::input(format!(
+                "--out {}: the field needs {}{}, and its folder has {} free",
+                args.out.display(),
+                gb(least),
+                if compressed {
+                    " at the least (its values take ".to_string()
+                        + &gb(bytes)
+                        + " before compression)"
+                } else {
+                    String::new()
+                },
+                gb(free)
+            )));
+        }
+    }
+    if bytes > SAID_BYTES {
+        outln!(
+            "writing a field of {}{} into {}",
+            gb(bytes),
+            if compressed {
+                " before compression"
+            } else {
+                ""
+            },
+            args.out.display()
+        );
+    }
+    Ok(())
 }
 
 /// A failure of the map, said to have happened while mapping the machine into the file, with

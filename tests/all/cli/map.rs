@@ -464,3 +464,39 @@ fn bench_holds_a_machine_with_errors_of_other_axes_against_its_plain_counterpart
         assert!(ratio["ratio"].as_f64().unwrap() > 0.0, "{ratio}");
     }
 }
+
+#[test]
+fn a_field_larger_than_the_free_space_is_refused_and_a_device_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("huge.exr");
+    // 16384 x 16384 x 8192 points: 52.8 TB of FLOAT values, 3.3 TB at the least compressed.
+    for compression in ["none", "pxr24"] {
+        volmap()
+            .args([
+                "map",
+                "--grid",
+                "16384x16384x8192",
+                "--compression",
+                compression,
+                "--out",
+            ])
+            .arg(&out)
+            .assert()
+            .code(2)
+            .stderr(
+                predicates::str::starts_with(format!(
+                    "error: --out {}: the field needs ",
+                    out.display()
+                ))
+                .and(predicates::str::contains(" free")),
+            );
+        assert!(!out.exists());
+    }
+    // A device is written directly, whatever its name.
+    #[cfg(unix)]
+    volmap()
+        .args(["map", "--grid", "8x8x8", "--out", "/dev/null"])
+        .assert()
+        .success()
+        .stdout(predicates::str::contains("field       /dev/null"));
+}
