@@ -7,7 +7,9 @@ use std::process::ExitCode;
 
 use volmap::io::atomic::AtomicFile;
 use volmap::io::field::FieldFile;
-use volmap::io::points::{PointReader, PointsError, Precision, QueryPoint, SampleWriter};
+use volmap::io::points::{
+    PointBatch, PointReader, PointsError, Precision, QueryPoint, SampleWriter,
+};
 use volmap::io::FileError;
 use volmap::model::channels::Sample;
 use volmap::model::{Command, Machine};
@@ -202,7 +204,16 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             || source.sample(&batch.points),
             || reader.next_batch(BATCH_POINTS),
         );
-        let samples = samples?;
+        let samples = match samples {
+            Ok(samples) => samples,
+            Err(error) => {
+                // The rows before the failing position are written, as everywhere else.
+                let (prefix, samples) = sampled_prefix(&mut source, &batch);
+                writer.write(out, &prefix, &samples).map_err(write_error)?;
+                out.flush().map_err(write_error)?;
+                return Err(error);
+            }
+        };
         for (p, s) in batch.points.iter().zip(&samples) {
             if s.is_none_or(|s| s[0].is_nan()) {
                 outside_count += 1;
@@ -236,4 +247,27 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The longest start of `batch` that samples without an error (found by halving: the error
+/// path alone pays for it), with its samples.
+fn sampled_prefix(source: &mut Source, batch: &PointBatch) -> (PointBatch, Vec<Option<Sample>>) {
+    // Invariant: the first `good` positions sample, the first `bad` do not.
+    let (mut good, mut bad) = (0, batch.points.len());
+    let mut kept = Vec::new();
+    while bad - good > 1 {
+        let mid = (good + bad) / 2;
+        match source.sample(&batch.points[..mid]) {
+            Ok(samples) => {
+                good = mid;
+                kept = samples;
+            }
+            Err(_) => bad = mid,
+        }
+    }
+    let prefix = PointBatch {
+        points: batch.points[..good].to_vec(),
+        rows: batch.rows[..good].to_vec(),
+    };
+    (prefix, kept)
 }

@@ -390,3 +390,29 @@ fn a_machine_without_a_linear_axis_is_sampled_at_its_zero() {
         &["q.csv: line 2: Y=5 lies outside the machine's travel (0 to 0)"],
     );
 }
+
+#[test]
+fn the_rows_before_a_position_outside_are_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let field = field(dir.path());
+    let points = dir.path().join("p.csv");
+    std::fs::write(&points, "X,Y,Z\n10,10,10\n20,20,20\n99999,0,0\n30,30,30\n").unwrap();
+    let out = volmap()
+        .args(["sample", "--device", "cpu", "--field"])
+        .arg(&field)
+        .arg("--points")
+        .arg(&points)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains(
+            "line 4: X=99999 lies outside the field's grid",
+        ));
+    let text = String::from_utf8(out.get_output().stdout.clone()).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    // The header and lines 2 and 3, nothing of line 4 or after.
+    assert_eq!(lines.len(), 3, "{text}");
+    assert!(
+        lines[1].starts_with("10,10,10,") && lines[2].starts_with("20,20,20,"),
+        "{text}"
+    );
+}
