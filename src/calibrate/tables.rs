@@ -1,7 +1,9 @@
 //! Machine files written into another folder than their base: the CSV tables the base names
-//! must still be found. A machine file's `csv = "PATH"` is relative to the file's own folder
-//! (docs/model.md), so a file that `fit` or `build` writes elsewhere gets every relative PATH
-//! rewritten relative to its own folder; absolute paths stay as they are.
+//! must still be found, with no flag. A machine file's `csv = "PATH"` is relative to the file's
+//! own folder and must lie in it or below (docs/model.md), so a file that `fit` or `build` writes
+//! elsewhere names each table the base names from its own folder where the table lies there or
+//! below, and otherwise names a copy in the folder `NAME.tables/` beside it (`NAME` the file's
+//! stem), which the command line writes: the written file stands alone, the base untouched.
 
 use std::path::{Component, Path, PathBuf};
 
@@ -11,37 +13,81 @@ use toml_edit::{DocumentMut, Item, KeyMut};
 use super::CalibrateError;
 use crate::model::Machine;
 
-/// `text`, a machine file derived from `base`, with every relative CSV path rewritten for a file
-/// in `out_folder`. A base read from text (an embedded machine) has inline tables only and is
-/// returned as it is.
-pub fn rebase_tables(
-    text: &str,
-    base: &Machine,
-    out_folder: &Path,
-) -> Result<String, CalibrateError> {
+/// A machine file derived from a base, with its tables named for its own folder.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rebased {
+    pub text: String,
+    /// The tables to copy: the base's file, and the path of its copy relative to the new
+    /// file's folder (`NAME.tables/FILE.csv`).
+    pub copies: Vec<(PathBuf, String)>,
+}
+
+/// `text`, a machine file derived from `base`, written as `out` (a file in its folder): every
+/// relative CSV path rewritten for `out`'s folder where the table lies in it or below, and
+/// every other table (relative or absolute) named as a copy in `NAME.tables/`. A base read from
+/// text (an embedded machine) has inline tables only and is returned as it is.
+pub fn rebase_tables(text: &str, base: &Machine, out: &Path) -> Result<Rebased, CalibrateError> {
     let Some(from) = &base.source.folder else {
-        return Ok(text.to_string());
+        return Ok(Rebased {
+            text: text.to_string(),
+            copies: Vec::new(),
+        });
     };
     let mut document: DocumentMut = text.parse().map_err(|e| {
         CalibrateError::Parameter(format!("the machine file does not parse again: {e}"))
     })?;
-    let to = absolute(out_folder)?;
+    let folder = out.parent().unwrap_or(Path::new(""));
+    let stem = out
+        .file_stem()
+        .map_or("machine".to_string(), |s| s.to_string_lossy().into_owned());
     let mut rebase = Rebase {
         from: absolute(from)?,
-        to,
-        failure: None,
+        to: absolute(folder)?,
+        tables_folder: format!("{stem}.tables"),
+        copies: Vec::new(),
     };
     rebase.visit_document_mut(&mut document);
-    match rebase.failure {
-        Some(failure) => Err(failure),
-        None => Ok(document.to_string()),
-    }
+    Ok(Rebased {
+        text: document.to_string(),
+        copies: rebase.copies,
+    })
 }
 
 struct Rebase {
     from: PathBuf,
     to: PathBuf,
-    failure: Option<CalibrateError>,
+    tables_folder: String,
+    copies: Vec<(PathBuf, String)>,
+}
+
+impl Rebase {
+    /// The name the new file gives the table at `source` (absolute): its path from the new
+    /// folder where it lies there or below, else its copy's (one copy per table, names kept
+    /// apart by a number where two tables share a file name).
+    fn name_for(&mut self, source: PathBuf) -> String {
+        let moved = relative_path(&source, &self.to);
+        let below = moved.is_relative()
+            && !moved
+                .components()
+                .any(|c| matches!(c, Component::ParentDir));
+        if below {
+            return moved.to_string_lossy().replace('\\', "/");
+        }
+        if let Some((_, name)) = self.copies.iter().find(|(s, _)| *s == source) {
+            return name.clone();
+        }
+        let file = source.file_name().map_or("table.csv".to_string(), |f| {
+            f.to_string_lossy().into_owned()
+        });
+        let mut name = format!("{}/{file}", self.tables_folder);
+        let mut n = 2;
+        while self.copies.iter().any(|(_, taken)| *taken == name) {
+            name = format!("{}/{n}-{file}", self.tables_folder);
+            n += 1;
+        }
+        self.copies.push((source, name.clone()));
+        name
+    }
 }
 
 impl VisitMut for Rebase {
@@ -49,13 +95,11 @@ impl VisitMut for Rebase {
         if key.get() == "csv" {
             if let Some(value) = node.as_value_mut() {
                 if let Some(path) = value.as_str() {
-                    let path = Path::new(path);
-                    if path.is_relative() {
-                        let moved = relative_path(&lexical(&self.from.join(path)), &self.to);
-                        let decor = value.decor().clone();
-                        *value = moved.to_string_lossy().replace('\\', "/").into();
-                        *value.decor_mut() = decor;
-                    }
+                    let source = lexical(&self.from.join(Path::new(path)));
+                    let named = self.name_for(source);
+                    let decor = value.decor().clone();
+                    *value = named.into();
+                    *value.decor_mut() = decor;
                 }
             }
             return;

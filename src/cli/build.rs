@@ -9,7 +9,7 @@ use volmap::model::AxisLetter;
 
 use super::args::{load_machine_flag, ReachArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{check_machine_text, out_folder, write_file, written_by};
+use super::output::{check_machine_text, copy_tables, out_folder, write_file, written_by};
 
 #[derive(clap::Args)]
 pub struct BuildArgs {
@@ -105,7 +105,9 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
     // The base's CSV tables are named relative to its own folder; the new file's names them
     // from its folder, and must read back as a machine before it replaces anything.
     let folder = out_folder(&args.out);
-    let text = calibrate::rebase_tables(&text, &base, &folder)?;
+    let rebased = calibrate::rebase_tables(&text, &base, &args.out)?;
+    copy_tables(&folder, &rebased.copies, "--out")?;
+    let text = rebased.text;
     check_machine_text(&text, &args.out, &folder)?;
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
     outln!(

@@ -8,7 +8,9 @@ use volmap::calibrate::{self, fit, identifiability};
 
 use super::args::{JsonArg, MachineArg, ReachArg};
 use super::failure::{Failure, FlagContext};
-use super::output::{check_machine_text, out_folder, write_file, write_json, written_by};
+use super::output::{
+    check_machine_text, copy_tables, out_folder, write_file, write_json, written_by,
+};
 
 const UM_PER_MM: f64 = 1000.0;
 
@@ -91,7 +93,9 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
             ],
         );
         let folder = out_folder(path);
-        let text = calibrate::rebase_tables(&text, &machine, &folder)?;
+        let rebased = calibrate::rebase_tables(&text, &machine, path)?;
+        copy_tables(&folder, &rebased.copies, "--out")?;
+        let text = rebased.text;
         check_machine_text(&text, path, &folder)?;
         write_file(path, |out| out.write_all(text.as_bytes())).flag("--out")?;
         outln!("  machine with the estimates: {}", path.display());

@@ -2,7 +2,7 @@
 //! JSON, plots, progress bars on standard error.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use volmap::io::atomic::write_atomically;
@@ -95,6 +95,24 @@ pub fn write_file(
     Ok(write_atomically(path, write)?)
 }
 
+/// Copies the tables a machine file written into `folder` names as copies (`(source, name
+/// relative to folder)`), each written whole; the flag `flag` is the machine file's.
+pub fn copy_tables(folder: &Path, copies: &[(PathBuf, String)], flag: &str) -> Result<(), Failure> {
+    for (source, name) in copies {
+        let bytes = std::fs::read(source).map_err(|e| {
+            Failure::from(volmap::io::FileError::read(source, e)).context(flag.to_string())
+        })?;
+        let dest = folder.join(name);
+        if let Some(parent) = dest.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| {
+                Failure::from(volmap::io::FileError::write(parent, e)).context(flag.to_string())
+            })?;
+        }
+        write_file(&dest, |out| out.write_all(&bytes)).flag(flag)?;
+    }
+    Ok(())
+}
+
 /// Writes `value` as pretty JSON to the file `--json` names.
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), Failure> {
     write_json_for(path, value, "--json")
@@ -126,23 +144,12 @@ pub fn check_plot_paths(paths: &[impl AsRef<Path>], flag: &str) -> Result<(), Fa
 }
 
 /// Checks that a machine file about to be written to `path` reads back as a machine, its CSV
-/// tables named from `folder` (the file's own). Tables outside that folder (a base machine in
-/// another folder) are read to check them, with a note that reading the file will take
-/// `--allow-outside-paths`.
+/// tables named from `folder` (the file's own) and lying there or below (copied there where the
+/// base's lie elsewhere), as every command will read it.
 pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), Failure> {
-    use volmap::io::source::Reach;
-    use volmap::model::Machine;
     let name = path.display().to_string();
-    match Machine::from_toml(text, &name, Some(folder)) {
-        Err(e) if e.is_outside_folder() => {
-            Machine::from_toml_reaching(text, &name, Some(folder), Reach::Anywhere)?;
-            errln!(
-                "note: {name} names CSV tables outside its folder: commands that read it need --allow-outside-paths"
-            );
-            Ok(())
-        }
-        other => other.map(|_| ()).map_err(Failure::from),
-    }
+    volmap::model::Machine::from_toml(text, &name, Some(folder))?;
+    Ok(())
 }
 
 /// Every output of one run at a path of its own: two flags naming one file would leave the one

@@ -1,13 +1,11 @@
 //! Machine files with CSV tables, written by `build --out` and `fit --out` into another folder
-//! than their base: the tables the base names are found from the new file's folder, and the
-//! written file maps exactly like the base with the measured or fitted values in. Tables outside
-//! the new file's folder are read only where the reader allows it (`--allow-outside-paths`):
-//! the command says so.
+//! than their base: the written file stands alone (the tables outside its folder copied into
+//! `NAME.tables/` beside it, the base untouched), reads with no flag, and maps exactly like the
+//! base with the measured or fitted values in.
 
 use std::path::Path;
 
 use predicates::prelude::*;
-use volmap::io::source::Reach;
 use volmap::model::Machine;
 use volmap::reference::deviation;
 
@@ -84,24 +82,44 @@ fn build_into_another_folder_keeps_the_bases_csv_tables() {
         assert!(output.status.success());
         String::from_utf8(output.stderr).unwrap()
     };
-    // Beside the base no path changes; two folders away the table is reached from there, and
-    // the command notes that reading the file needs --allow-outside-paths.
+    // Beside the base no path changes; two folders away the table is copied beside the new
+    // file, which reads with no flag; the base's table is untouched.
+    let base_table = std::fs::read(dir.path().join("base/tables/y.csv")).unwrap();
     assert_eq!(build("base/beside.toml"), "");
-    assert!(build("out/deeper/built.toml").contains("--allow-outside-paths"));
+    assert_eq!(build("out/deeper/built.toml"), "");
     let moved = std::fs::read_to_string(dir.path().join("out/deeper/built.toml")).unwrap();
-    assert!(
-        moved.contains("csv = \"../../base/tables/y.csv\""),
-        "{moved}"
+    assert!(moved.contains("csv = \"built.tables/y.csv\""), "{moved}");
+    assert_eq!(
+        std::fs::read(dir.path().join("out/deeper/built.tables/y.csv")).unwrap(),
+        base_table
     );
+    assert_eq!(
+        std::fs::read(dir.path().join("base/tables/y.csv")).unwrap(),
+        base_table
+    );
+    assert!(!dir.path().join("base/beside.tables").exists());
     let beside = std::fs::read_to_string(dir.path().join("base/beside.toml")).unwrap();
     assert!(beside.contains("csv = \"tables/y.csv\""), "{beside}");
     let beside = Machine::from_path(&dir.path().join("base/beside.toml")).unwrap();
     let moved_path = dir.path().join("out/deeper/built.toml");
-    assert!(Machine::from_path(&moved_path)
-        .unwrap_err()
-        .is_outside_folder());
-    let moved = Machine::from_path_reaching(&moved_path, Reach::Anywhere).unwrap();
+    let moved = Machine::from_path(&moved_path).unwrap();
     assert_eq!(largest_difference(&beside, &moved), 0.0);
+    // Mapped with no flag, as a user maps it first.
+    volmap()
+        .current_dir(dir.path())
+        .args([
+            "map",
+            "--machine",
+            "out/deeper/built.toml",
+            "--grid",
+            "4x4x4",
+            "--device",
+            "cpu",
+        ])
+        .args(["--out", "out/built.exr"])
+        .assert()
+        .success()
+        .stderr(predicate::str::contains("error").not());
     // The built X positioning is in: the file differs from the base by it (6.5 µm at X = 1000).
     let base = Machine::from_path(&base).unwrap();
     assert!(largest_difference(&base, &moved) > 1e-3);
@@ -160,7 +178,7 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
             predicates::str::contains("valuation")
                 .and(predicates::str::contains("condition number")),
         )
-        .stderr(predicates::str::contains("--allow-outside-paths"));
+        .stderr(predicates::str::contains("--allow-outside-paths").not());
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/fit.json")).unwrap())
             .unwrap();
@@ -170,7 +188,7 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
     assert!(figures["sensitivity"][0].as_f64().unwrap() > 0.0);
     let written = std::fs::read_to_string(dir.path().join("out/fitted.toml")).unwrap();
     assert!(
-        written.contains("csv = \"../base/tables/y.csv\""),
+        written.contains("csv = \"fitted.tables/y.csv\""),
         "{written}"
     );
     let value: toml::Table = toml::from_str(&written).unwrap();
@@ -185,8 +203,7 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
             .replace(EC0Y_BASE, &format!("EC0Y = {estimate:?}")),
     )
     .unwrap();
-    let fitted =
-        Machine::from_path_reaching(&dir.path().join("out/fitted.toml"), Reach::Anywhere).unwrap();
+    let fitted = Machine::from_path(&dir.path().join("out/fitted.toml")).unwrap();
     let expected = Machine::from_path(&expected_path).unwrap();
     assert_eq!(largest_difference(&fitted, &expected), 0.0);
 }
