@@ -215,8 +215,9 @@ pub struct JsonArg {
 #[derive(clap::Args)]
 pub struct PosesArg {
     /// Every pose of a sweep of the rotary axes: `B=-90:90:15,C=0:345:15` (each axis one value
-    /// or START:STOP:STEP degrees, the last axis varying fastest; axes not named at 0). A map
-    /// writes one part per pose into one multi-part field; statistics run over every pose.
+    /// or START:STOP:STEP degrees, the last axis varying fastest; axes not named at 0). `map`
+    /// writes one part per pose into one multi-part field; `budget` takes the grid at every pose
+    /// and its statistics over all of them.
     #[arg(long, allow_hyphen_values = true, conflicts_with = "pose")]
     pub poses: Option<String>,
 }
