@@ -135,14 +135,45 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         }
         (None, None) => return Err(no_error_source()),
     };
-    let at = match &source {
-        ErrorSource::Exact(machine) => inputs_words(machine),
-        ErrorSource::Field(field) => field.info.inputs.describe(),
+    let (at, on) = match &source {
+        ErrorSource::Exact(machine) => (inputs_words(machine), machine.name.clone()),
+        ErrorSource::Field(field) => (
+            field.info.inputs.describe(),
+            format!(
+                "the field {}",
+                args.field.as_deref().unwrap_or(Path::new("")).display()
+            ),
+        ),
     };
     let rows = part::evaluate(&part, source, &part_name)?;
-    outln!("{} ({} features) at {at}", part.name, rows.len());
+    let mut pose: Vec<(&String, &f64)> = part.placement.pose_deg.iter().collect();
+    pose.sort_by(|a, b| a.0.cmp(b.0));
+    let pose = if pose.is_empty() {
+        String::new()
+    } else {
+        let words: Vec<String> = pose.iter().map(|(a, d)| format!("{a}={d}°")).collect();
+        format!(", pose {}", words.join(" "))
+    };
     outln!(
-        "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} {:<16} worst point (commanded X Y Z, mm)",
+        "{} ({} features) on {on} at {at}{pose}",
+        part.name,
+        rows.len()
+    );
+    let against_of = |r: &part::FeatureResult| match r.evaluation {
+        Evaluation::MinimumZone => "minimum zone".to_string(),
+        Evaluation::Nominal => "nominal".to_string(),
+        Evaluation::BestFit => "best fit".to_string(),
+        Evaluation::Datums => format!("datums {}", r.datums.join(" ")),
+    };
+    // The column as wide as its longest entry (datums of several features).
+    let wide = rows
+        .iter()
+        .map(|r| against_of(r).chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(16);
+    outln!(
+        "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} {:<wide$} worst point (commanded X Y Z, mm)",
         "feature",
         "kind",
         "error mm",
@@ -161,14 +192,9 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         let area = r.area_outside.map_or(String::new(), |a| {
             format!("  ({:.1}% of the area outside the zone)", 100.0 * a)
         });
-        let against = match r.evaluation {
-            Evaluation::MinimumZone => "minimum zone".to_string(),
-            Evaluation::Nominal => "nominal".to_string(),
-            Evaluation::BestFit => "best fit".to_string(),
-            Evaluation::Datums => format!("datums {}", r.datums.join(" ")),
-        };
+        let against = against_of(r);
         outln!(
-            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:<16} {:.3} {:.3} {:.3}{area}",
+            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:<wide$} {:.3} {:.3} {:.3}{area}",
             r.name,
             r.kind,
             r.error_mm,
