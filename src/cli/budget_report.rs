@@ -198,7 +198,7 @@ pub fn plot(
             "Error budget of {}: max |VE| of each term alone at its limit",
             machine.name
         ),
-        "max |VE|, µm (the share is of the root sum of squares)",
+        "max |VE|, µm (a term's share is its square's part of the sum of squares)",
         &bars,
         Some((total, &format!("RSS {total:.2} µm"))),
     )?];

@@ -52,6 +52,15 @@ impl Quantity {
         }
     }
 
+    /// Its name as the colour bar and the title write it: `|VE|`, `|OE|`, `VE.X`.
+    pub fn name(self) -> String {
+        match self {
+            Quantity::VolumetricMagnitude => "|VE|".into(),
+            Quantity::OrientationMagnitude => "|OE|".into(),
+            Quantity::Channel(c) => CHANNELS[c].into(),
+        }
+    }
+
     /// What can be asked for, in words.
     pub fn choices() -> String {
         format!("VE, OE or one of {}", CHANNELS.join(", "))
@@ -165,11 +174,7 @@ pub fn field_slice_at_pose(
     Ok(FieldSlice {
         title: format!(
             "{machine}: {} at {}={position:.1} mm",
-            if magnitude {
-                format!("|{}|", quantity.trim())
-            } else {
-                quantity.trim().to_string()
-            },
+            parsed.name(),
             axis[d]
         ),
         labels: [format!("{} (mm)", axis[h]), format!("{} (mm)", axis[v])],

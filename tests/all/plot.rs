@@ -155,7 +155,15 @@ fn a_field_slice_holds_the_field_values() {
             assert!((slice.values[j * 7 + i] - magnitude).abs() < 1e-12);
         }
     }
-    let slice = volmap::query::field_slice(&path, "x", None, "OE.Y").unwrap();
+    // The title names the quantity as the colour bar does, whatever case it was asked in.
+    let oe = volmap::query::field_slice(&path, "x", None, "oe").unwrap();
+    assert!(
+        oe.title.contains(": |OE| at X=") && oe.unit.contains("|OE|"),
+        "{}",
+        oe.title
+    );
+    let slice = volmap::query::field_slice(&path, "x", None, "oe.y").unwrap();
+    assert!(slice.title.contains(": OE.Y at X="), "{}", slice.title);
     assert_eq!((slice.cols, slice.rows), (5, 4));
     assert_eq!(slice.values[3 * 5 + 2], value(3, 2, 3)[4] as f64);
     let error = volmap::query::field_slice(&path, "z", Some(1e6), "VE")
