@@ -256,6 +256,9 @@ fn exrheader_reads_the_field() {
         "volmap.origin (type v3d)",
         "volmap.spacing (type v3d)",
         "volmap.pose (type v3d)",
+        // exrheader prints no v3d value: the same in OpenEXR's v3f, which it prints.
+        "volmap.origin_mm (type v3f): (0 0 0)",
+        "volmap.spacing_mm (type v3f): (400 600 500)",
         "volmap.grid (type string): \"X: 3 points from 0.0 to 800.0 mm, step 400.0 mm; Y: 2 points from 0.0 to 600.0 mm, step 600.0 mm; Z: 2 points from 0.0 to 500.0 mm, step 500.0 mm; B at 12.5 deg; C at 200.0 deg\"",
         "volmap.chain (type string): \"FYXCFZB\"",
     ] {

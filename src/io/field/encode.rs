@@ -115,7 +115,11 @@ pub(super) fn header_attributes(
     h.v3d("volmap.origin", info.origin_mm)?;
     h.v3d("volmap.spacing", info.spacing_mm)?;
     h.v3d("volmap.pose", info.pose_deg)?;
-    // The same in words, for tools that do not print v3d values (exrheader among them).
+    // The same for tools that do not print v3d values (exrheader among them): in OpenEXR's own
+    // 32-bit vector type (what exrheader prints; the v3d ones are the values) and in words.
+    let f = |v: [f64; 3]| V::FloatVec3((v[0] as f32, v[1] as f32, v[2] as f32));
+    h.attribute(b"volmap.origin_mm", f(info.origin_mm))?;
+    h.attribute(b"volmap.spacing_mm", f(info.spacing_mm))?;
     h.string("volmap.grid", &grid_text(info))?;
     h.string("volmap.poseAxes", &info.pose_axes)?;
     h.string("volmap.units", UNITS)?;
