@@ -207,6 +207,20 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             r.worst_point[2]
         );
     }
+    // The deviations of each meshed surface that asks for them, written by the evaluation.
+    for feature in &part.features {
+        if let part::FeatureSpec::Profile {
+            name,
+            ply: Some(file),
+            ..
+        } = feature
+        {
+            outln!(
+                "  wrote {} (deviations of `{name}`)",
+                part.base.join(file).display()
+            );
+        }
+    }
     if let Some(path) = &args.json.json {
         write_json(path, &rows)?;
     }

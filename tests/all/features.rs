@@ -269,6 +269,16 @@ fn a_meshed_profile_gives_its_largest_deviation_and_the_area_outside_the_zone() 
             "vertex at x={x}: {deviation}"
         );
     }
+    // Last (it rewrites the PLY for its own machine): the command line says where it wrote the deviations.
+    super::cli::volmap()
+        .args(["features", "--machine", "gantry-2m", "--part"])
+        .arg(&part_path)
+        .assert()
+        .success()
+        .stdout(predicates::str::contains(format!(
+            "  wrote {} (deviations of `skin`)",
+            dir.path().join("skin.ply").display()
+        )));
 }
 
 #[test]
