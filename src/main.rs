@@ -82,6 +82,7 @@ enum Command {
 fn main() -> ExitCode {
     volmap::gpu::device::quiet_window_system();
     cli::interrupt::install();
+    volmap::gpu::slow::on_slow_compile(cli::output::say_slow_compile);
     let result = match Cli::parse().command {
         Command::Map(args) => cli::map::run(args),
         Command::Machines(args) => cli::machines::run(args),

@@ -87,6 +87,16 @@ pub fn written_by() -> String {
     )
 }
 
+/// Says, once, that the GPU kernels are being built, where standard error is a terminal (as the
+/// progress bars show only there): registered with [`volmap::gpu::slow::on_slow_compile`].
+pub fn say_slow_compile() {
+    use std::io::IsTerminal;
+    static SAID: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    if std::io::stderr().is_terminal() && !SAID.swap(true, std::sync::atomic::Ordering::SeqCst) {
+        errln!("volmap: building the GPU kernels for this machine (the first run takes seconds)");
+    }
+}
+
 /// Writes a file whole or not at all.
 pub fn write_file(
     path: &Path,

@@ -222,6 +222,8 @@ impl Gpu {
         entry: &str,
         constants: &[(&str, f64)],
     ) -> Result<Kernel, GpuError> {
+        // A build that keeps the user waiting gets a word (where the command line asked).
+        let _watch = super::slow::compile_watch();
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = self
             .device

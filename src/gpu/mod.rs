@@ -8,6 +8,7 @@ pub mod chain;
 pub mod device;
 pub mod layout;
 pub mod sample;
+pub mod slow;
 
 pub use chain::{
     check_error_angles, pack, GpuMapper, KernelChoice, MachineShape, Packed, Tiling, TimedKernel,
