@@ -22,8 +22,8 @@ pub struct ExportArgs {
     #[command(flatten)]
     machine: MachineArg,
     /// The controller format: grid-csv, linuxcnc, klipper, klipper-twist, marlin, rrf,
-    /// rrf-heightmap, siemens, heidenhain, fanuc, fanuc-3d, isg or isg-axis (see docs/export/ for each format's tables,
-    /// limits and how to load them).
+    /// rrf-heightmap, siemens, heidenhain, fanuc, fanuc-3d, isg or isg-axis (see docs/export/
+    /// for each format's tables, limits and how to load them).
     #[arg(long)]
     format: String,
     /// Where to write: the file for a one-file format (grid-csv, klipper, klipper-twist, marlin,

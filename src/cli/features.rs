@@ -165,10 +165,11 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         Evaluation::BestFit => "best fit".to_string(),
         Evaluation::Datums => format!("datums {}", r.datums.join(" ")),
     };
+    let against: Vec<String> = rows.iter().map(against_of).collect();
     // The column as wide as its longest entry (datums of several features).
-    let wide = rows
+    let wide = against
         .iter()
-        .map(|r| against_of(r).chars().count())
+        .map(|a| a.chars().count())
         .max()
         .unwrap_or(0)
         .max(16);
@@ -182,7 +183,7 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         "verdict",
         "against"
     );
-    for r in &rows {
+    for (r, against) in rows.iter().zip(&against) {
         let safety = r.safety.map_or("-".to_string(), |s| format!("{s:.2}"));
         let verdict = match r.verdict {
             Verdict::Unfit => "unfit",
@@ -192,7 +193,6 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         let area = r.area_outside.map_or(String::new(), |a| {
             format!("  ({:.1}% of the area outside the zone)", 100.0 * a)
         });
-        let against = against_of(r);
         outln!(
             "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:<wide$} {:.3} {:.3} {:.3}{area}",
             r.name,

@@ -211,17 +211,18 @@ fn check_space(args: &MapArgs, points: u64) -> Result<(), Failure> {
             bytes
         };
         if least > free {
+            let least_words = if compressed {
+                format!(
+                    " at the least (its values take {} before compression)",
+                    gb(bytes)
+                )
+            } else {
+                String::new()
+            };
             return Err(Failure::input(format!(
-                "--out {}: the field needs {}{}, and its folder has {} free",
+                "--out {}: the field needs {}{least_words}, and its folder has {} free",
                 args.out.display(),
                 gb(least),
-                if compressed {
-                    " at the least (its values take ".to_string()
-                        + &gb(bytes)
-                        + " before compression)"
-                } else {
-                    String::new()
-                },
                 gb(free)
             )));
         }

@@ -389,7 +389,8 @@ pub fn additive_fit(
     })
 }
 
-fn mean(values: &[f64]) -> f64 {
+/// The mean of `values`.
+pub(crate) fn mean(values: &[f64]) -> f64 {
     values.iter().sum::<f64>() / values.len() as f64
 }
 

@@ -515,7 +515,7 @@ pub fn largest_difference(result: &TestResult) -> Option<f64> {
 }
 
 /// A position in an error message: a computed one to 4 decimals (0.1 µm, 1e-4°), trailing
-/// zeros cut; a huge or tiny one as [`crate::error::shown`] writes it.
+/// zeros cut; one of 1e7 or more, or not finite, as [`crate::error::shown`] writes it.
 fn position_shown(value: f64) -> String {
     if value.is_finite() && value.abs() < 1e7 {
         let text = format!("{value:.4}");

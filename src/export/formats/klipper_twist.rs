@@ -16,7 +16,7 @@
 //! the nozzle at `B` moves by the corrected reading of the probe at `B − offset`.
 
 use crate::export::error::{read_error, ExportError};
-use crate::export::fitting::{uniform, Field, Fitting, Structure};
+use crate::export::fitting::{mean, uniform, Field, Fitting, Structure};
 use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
 use crate::model::inputs::Approach;
 use crate::model::Command;
@@ -104,6 +104,8 @@ struct Probing {
     probe: Field,
     offset: [f64; 2],
     bed_z: f64,
+    /// Where the toolhead probes: the reach of both probe and nozzle, X and Y.
+    spans: [[f64; 2]; 2],
 }
 
 impl Probing {
@@ -116,7 +118,30 @@ impl Probing {
             probe: probe_field(fitting, offset)?,
             offset,
             bed_z: fitting.ranges[2][0],
+            spans: [reach(fitting, offset, 0)?, reach(fitting, offset, 1)?],
         })
+    }
+
+    /// [`ACROSS`] positions over the toolhead's reach along axis `d`.
+    fn across(&self, d: usize) -> Vec<f64> {
+        uniform(self.spans[d][0], self.spans[d][1], ACROSS)
+    }
+
+    /// What the probe reads wrong against the nozzle at each of [`ACROSS`] × [`ACROSS`]
+    /// toolhead positions over its reach, less the tables where given.
+    fn left(&self, x: Option<&Twist>, y: Option<&Twist>) -> Vec<f64> {
+        let (xs, ys) = (self.across(0), self.across(1));
+        let mut left = Vec::with_capacity(xs.len() * ys.len());
+        for &tx in &xs {
+            for &ty in &ys {
+                left.push(
+                    self.difference(tx, ty)
+                        - x.map_or(0.0, |t| t.at(tx))
+                        - y.map_or(0.0, |t| t.at(ty)),
+                );
+            }
+        }
+        left
     }
 
     /// `e_p,z(T) − e_n,z(T + offset)`.
@@ -152,18 +177,11 @@ impl Format for KlipperTwist {
     ) -> Result<Vec<WrittenFile>, ExportError> {
         let [nx, ny, _] = points.unwrap_or([SPEC.limits.default_points; 3]);
         let probing = Probing::new(fitting)?;
-        let spans = [
-            reach(fitting, probing.offset, 0)?,
-            reach(fitting, probing.offset, 1)?,
-        ];
+        let spans = probing.spans;
         let xs = uniform(spans[0][0], spans[0][1], nx);
         let ys = uniform(spans[1][0], spans[1][1], ny);
-        let (across_x, across_y) = (
-            uniform(spans[0][0], spans[0][1], ACROSS),
-            uniform(spans[1][0], spans[1][1], ACROSS),
-        );
+        let (across_x, across_y) = (probing.across(0), probing.across(1));
         // The additive fit on a factorial grid: each axis's mean over the other, less the mean.
-        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
         let along_x: Vec<f64> = xs
             .iter()
             .map(|&x| {
@@ -190,34 +208,25 @@ impl Format for KlipperTwist {
             let scale = 10f64.powi(DECIMALS as i32);
             (v * scale).round() / scale
         };
-        let table = |values: &[f64]| -> Vec<f64> {
+        let table = |values: &[f64], nodes: &[f64]| {
             let m = mean(values);
-            values.iter().map(|v| round(v - m)).collect()
+            Twist {
+                values: values.iter().map(|v| round(v - m)).collect(),
+                start: nodes[0],
+                end: nodes[nodes.len() - 1],
+            }
         };
-        let (tx, ty) = (table(&along_x), table(&along_y));
-        let list = |v: &[f64]| {
-            v.iter()
+        let (tx, ty) = (table(&along_x, &xs), table(&along_y, &ys));
+        let list = |t: &Twist| {
+            t.values
+                .iter()
                 .map(|x| format!("{:.DECIMALS$}", if *x == 0.0 { 0.0 } else { *x }))
                 .collect::<Vec<_>>()
                 .join(", ")
         };
         // What the probe reads wrong against the nozzle, z_offset aside, without and with.
-        let at = |values: &[f64], nodes: &[f64], coord: f64| {
-            Twist {
-                values: values.to_vec(),
-                start: nodes[0],
-                end: nodes[nodes.len() - 1],
-            }
-            .at(coord)
-        };
-        let (mut before, mut after) = (Vec::new(), Vec::new());
-        for &x in &across_x {
-            for &y in &across_y {
-                let d = probing.difference(x, y);
-                before.push(d);
-                after.push(d - at(&tx, &xs, x) - at(&ty, &ys, y));
-            }
-        }
+        let before = probing.left(None, None);
+        let after = probing.left(Some(&tx), Some(&ty));
         let spread = |v: &[f64]| {
             let m = mean(v);
             v.iter().map(|d| (d - m).abs()).fold(0.0, f64::max) * 1000.0
@@ -239,12 +248,12 @@ impl Format for KlipperTwist {
         );
         text += &format!("[{SECTION}]\n");
         text += &format!("z_compensations: {}\n", list(&tx));
-        text += &format!("compensation_start_x: {:.3}\n", xs[0]);
-        text += &format!("compensation_end_x: {:.3}\n", xs[nx - 1]);
-        if ty.iter().any(|v| *v != 0.0) {
+        text += &format!("compensation_start_x: {:.3}\n", tx.start);
+        text += &format!("compensation_end_x: {:.3}\n", tx.end);
+        if ty.values.iter().any(|v| *v != 0.0) {
             text += &format!("zy_compensations: {}\n", list(&ty));
-            text += &format!("compensation_start_y: {:.3}\n", ys[0]);
-            text += &format!("compensation_end_y: {:.3}\n", ys[ny - 1]);
+            text += &format!("compensation_start_y: {:.3}\n", ty.start);
+            text += &format!("compensation_end_y: {:.3}\n", ty.end);
         }
         Ok(vec![WrittenFile { name: file, text }])
     }
@@ -266,23 +275,10 @@ impl Format for KlipperTwist {
         let probing = Probing::new(fitting)?;
         let (x, y) = read_config(&files[0])?;
         // z_offset calibrated on average: the mean of what the tables leave.
-        let spans = [
-            reach(fitting, probing.offset, 0)?,
-            reach(fitting, probing.offset, 1)?,
-        ];
-        let mut sum = 0.0;
-        let grid = |d: usize| uniform(spans[d][0], spans[d][1], ACROSS);
-        for &tx in &grid(0) {
-            for &ty in &grid(1) {
-                sum += probing.difference(tx, ty)
-                    - x.as_ref().map_or(0.0, |t| t.at(tx))
-                    - y.as_ref().map_or(0.0, |t| t.at(ty));
-            }
-        }
+        let z_offset = mean(&probing.left(x.as_ref(), y.as_ref()));
         Ok(Box::new(Probed {
-            z_offset: sum / (ACROSS * ACROSS) as f64,
+            z_offset,
             probing,
-            spans,
             x,
             y,
         }))
@@ -362,8 +358,6 @@ fn read_config(file: &WrittenFile) -> Result<(Option<Twist>, Option<Twist>), Exp
 /// Klipper printing with a bed mesh probed at every point through the tables.
 struct Probed {
     probing: Probing,
-    /// Where the toolhead probes: the reach of both probe and nozzle, X and Y.
-    spans: [[f64; 2]; 2],
     x: Option<Twist>,
     y: Option<Twist>,
     z_offset: f64,
@@ -373,8 +367,8 @@ impl Control for Probed {
     fn command(&self, target: &Command, _approach: &[Approach; 6]) -> Command {
         let p = &self.probing;
         // The mesh at bed point B was probed with the toolhead at B − offset (its edge held).
-        let tx = (target[0] - p.offset[0]).clamp(self.spans[0][0], self.spans[0][1]);
-        let ty = (target[1] - p.offset[1]).clamp(self.spans[1][0], self.spans[1][1]);
+        let tx = (target[0] - p.offset[0]).clamp(p.spans[0][0], p.spans[0][1]);
+        let ty = (target[1] - p.offset[1]).clamp(p.spans[1][0], p.spans[1][1]);
         let reading = -z_error(&p.probe, tx, ty, p.bed_z)
             + self.x.as_ref().map_or(0.0, |t| t.at(tx))
             + self.y.as_ref().map_or(0.0, |t| t.at(ty));

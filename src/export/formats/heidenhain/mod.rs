@@ -1,4 +1,5 @@
-//! `heidenhain`: HEIDENHAIN nonlinear axis error compensation in the MANUALplus 620 layout (not the iTNC 530 / TNC 430 column-number layout)
+//! `heidenhain`: HEIDENHAIN nonlinear axis error compensation in the MANUALplus 620 layout (not
+//! the iTNC 530 / TNC 430 column-number layout)
 //! (HEIDENHAIN technical manuals, "Nonlinear axis error compensation"): compensation-value
 //! tables `*.COM` and the assignment table `*.CMA` that says which `*.COM` is read along which
 //! axis.
