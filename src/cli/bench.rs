@@ -10,8 +10,8 @@ use volmap::model::poses;
 use volmap::model::AxisLetter;
 
 use super::args::{load_machine_flag, DeviceArg, GridArg, JsonArg, PoseArg, ReachArg};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
-use super::output::write_json;
 
 #[derive(clap::Args)]
 #[command(mut_arg("grid", |a| a.default_value("128x128x128")))]
@@ -104,7 +104,8 @@ pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
     };
     out!("{}", bench::table(&report));
     if let Some(path) = &args.json.json {
-        write_json(path, &report)?;
+        // Several machines: the envelope names none; each result names its own.
+        Envelope::new("bench").write(path, "--json", &report)?;
     }
     Ok(ExitCode::SUCCESS)
 }

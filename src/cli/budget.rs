@@ -21,8 +21,10 @@ use super::args::{
     sweep_grids, DeviceArg, GridArg, InputsArg, JsonArg, MachineArg, PoseArg, PosesArg,
 };
 use super::budget_report::{self, axis_positions};
+use super::envelope::{pose_of, Envelope};
 use super::failure::{Failure, FlagContext};
-use super::output::{check_distinct_outputs, check_plot_paths, progress, write_file, write_json};
+use super::output::{check_distinct_outputs, check_plot_paths, progress, write_file};
+use volmap::io::digest::machine_sha256;
 
 #[derive(clap::Args)]
 pub struct BudgetArgs {
@@ -217,7 +219,11 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         budget_report::plot(&machine, &budget, histogram.as_ref(), path)?;
     }
     if let Some(path) = &args.json.json {
-        write_json(path, &json)?;
+        let poses = grids.iter().map(|g| pose_of(&machine, &g.pose)).collect();
+        Envelope::new("budget")
+            .machine(&machine)
+            .pose(serde_json::Value::Array(poses))
+            .write(path, "--json", &json)?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -233,6 +239,10 @@ fn study_key(
     let inputs = machine.inputs.record(machine);
     StudyKey {
         machine: machine.name.clone(),
+        machine_sha256: Some(machine_sha256(
+            &machine.source.toml,
+            &machine.source.csv_files,
+        )),
         tolerances: study.tolerances.iter().map(tolerance_text).collect(),
         grid: args.grid.grid,
         poses: study

@@ -3,11 +3,15 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use serde_json::json;
 use volmap::calibrate::{self, build, CalibrateError};
 use volmap::error::excerpt;
+use volmap::io::digest::machine_sha256;
+use volmap::io::source::Reach;
 use volmap::model::AxisLetter;
 
-use super::args::{load_machine_flag, ReachArg};
+use super::args::{load_machine_flag, JsonArg, ReachArg};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
 use super::output::{check_machine_text, copy_tables, out_folder, write_file, written_by};
 
@@ -28,6 +32,8 @@ pub struct BuildArgs {
     out: PathBuf,
     #[command(flatten)]
     reach: ReachArg,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
 pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
@@ -145,6 +151,41 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
             },
             c.reason
         );
+    }
+    if let Some(path) = &args.json.json {
+        // What every command reads from the file written: its hash as read back.
+        let written =
+            volmap::io::embedded::load_reaching(&args.out.display().to_string(), Reach::Folder)
+                .map(|m| machine_sha256(&m.source.toml, &m.source.csv_files))
+                .flag("--out")?;
+        let components: Vec<serde_json::Value> = built
+            .iter()
+            .map(|c| {
+                // Linear components (EXX…) in mm, angular ones in rad.
+                let unit = if c.index < 3 { "rms_mm" } else { "rms_rad" };
+                let scores: Vec<serde_json::Value> = c
+                    .leave_one_out
+                    .iter()
+                    .map(|(name, s)| json!({ "interp": name, unit: s }))
+                    .collect();
+                json!({
+                    "name": c.name,
+                    "nodes": c.nodes.len(),
+                    "interp": c.interp.to_string(),
+                    "leave_one_out": scores,
+                    "reason": c.reason,
+                })
+            })
+            .collect();
+        Envelope::new("build").machine(&base).write(
+            path,
+            "--json",
+            &json!({
+                "written": { "file": args.out.display().to_string(), "sha256": written },
+                "measured": measured,
+                "components": components,
+            }),
+        )?;
     }
     Ok(ExitCode::SUCCESS)
 }

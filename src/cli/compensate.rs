@@ -6,8 +6,9 @@ use std::process::ExitCode;
 use volmap::nc::{self, NcError, NcOption, Options, ToolLengths};
 
 use super::args::{InputsArg, JsonArg, MachineArg};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
-use super::output::{check_distinct_outputs, progress, write_file, write_json};
+use super::output::{check_distinct_outputs, progress, write_file};
 
 #[derive(clap::Args)]
 pub struct CompensateArgs {
@@ -126,6 +127,9 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     ])?;
     let machine = args.machine.load()?;
     let inputs = args.inputs.on(&machine)?;
+    let envelope = Envelope::new("compensate")
+        .machine(&machine)
+        .at_inputs(&machine, &inputs);
     let options = Options {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
@@ -250,7 +254,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         );
     }
     if let Some(path) = &args.json.json {
-        write_json(path, &report)?;
+        envelope.write(path, "--json", &report)?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -8,10 +8,9 @@ use volmap::export::{self, ExportError, Report, Request, TableSize};
 use volmap::plot::{self, Color, Marker, Series};
 
 use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
-use super::output::{
-    check_distinct_outputs, check_plot_paths, progress, write_json, write_plot, written_by,
-};
+use super::output::{check_distinct_outputs, check_plot_paths, progress, write_plot, written_by};
 
 const UM_PER_MM: f64 = 1000.0;
 /// Below this the structure's remainder is the arithmetic's, mm.
@@ -182,12 +181,21 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
     }
     if let Some(path) = &args.json.json {
         let written: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
-        write_json(
+        envelope_of(&request).write(
             path,
+            "--json",
             &serde_json::json!({ "written": written, "report": exported.report }),
         )?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The envelope of the JSON report of an export of `request`.
+fn envelope_of(request: &Request) -> Envelope {
+    Envelope::new("export")
+        .machine(request.machine)
+        .at_inputs(request.machine, request.inputs)
+        .at_pose(request.machine, &request.pose)
 }
 
 /// An export error with the flag it comes from.
@@ -389,7 +397,7 @@ fn sweep(
             .iter()
             .map(|(n, r)| serde_json::json!({ "points": n, "report": r }))
             .collect();
-        write_json(path, &json)?;
+        envelope_of(request).write(path, "--json", &json)?;
     }
     Ok(ExitCode::SUCCESS)
 }

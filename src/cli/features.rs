@@ -14,8 +14,10 @@ use volmap::design::shards::{tolerance_text, SampleFile, Shard, StudyKey};
 use volmap::io::tolerance_file::ToleranceFile;
 
 use super::args::{load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
-use super::output::{check_distinct_outputs, progress, write_file, write_json};
+use super::output::{check_distinct_outputs, progress, write_file};
+use volmap::io::digest::machine_sha256;
 
 #[derive(clap::Args)]
 #[command(mut_arg("machine", |a| a.conflicts_with("field")))]
@@ -145,6 +147,11 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             ),
         ),
     };
+    let envelope = match &source {
+        ErrorSource::Exact(machine) => Envelope::new("features").machine(machine),
+        ErrorSource::Field(field) => Envelope::new("features").field(&field.info),
+    }
+    .pose(part_pose(&part));
     let rows = part::evaluate(&part, source, &part_name)?;
     let mut pose: Vec<(&String, &f64)> = part.placement.pose_deg.iter().collect();
     pose.sort_by(|a, b| a.0.cmp(b.0));
@@ -222,12 +229,22 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         }
     }
     if let Some(path) = &args.json.json {
-        write_json(path, &rows)?;
+        envelope.write(path, "--json", &rows)?;
     }
     if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
         return Ok(ExitCode::from(3));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The part's pose (`placement.pose_deg`) as a report's `pose_deg` holds it.
+fn part_pose(part: &PartFile) -> serde_json::Value {
+    part.placement
+        .pose_deg
+        .iter()
+        .map(|(axis, degrees)| (axis.clone(), serde_json::json!(degrees)))
+        .collect::<serde_json::Map<_, _>>()
+        .into()
 }
 
 /// Every feature on machines built to the tolerances: the fraction on which it conforms.
@@ -273,6 +290,10 @@ fn run_conformance(
     let per_sample = args.per_sample.as_ref().map(|path| {
         let key = StudyKey {
             machine: machine.name.clone(),
+            machine_sha256: Some(machine_sha256(
+                &machine.source.toml,
+                &machine.source.csv_files,
+            )),
             tolerances: file.tolerances.iter().map(tolerance_text).collect(),
             grid: [0; 3],
             poses: Vec::new(),
@@ -318,7 +339,10 @@ fn run_conformance(
         errln!("per-sample: {}", path.display());
     }
     if let Some(path) = &args.json.json {
-        write_json(path, &rows)?;
+        Envelope::new("features")
+            .machine(&machine)
+            .pose(part_pose(part))
+            .write(path, "--json", &rows)?;
     }
     if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
         return Ok(ExitCode::from(3));

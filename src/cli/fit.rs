@@ -7,10 +7,9 @@ use std::process::ExitCode;
 use volmap::calibrate::{self, fit, identifiability};
 
 use super::args::{JsonArg, MachineArg, ReachArg};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
-use super::output::{
-    check_machine_text, copy_tables, out_folder, write_file, write_json, written_by,
-};
+use super::output::{check_machine_text, copy_tables, out_folder, write_file, written_by};
 
 const UM_PER_MM: f64 = 1000.0;
 
@@ -101,7 +100,9 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
         outln!("  machine with the estimates: {}", path.display());
     }
     if let Some(path) = &args.json.json {
-        write_json(path, &report)?;
+        Envelope::new("fit")
+            .machine(&machine)
+            .write(path, "--json", &report)?;
     }
     Ok(ExitCode::SUCCESS)
 }

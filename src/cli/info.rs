@@ -7,7 +7,10 @@ use std::process::ExitCode;
 use volmap::engine::map::FieldStats;
 use volmap::io::field::{FieldFile, FieldReader};
 
+use super::args::JsonArg;
+use super::envelope::{field_pose, Envelope};
 use super::failure::Failure;
+use super::field_report::{file_json, poses_json, stats_json};
 use super::map::print_summary;
 use super::sweep::print_sweep_summary;
 
@@ -15,6 +18,8 @@ use super::sweep::print_sweep_summary;
 pub struct InfoArgs {
     /// The field file (.exr).
     file: PathBuf,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
 pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
@@ -25,6 +30,14 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         print_summary(reader.info(), &stats);
         outln!("  stored      {}", file.storage(0));
         outln!("  field       {}", args.file.display());
+        if let Some(path) = &args.json.json {
+            let info = reader.info();
+            let mut result = file_json(&args.file, info, file.storage(0));
+            result["stats"] = stats_json(info, &stats);
+            Envelope::new("info")
+                .field(info)
+                .write(path, "--json", &result)?;
+        }
         return Ok(ExitCode::SUCCESS);
     }
     let mut names = Vec::with_capacity(file.parts());
@@ -43,6 +56,19 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         args.file.display(),
         file.parts()
     );
+    if let Some(path) = &args.json.json {
+        let infos: Vec<_> = (0..file.parts()).map(|p| file.info(p)).collect();
+        let worst = &infos[total.max_ve_pose];
+        let mut result = file_json(&args.file, worst, file.storage(0));
+        result["stats"] = stats_json(worst, &total);
+        result["worst_pose"] = names[total.max_ve_pose].clone().into();
+        result["poses"] = poses_json(&infos, &names, &stats);
+        let poses = infos.iter().map(field_pose).collect();
+        Envelope::new("info")
+            .field(worst)
+            .pose(serde_json::Value::Array(poses))
+            .write(path, "--json", &result)?;
+    }
     Ok(ExitCode::SUCCESS)
 }
 

@@ -4,6 +4,11 @@ use std::process::ExitCode;
 
 use volmap::io::embedded;
 
+use serde_json::json;
+use volmap::io::digest::machine_sha256;
+
+use super::args::JsonArg;
+use super::envelope::Envelope;
 use super::failure::Failure;
 
 #[derive(clap::Args)]
@@ -12,6 +17,8 @@ pub struct MachinesArgs {
     /// point for a machine file of one's own.
     #[arg(long, value_name = "NAME")]
     show: Option<String>,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
 pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
@@ -30,9 +37,15 @@ pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
                 ))
             })?;
         out!("{text}");
+        if let Some(path) = &args.json.json {
+            Envelope::new("machines")
+                .machine(&embedded::load(name)?)
+                .write(path, "--json", &json!({ "toml": text }))?;
+        }
         return Ok(ExitCode::SUCCESS);
     }
     outln!("{:<18} {:<9} {:<6} description", "name", "chain", "axes");
+    let mut list = Vec::new();
     for (name, _) in embedded::EMBEDDED {
         let machine = embedded::load(name)?;
         let axes = machine.chain.axes().count();
@@ -41,6 +54,16 @@ pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
             machine.chain.hwang_notation(),
             machine.description
         );
+        list.push(json!({
+            "name": name,
+            "chain": machine.chain.hwang_notation(),
+            "axes": axes,
+            "description": machine.description,
+            "sha256": machine_sha256(&machine.source.toml, &machine.source.csv_files),
+        }));
+    }
+    if let Some(path) = &args.json.json {
+        Envelope::new("machines").write(path, "--json", &json!({ "machines": list }))?;
     }
     Ok(ExitCode::SUCCESS)
 }

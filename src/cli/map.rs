@@ -13,9 +13,11 @@ use volmap::io::field::{Compression, FieldError, FieldInfo, Storage};
 use volmap::model::Machine;
 
 use super::args::{
-    sweep_grids, DefaultMachineArg, DeviceArg, GridArg, InputsArg, PoseArg, PosesArg,
+    sweep_grids, DefaultMachineArg, DeviceArg, GridArg, InputsArg, JsonArg, PoseArg, PosesArg,
 };
+use super::envelope::{pose_of, Envelope};
 use super::failure::{Failure, FlagContext};
+use super::field_report::{check_json, file_json, poses_json, stats_json};
 use super::output::progress;
 use super::sweep;
 
@@ -54,6 +56,8 @@ pub struct MapArgs {
     chunk_points: Option<u64>,
     #[command(flatten)]
     storage: StorageArg,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
 /// `--compression` and `--half`: how the field file stores its values.
@@ -92,6 +96,11 @@ impl StorageArg {
 }
 
 pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
+    super::output::check_distinct_outputs(&[
+        ("--out", Some(args.out.as_path())),
+        ("--vti", args.vti.as_deref()),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     let loaded = args.machine.load()?;
     // The machine at the evaluation inputs: the field records them.
     let (machine, _) = args.inputs.machine_at(&loaded)?;
@@ -169,6 +178,27 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
             args.out.display(),
             grids.len()
         );
+        if let Some(path) = &args.json.json {
+            let infos: Vec<FieldInfo> = grids
+                .iter()
+                .map(|g| map::field_info(&machine, g, &summary.device))
+                .collect();
+            let names: Vec<String> = summary.poses.iter().map(|p| p.name.clone()).collect();
+            let stats: Vec<FieldStats> = summary.poses.iter().map(|p| p.stats.clone()).collect();
+            let worst = &infos[summary.stats.max_ve_pose];
+            let mut result = file_json(&args.out, worst, options.storage.describe());
+            result["bytes"] = summary.times.write.bytes.into();
+            result["seconds"] = summary.seconds.into();
+            result["stats"] = stats_json(worst, &summary.stats);
+            result["worst_pose"] = names[summary.stats.max_ve_pose].clone().into();
+            result["poses"] = poses_json(&infos, &names, &stats);
+            result["check"] = check_json(summary.check.as_ref());
+            let poses = grids.iter().map(|g| pose_of(&machine, &g.pose)).collect();
+            Envelope::new("map")
+                .machine(&machine)
+                .pose(serde_json::Value::Array(poses))
+                .write(path, "--json", &result)?;
+        }
         return Ok(print_check(summary.check.as_ref()));
     }
     let bar = progress(Some(grid.points()), "mapping", "points");
@@ -185,6 +215,18 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     outln!("  field       {}", args.out.display());
     if let Some(vti) = &args.vti {
         outln!("  VTK image   {}", vti.display());
+    }
+    if let Some(path) = &args.json.json {
+        let mut result = file_json(&args.out, &info, options.storage.describe());
+        result["bytes"] = summary.times.write.bytes.into();
+        result["seconds"] = summary.seconds.into();
+        result["stats"] = stats_json(&info, &summary.stats);
+        result["vti"] = args.vti.as_ref().map(|p| p.display().to_string()).into();
+        result["check"] = check_json(summary.check.as_ref());
+        Envelope::new("map")
+            .machine(&machine)
+            .at_pose(&machine, &grid.pose)
+            .write(path, "--json", &result)?;
     }
     Ok(print_check(summary.check.as_ref()))
 }

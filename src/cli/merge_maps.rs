@@ -6,6 +6,8 @@ use std::process::ExitCode;
 
 use volmap::io::field::{merge_parts, FieldFile};
 
+use super::args::JsonArg;
+use super::envelope::{field_pose, Envelope};
 use super::failure::Failure;
 use super::output::{check_distinct_outputs, progress};
 
@@ -18,10 +20,15 @@ pub struct MergeMapsArgs {
     /// The multi-part field file to write (.exr).
     #[arg(long)]
     out: PathBuf,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
 pub fn run(args: MergeMapsArgs) -> Result<ExitCode, Failure> {
-    check_distinct_outputs(&[("--out", Some(args.out.as_path()))])?;
+    check_distinct_outputs(&[
+        ("--out", Some(args.out.as_path())),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     if args
         .out
         .extension()
@@ -59,5 +66,21 @@ pub fn run(args: MergeMapsArgs) -> Result<ExitCode, Failure> {
         files[0].info(0).machine_name,
         args.out.display()
     );
+    if let Some(path) = &args.json.json {
+        let infos: Vec<_> = files
+            .iter()
+            .flat_map(|f| (0..f.parts()).map(|p| f.info(p)))
+            .collect();
+        let poses = infos.iter().map(field_pose).collect();
+        let result = serde_json::json!({
+            "file": args.out.display().to_string(),
+            "parts": parts,
+            "merged": args.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        });
+        Envelope::new("merge-maps")
+            .field(&infos[0])
+            .pose(serde_json::Value::Array(poses))
+            .write(path, "--json", &result)?;
+    }
     Ok(ExitCode::SUCCESS)
 }

@@ -12,9 +12,10 @@ use volmap::model::statistics::FieldStats;
 use volmap::part::Verdict;
 
 use super::budget_report;
+use super::envelope::Envelope;
 use super::failure::Failure;
 use super::features::print_conformance;
-use super::output::{check_distinct_outputs, write_json_for};
+use super::output::check_distinct_outputs;
 
 #[derive(clap::Args)]
 pub struct MergeSamplesArgs {
@@ -22,8 +23,9 @@ pub struct MergeSamplesArgs {
     /// order: together they must cover the study's samples once.
     #[arg(required = true)]
     files: Vec<PathBuf>,
-    /// Write the merged statistics here (JSON: its `monte_carlo` is the same, byte for byte, as
-    /// that of `budget --json` run over all the samples at once).
+    /// Write the merged statistics here (JSON, the shape of every --json: its result's
+    /// `monte_carlo` is the same, byte for byte, as that of `budget --json` run over all the
+    /// samples at once).
     #[arg(long)]
     out: PathBuf,
 }
@@ -59,6 +61,33 @@ fn fields(
     })
 }
 
+/// The envelope of the merged study: its machine by name and hash, its inputs as the shards
+/// record them (`X=+,Y=-`, `spindle=31`).
+fn envelope(study: &StudyKey) -> Envelope {
+    let pairs = |text: &str| -> serde_json::Map<String, serde_json::Value> {
+        text.split(',')
+            .filter_map(|pair| pair.split_once('='))
+            .map(|(k, v)| {
+                let value = v.parse::<f64>().map_or_else(|_| json!(v), |t| json!(t));
+                (k.to_string(), value)
+            })
+            .collect()
+    };
+    let poses: Vec<serde_json::Value> = study
+        .poses
+        .iter()
+        .map(|name| serde_json::Value::Object(pairs(name)))
+        .collect();
+    Envelope::new("merge-samples")
+        .named_machine(&study.machine, study.machine_sha256.as_deref())
+        .with_inputs(json!({
+            "approach": pairs(&study.approach),
+            "temperatures_C": pairs(&study.temperatures),
+            "reference_C": null,
+            "pose_deg": poses,
+        }))
+}
+
 pub fn run(args: MergeSamplesArgs) -> Result<ExitCode, Failure> {
     check_distinct_outputs(&[("--out", Some(args.out.as_path()))])?;
     if args.files.iter().any(|f| f == &args.out) {
@@ -78,7 +107,7 @@ pub fn run(args: MergeSamplesArgs) -> Result<ExitCode, Failure> {
     match merged {
         Merged::Fields(stats) => {
             let value = fields(&study, &stats, &args, files.len());
-            write_json_for(&args.out, &value, "--out")?;
+            envelope(&study).write(&args.out, "--out", &value)?;
         }
         Merged::Features(nominal, errors) => {
             let confidence = study.confidence.unwrap_or(0.95);
@@ -95,7 +124,7 @@ pub fn run(args: MergeSamplesArgs) -> Result<ExitCode, Failure> {
             );
             print_conformance(&rows);
             // The same as `features --tolerances --json` over all the samples.
-            write_json_for(&args.out, &rows, "--out")?;
+            envelope(&study).write(&args.out, "--out", &rows)?;
             errln!("merged: {}", args.out.display());
             // As `features` exits: 3 where a feature is unfit.
             if rows.iter().any(|r| r.verdict == Verdict::Unfit) {

@@ -1,5 +1,6 @@
 //! The command line: one file per subcommand, the arguments they share ([`args`]), the one place
-//! errors become exit codes ([`failure`]) and the one place for output ([`output`]).
+//! errors become exit codes ([`failure`]), the one place for output ([`output`]) and the one
+//! shape of every `--json` report ([`envelope`]; a field's summary in it: [`field_report`]).
 //!
 //! Each command's work is done in the library; the file of a command here reads its arguments,
 //! calls that module and prints what it returns:
@@ -54,9 +55,11 @@ pub mod budget_report;
 pub mod build;
 pub mod compensate;
 pub mod completions;
+pub mod envelope;
 pub mod export;
 pub mod failure;
 pub mod features;
+pub mod field_report;
 pub mod fit;
 pub mod info;
 pub mod interrupt;

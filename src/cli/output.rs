@@ -123,11 +123,6 @@ pub fn copy_tables(folder: &Path, copies: &[(PathBuf, String)], flag: &str) -> R
     Ok(())
 }
 
-/// Writes `value` as pretty JSON to the file `--json` names.
-pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), Failure> {
-    write_json_for(path, value, "--json")
-}
-
 /// Writes `value` as pretty JSON to the file `flag` names.
 pub fn write_json_for(
     path: &Path,

@@ -15,7 +15,8 @@ use volmap::model::channels::Sample;
 use volmap::model::{Command, Machine};
 use volmap::query::{self, FieldSampler, Outside, SampledField};
 
-use super::args::{load_machine, DeviceArg, InputsArg, OptionalMachineArg, PoseArg};
+use super::args::{load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg, PoseArg};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
 
 #[derive(clap::Args)]
@@ -51,6 +52,8 @@ pub struct SampleArgs {
     out: Option<PathBuf>,
     #[command(flatten)]
     device: DeviceArg,
+    #[command(flatten)]
+    json: JsonArg,
 }
 
 /// `--outside`: what to do with a position outside the field's grid.
@@ -108,6 +111,10 @@ impl Source<'_> {
 }
 
 pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
+    super::output::check_distinct_outputs(&[
+        ("--out", args.out.as_deref()),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     // The field's headers first: it must hold the inputs asked for.
     let file = args
         .field
@@ -126,6 +133,12 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     let mut record = file
         .as_ref()
         .map(|f| format!("from {} at {}", f.path().display(), f.inputs(0).describe()));
+    // The pose of a five-axis map's points is each point's own.
+    let mut field_envelope = file.as_ref().map(|f| {
+        Envelope::new("sample")
+            .field(&f.info(0))
+            .pose(serde_json::Value::Null)
+    });
     // The first points and the field are read side by side: both are mostly parsing.
     // A five-axis map's parts are read later, one by one, as the points ask for them.
     let (first, loaded) = rayon::join(
@@ -145,8 +158,12 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         Some(OutsideArg::Skip) => Outside::Skip,
         Some(OutsideArg::Nan) => Outside::Nan,
     };
+    let envelope;
     let (mut source, precision) = match (&loaded, &args.machine.machine) {
         (Some(loaded), _) => {
+            envelope = field_envelope
+                .take()
+                .unwrap_or_else(|| Envelope::new("sample"));
             let (sampler, note) = args.device.sampler()?;
             if let Some(note) = note {
                 errln!("note: {note}");
@@ -165,6 +182,10 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
                 inputs.describe(&machine)
             ));
             let pose = args.pose.on(&machine)?;
+            envelope = Envelope::new("sample")
+                .machine(&machine)
+                .at_inputs(&machine, &inputs)
+                .at_pose(&machine, &pose);
             query::check_exact_columns(&machine, reader.columns(), &path).flag("--points")?;
             let source = Source::Exact {
                 machine,
@@ -198,7 +219,9 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     };
     let writer = SampleWriter::start(out, reader.columns(), precision).map_err(write_error)?;
     let (mut outside_count, mut first_outside, mut sampled) = (0usize, None, 0usize);
+    let mut read = 0usize;
     while !batch.points.is_empty() {
+        read += batch.points.len();
         // The next batch is read while this one is sampled.
         let (samples, next) = rayon::join(
             || source.sample(&batch.points),
@@ -245,6 +268,25 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             "note: {outside_count} position(s) outside {of} {done} (--outside), \
              the first at line {line} of {path}"
         );
+    }
+    if let Some(json) = &args.json.json {
+        let result = serde_json::json!({
+            "points": read,
+            "sampled": sampled,
+            "outside": outside_count,
+            "first_outside_line": first_outside,
+            "outside_rule": match outside {
+                Outside::Error => "error",
+                Outside::Skip => "skip",
+                Outside::Nan => "nan",
+            },
+            "precision": match precision {
+                Precision::F32 => "f32",
+                Precision::F64 => "f64",
+            },
+            "out": args.out.as_ref().map(|p| p.display().to_string()),
+        });
+        envelope.write(json, "--json", &result)?;
     }
     Ok(ExitCode::SUCCESS)
 }

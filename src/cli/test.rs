@@ -8,8 +8,9 @@ use volmap::error::excerpt;
 use volmap::standards::{self, Setup, TestResult};
 
 use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
-use super::output::{check_plot_paths, write_json};
+use super::output::check_plot_paths;
 use super::plot::write_test_plot;
 
 /// Three numbers `X,Y,Z` in mm.
@@ -174,7 +175,7 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
         | TestKind::Rtest { common, .. } => &common.plot,
     };
     check_plot_paths(plots, "--plot")?;
-    let (common, result) = match args.kind {
+    let (common, (result, envelope)) = match args.kind {
         TestKind::Positioning {
             axis,
             targets,
@@ -261,7 +262,7 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
         write_test_plot(path, &result)?;
     }
     if let Some(path) = &common.json.json {
-        write_json(path, &result)?;
+        envelope.write(path, "--json", &result)?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -270,10 +271,14 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
 fn run_on_machine(
     common: &Common,
     test: impl FnOnce(&Setup) -> Result<TestResult, standards::StandardsError>,
-) -> Result<TestResult, Failure> {
+) -> Result<(TestResult, Envelope), Failure> {
     let machine = common.machine.load()?;
     let inputs = common.inputs.on(&machine)?;
     let setup = Setup::with_inputs(&machine, &common.pose.pose, &inputs).flag("--pose")?;
+    let envelope = Envelope::new("test")
+        .machine(&machine)
+        .at_inputs(&machine, &inputs)
+        .at_pose(&machine, &common.pose.on(&machine)?);
     let result = test(&setup).map_err(|e| match &e {
         // A count beyond its limit comes from the flags of the spec's keys.
         standards::StandardsError::Limit { key, message } => {
@@ -297,7 +302,7 @@ fn run_on_machine(
             }
         }
     }
-    Ok(result)
+    Ok((result, envelope))
 }
 
 /// Rows printed without `--table`: a longer test (a circle every degree) prints its figures.

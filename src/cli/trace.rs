@@ -10,8 +10,9 @@ use volmap::plot::{self, Color, Marker, Series};
 
 use super::args::{InputsArg, JsonArg, MachineArg};
 use super::compensate::{corrupted_for_tests, option_failure, SetupArgs};
+use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
-use super::output::{check_distinct_outputs, check_plot_paths, write_file, write_json, write_plot};
+use super::output::{check_distinct_outputs, check_plot_paths, write_file, write_plot};
 
 #[derive(clap::Args)]
 pub struct TraceArgs {
@@ -106,6 +107,9 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
     }
     let machine = args.machine.load()?;
     let inputs = args.inputs.on(&machine)?;
+    let envelope = Envelope::new("trace")
+        .machine(&machine)
+        .at_inputs(&machine, &inputs);
     let options = Options {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
@@ -224,7 +228,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
         write_plot(&drawing, path)?;
     }
     if let Some(path) = &args.json.json {
-        write_json(path, &summaries)?;
+        envelope.write(path, "--json", &summaries)?;
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -87,6 +87,10 @@ impl Shard {
 #[serde(deny_unknown_fields)]
 pub struct StudyKey {
     pub machine: String,
+    /// The hash of the machine's file and tables (`sha256:…`): shards of two machine files of
+    /// one name are not one study.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub machine_sha256: Option<String>,
     /// Each tolerance: its key and its distribution with its width.
     pub tolerances: Vec<String>,
     pub grid: [usize; 3],

@@ -5,6 +5,7 @@
 
 pub mod atomic;
 pub mod csv;
+pub mod digest;
 pub mod disk;
 pub mod embedded;
 pub mod field;

@@ -31,8 +31,7 @@ fn compensate_writes_a_new_program_and_never_the_input() {
         text.contains("N60 X39.8168 F200 (SLOT ALONG X: 30 MM BETWEEN ITS CENTRES)"),
         "{text}"
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     assert!(report["largest_error_after_mm"].as_f64().unwrap() <= 1e-3);
     // The input is never the output.
     let program = dir.path().join("p.nc");
@@ -136,8 +135,7 @@ fn compensate_takes_the_temperatures_and_the_starting_directions() {
     assert_eq!(lines[1], "G90 G0 X99.9785 Y10.0 Z10.0", "{text}");
     assert_eq!(lines[2], "G1 Y20.0 F500", "{text}");
     assert_eq!(lines.last().unwrap(), &"X499.9425", "{text}");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     let inputs = &report["inputs"];
     assert_eq!(inputs["temperatures_c"]["x_scale"], 30.0);
     assert_eq!(inputs["approach_at_start"]["X"], "-");
@@ -317,8 +315,7 @@ fn moves_after_a_passed_block_are_listed_on_stdout_and_in_json() {
         .stdout(predicate::str::contains(
             "moves left as they are      1, lines 6 (X Y not known since line 5)",
         ));
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     assert_eq!(report["not_compensated"][0]["line"], 5);
     assert_eq!(report["moves_not_compensated"][0]["line"], 6);
     assert_eq!(report["moves_not_compensated"][0]["unknown"], "X Y");

@@ -34,8 +34,7 @@ fn orientation_rewrites_the_rotary_words_and_reports_the_orientation_error() {
         .stdout(predicate::str::contains(
             "rad after (angular tolerance 1e-5 rad)",
         ));
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     let before = report["largest_orientation_error_before_rad"]
         .as_f64()
         .unwrap();
@@ -77,8 +76,7 @@ fn orientation_rewrites_the_rotary_words_and_reports_the_orientation_error() {
                 "orientation left            1 line (2) near a singular pose, where the rotary axes cannot turn the tool axis within 0.5°",
             ).and(predicate::str::contains("rad at line 2"))),
         );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     assert_eq!(report["orientation_left"][0]["line"], 2, "{report}");
     assert!(report["largest_rotary_correction_deg"].as_f64().unwrap() <= 0.5);
     run(&["--orientation", "--max-rotary-correction", "0"])

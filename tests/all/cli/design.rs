@@ -15,7 +15,7 @@ fn example(machine: &str) -> PathBuf {
 }
 
 fn read_json(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    super::json_result(path)
 }
 
 #[test]

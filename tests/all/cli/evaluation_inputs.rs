@@ -366,8 +366,7 @@ fn feature_errors(dir: &Path, args: &[&str]) -> Vec<f64> {
         "{}",
         String::from_utf8_lossy(&output.stderr)
     );
-    let rows: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows: serde_json::Value = super::json_result(&json);
     rows.as_array()
         .unwrap()
         .iter()

@@ -45,8 +45,7 @@ fn export_writes_the_grid_and_reports_the_residual() {
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(text.starts_with("# Written by volmap"));
     assert_eq!(text.lines().filter(|l| !l.starts_with('#')).count(), 126);
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     assert_eq!(report["report"]["format"], "grid-csv");
     assert_eq!(report["written"][0], out.display().to_string());
     let residual = report["report"]["residual"]["max_mm"].as_f64().unwrap();

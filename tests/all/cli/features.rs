@@ -207,7 +207,7 @@ fn features_read_the_part_at_the_parts_pose() {
             "{}",
             String::from_utf8_lossy(&output.stderr)
         );
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap()
+        super::json_result(&json)
     };
     let from_sweep = rows(&field);
     assert_eq!(from_sweep.as_array().unwrap().len(), 2);

@@ -67,8 +67,7 @@ fn info_sample_features_and_plot_read_every_compression_and_half() {
             .arg(&json)
             .assert()
             .code(0);
-        let rows: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let rows: serde_json::Value = super::json_result(&json);
         rows.as_array()
             .unwrap()
             .iter()

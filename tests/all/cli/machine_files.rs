@@ -131,8 +131,7 @@ fn fit_edits_only_the_fitted_values_of_the_machine_file() {
         .arg(&truth)
         .assert()
         .success();
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     let mut csv = String::from("angle_deg,deviation_mm\n");
     for (a, r) in report["positions"]
         .as_array()

@@ -139,9 +139,7 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
         .arg(&truth)
         .assert()
         .success();
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("xy.json")).unwrap())
-            .unwrap();
+    let report: serde_json::Value = super::json_result(dir.path().join("xy.json"));
     let mut text = String::from("angle_deg,deviation_mm\n");
     for (a, r) in report["positions"]
         .as_array()
@@ -179,9 +177,7 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
                 .and(predicates::str::contains("condition number")),
         )
         .stderr(predicates::str::contains("--allow-outside-paths").not());
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("out/fit.json")).unwrap())
-            .unwrap();
+    let json: serde_json::Value = super::json_result(dir.path().join("out/fit.json"));
     let figures = &json["identifiability"];
     assert!(figures["valuation"][0].as_f64().unwrap() > 2.0, "{figures}");
     assert_eq!(figures["correlation"][0][0].as_f64(), Some(1.0));

@@ -222,8 +222,7 @@ fn bench_prints_a_table_and_writes_json() {
                 .and(predicate::str::contains("map to EXR, CPU engine, pxr24"))
                 .and(predicate::str::contains("map to EXR, f64 reference")),
         );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     let machines = report["machines"].as_array().unwrap();
     assert_eq!(machines.len(), 2);
     for m in machines {
@@ -414,8 +413,7 @@ fn bench_holds_a_machine_with_errors_of_other_axes_against_its_plain_counterpart
         .stdout(predicate::str::contains(
             "against the same machine with plain tables",
         ));
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     let m = &report["machines"][0];
     let names: Vec<&str> = m["paths"]
         .as_array()

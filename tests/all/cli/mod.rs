@@ -16,6 +16,7 @@ mod field_files;
 mod flag_values;
 mod input_files;
 mod interrupt;
+mod json;
 mod machine_files;
 mod machine_files_tables;
 mod machine_values;
@@ -153,4 +154,12 @@ fn machines_lists_the_embedded_machines() {
             .and(predicate::str::contains("4axis-hwang2014"))
             .and(predicate::str::contains("vmc-dobariya2015")),
     );
+}
+
+/// The `result` of a `--json` report (docs/json.md), its envelope's schema version checked.
+pub fn json_result(path: impl AsRef<Path>) -> serde_json::Value {
+    let text = std::fs::read_to_string(path.as_ref()).unwrap();
+    let mut report: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(report["schema"], 1, "{}", path.as_ref().display());
+    report["result"].take()
 }

@@ -432,6 +432,8 @@ fn a_closed_or_full_standard_output_ends_the_command_without_a_panic() {
             "X",
             "--targets",
             "5000",
+            // Every row: more than a pipe holds, so the closed pipe is met while writing.
+            "--table",
         ]
         .iter()
         .map(Into::into)

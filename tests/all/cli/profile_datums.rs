@@ -52,8 +52,7 @@ fn the_table_and_the_json_say_what_each_feature_was_judged_against() {
                 .and(predicate::str::contains("minimum zone"))
                 .and(predicate::str::contains("datums hole 1")),
         );
-    let rows: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows: serde_json::Value = super::json_result(&json);
     let by_name = |name: &str| {
         rows.as_array()
             .unwrap()

@@ -117,8 +117,7 @@ fn features_rate_the_machine_from_the_model_or_a_field() {
         .assert()
         .code(0)
         .stdout(predicate::str::contains("pocket floor").and(predicate::str::contains("inspect")));
-    let rows: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows: serde_json::Value = super::json_result(&json);
     let rows = rows.as_array().unwrap();
     assert_eq!(rows.len(), 5);
     for row in rows {
@@ -163,8 +162,7 @@ fn features_rate_the_machine_from_the_model_or_a_field() {
         .arg(&from_field)
         .assert()
         .code(0);
-    let field_rows: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&from_field).unwrap()).unwrap();
+    let field_rows: serde_json::Value = super::json_result(&from_field);
     for (exact, sampled) in rows.iter().zip(field_rows.as_array().unwrap()) {
         let (e, s) = (
             exact["error_mm"].as_f64().unwrap(),

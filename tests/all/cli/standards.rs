@@ -71,8 +71,7 @@ fn standard_tests_print_figures_compare_measurements_and_plot() {
         .unwrap()
         .contains("radial deviation, measured"));
     assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report: serde_json::Value = super::json_result(&json);
     assert_eq!(report["positions"].as_array().unwrap().len(), 36);
     assert_eq!(report["figures"][0]["name"], "G");
     // Bad input: exit code 2 with the reason; nothing written.
@@ -150,9 +149,7 @@ fn build_and_fit_write_machine_files_that_map() {
         .output()
         .unwrap();
     assert!(output.status.success());
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("xy.json")).unwrap())
-            .unwrap();
+    let report: serde_json::Value = super::json_result(dir.path().join("xy.json"));
     let mut text = String::from("angle_deg,deviation_mm\n");
     for (a, r) in report["positions"]
         .as_array()
@@ -217,8 +214,7 @@ range = [-250.0, 250.0]
 "#;
 
 fn figure(json: &std::path::Path, name: &str) -> f64 {
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    let report = super::json_result(json);
     report["figures"]
         .as_array()
         .unwrap()
@@ -329,8 +325,7 @@ fn fit_estimates_a_thermal_coefficient_and_writes_it() {
             .arg(&json)
             .assert()
             .success();
-        let report: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let report: serde_json::Value = super::json_result(&json);
         let mut text = String::from("angle_deg,deviation_mm\n");
         for (a, r) in report["positions"]
             .as_array()

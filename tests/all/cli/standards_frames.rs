@@ -26,8 +26,7 @@ offset = [0.0, 0.0, 150.0]
 "#;
 
 fn figure(json: &std::path::Path, name: &str) -> f64 {
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    let report = super::json_result(json);
     report["figures"]
         .as_array()
         .unwrap()

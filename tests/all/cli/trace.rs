@@ -74,8 +74,7 @@ fn trace_samples_every_move_and_names_the_largest_line() {
         .collect();
     assert!(!after.is_empty());
     assert!(after.iter().all(|&d| d <= 1e-3), "{after:?}");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let summary: serde_json::Value = super::json_result(&json);
     assert_eq!(summary[0]["largest_line"], 3);
     // The figure covers the feed moves; the rapid to the start (no deviation at X0) apart.
     assert_eq!(summary[0]["covers"], "feed moves (G1 G2 G3)");
@@ -132,9 +131,7 @@ fn trace_and_compensate_report_the_same_after_over_the_feed_moves() {
         .assert()
         .success()
         .stdout(predicate::str::contains("along the feed moves"));
-    let read = |p: &std::path::Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-    };
+    let read = |p: &std::path::Path| -> serde_json::Value { super::json_result(p) };
     let (traced, report) = (read(&traced), read(&report));
     assert_eq!(report["errors_cover"], "feed moves (G1 G2 G3)");
     assert_eq!(traced[1]["covers"], "feed moves (G1 G2 G3)");
