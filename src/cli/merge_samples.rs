@@ -14,6 +14,7 @@ use volmap::part::Verdict;
 use super::budget_report;
 use super::failure::Failure;
 use super::features::print_conformance;
+use super::numbers;
 use super::output::{check_distinct_outputs, write_json_for};
 
 #[derive(clap::Args)]
@@ -84,14 +85,14 @@ pub fn run(args: MergeSamplesArgs) -> Result<ExitCode, Failure> {
             let confidence = study.confidence.unwrap_or(0.95);
             let rows = summarize(nominal, errors, confidence);
             outln!(
-                "Merged {} sample files: {} ({} features) on {} machines of {} (seed {}); fit where at least {:.1}% conform",
+                "Merged {} sample files: {} ({} features) on {} machines of {} (seed {}); fit where at least {} conform",
                 files.len(),
                 study.part.as_deref().unwrap_or("the part"),
                 rows.len(),
                 study.samples,
                 study.machine,
                 study.seed,
-                100.0 * confidence
+                numbers::percent(100.0 * confidence)
             );
             print_conformance(&rows);
             // The same as `features --tolerances --json` over all the samples.

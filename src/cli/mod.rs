@@ -1,5 +1,6 @@
 //! The command line: one file per subcommand, the arguments they share ([`args`]), the one place
-//! errors become exit codes ([`failure`]) and the one place for output ([`output`]).
+//! errors become exit codes ([`failure`]), the one place for output ([`output`]) and the one
+//! rule for the numbers it prints ([`numbers`]).
 //!
 //! Each command's work is done in the library; the file of a command here reads its arguments,
 //! calls that module and prints what it returns:
@@ -65,6 +66,7 @@ pub mod man;
 pub mod map;
 pub mod merge_maps;
 pub mod merge_samples;
+pub mod numbers;
 pub mod output;
 pub mod plot;
 pub mod reference;
