@@ -7,7 +7,8 @@
 //!
 //! The crate is laid out in layers, each using only those below it:
 //! - [`error`]: what kind of failure an error is (bad input, or the work failed); [`limits`]: the
-//!   documented limits on the counts an input implies;
+//!   documented limits on the counts an input implies; [`report`]: numbers in what volmap
+//!   prints for people, one rule for every command;
 //! - [`model`]: what a machine is (chain, axes, error functions), the grid of commanded positions,
 //!   the channels of a field; no files, no devices;
 //! - [`reference`](mod@reference): the f64 truth (nalgebra), and a machine with its ideal twin;
@@ -43,4 +44,5 @@ pub mod part;
 pub mod plot;
 pub mod query;
 pub mod reference;
+pub mod report;
 pub mod standards;

@@ -1,6 +1,7 @@
 //! The report of `volmap bench` as the table it prints.
 
 use super::{BenchReport, PathResult, StageShares};
+use crate::report::numbers::{percent, quantity};
 
 /// The report as the table `volmap bench` prints: per path the median rate with the slowest and
 /// fastest run, the ratio to the reference, the fractions of the ceilings; under each map the
@@ -16,11 +17,11 @@ pub fn table(report: &BenchReport) -> String {
         report.cpu,
         report.threads,
         report.runs,
-        report.warm_up_s,
+        quantity(report.warm_up_s),
     );
     for m in &report.machines {
         out.push_str(&format!(
-            "\n{} ({}), grid {}x{}x{}{}; disk ceiling {:.0} MB/s\n  {:<52} {:>10} {:>19} {:>11} {:>8} {:>8}\n",
+            "\n{} ({}), grid {}x{}x{}{}; disk ceiling {} MB/s\n  {:<52} {:>10} {:>19} {:>11} {:>8} {:>8}\n",
             m.machine,
             m.chain,
             m.grid[0],
@@ -29,7 +30,7 @@ pub fn table(report: &BenchReport) -> String {
             m.kernel_timing
                 .as_ref()
                 .map_or(String::new(), |t| format!(", GPU kernels timed by {t}")),
-            m.disk_mb_per_s,
+            quantity(m.disk_mb_per_s),
             "path",
             "Mpts/s",
             "(slowest–fastest)",
@@ -49,7 +50,7 @@ pub fn table(report: &BenchReport) -> String {
             let ratios: Vec<String> = m
                 .against_plain
                 .iter()
-                .map(|r| format!("{} {:.2}×", r.path, r.ratio))
+                .map(|r| format!("{} {}×", r.path, quantity(r.ratio)))
                 .collect();
             out.push_str(&format!(
                 "  against the same machine with plain tables (errors of other axes made errors of the axis's own position): {}\n",
@@ -66,36 +67,40 @@ pub fn table(report: &BenchReport) -> String {
 }
 
 fn row(p: &PathResult) -> String {
-    let percent = |f: Option<f64>| f.map_or(String::new(), |f| format!("{:.0}%", f * 100.0));
+    let part = |f: Option<f64>| f.map_or(String::new(), |f| percent(f * 100.0));
     let mut line = format!(
-        "  {:<52} {:>10.2} {:>19} {:>11.1} {:>8} {:>8}\n",
+        "  {:<52} {:>10} {:>19} {:>11} {:>8} {:>8}\n",
         p.path,
-        p.mpts_per_s,
-        format!("({:.2}–{:.2})", p.mpts_per_s_min, p.mpts_per_s_max),
-        p.ratio_to_reference,
-        percent(p.fraction_of_ceiling),
-        percent(p.fraction_of_disk)
+        quantity(p.mpts_per_s),
+        format!(
+            "({}–{})",
+            quantity(p.mpts_per_s_min),
+            quantity(p.mpts_per_s_max)
+        ),
+        quantity(p.ratio_to_reference),
+        part(p.fraction_of_ceiling),
+        part(p.fraction_of_disk)
     );
     if let Some(stages) = &p.stages {
         line.push_str(&format!("      stages {}", stage_text(stages)));
         if let Some(bytes) = p.file_bytes {
-            line.push_str(&format!("; file {:.1} MB", bytes as f64 / 1e6));
+            line.push_str(&format!("; file {} MB", quantity(bytes as f64 / 1e6)));
         }
         line.push('\n');
     } else if let (Some(bytes), true) = (p.file_bytes, p.path.starts_with("compress")) {
         // 24 bytes a point uncompressed.
         line.push_str(&format!(
-            "      {:.2}× smaller than uncompressed\n",
-            (24 * p.points) as f64 / bytes.max(1) as f64
+            "      {}× smaller than uncompressed\n",
+            quantity((24 * p.points) as f64 / bytes.max(1) as f64)
         ));
     }
     line
 }
 
-/// The stage shares in words: `engine 40% (device 10%, readback 25%), hand-off 5% (waiting 1%),
-/// compress 80%, write 20%, sync 3%`.
+/// The stage shares in words: `engine 40.0% (device 10.0%, readback 25.0%), hand-off 5.0%
+/// (waiting 1.0%), compress 80.0%, write 20.0%, sync 3.0%`.
 fn stage_text(s: &StageShares) -> String {
-    let pc = |f: f64| format!("{:.0}%", f * 100.0);
+    let pc = |f: f64| percent(f * 100.0);
     let device = match (s.device, s.readback) {
         (Some(d), Some(r)) => format!(" (device {}, readback {})", pc(d), pc(r)),
         _ => String::new(),

@@ -74,11 +74,11 @@ pub fn identifiability(
         let moved = norms[c] / n.sqrt() * sizes[c];
         if moved.is_nan() || moved < INVISIBLE_MM {
             return Err(CalibrateError::Parameter(format!(
-                "{} cannot be told from zero: a change of {} {} moves the given measurements by {:.1e} mm RMS; {}",
+                "{} cannot be told from zero: a change of {} {} moves the given measurements by {} RMS; {}",
                 u.name(),
                 sizes[c],
                 u.unit(),
-                moved,
+                crate::report::numbers::error_um(moved),
                 what_sees(u, machine)
             )));
         }

@@ -20,9 +20,10 @@ use volmap::model::Machine;
 use super::args::{
     sweep_grids, DeviceArg, GridArg, InputsArg, JsonArg, MachineArg, PoseArg, PosesArg,
 };
-use super::budget_report::{self, axis_positions};
+use super::budget_report::{self, position_words};
 use super::envelope::{pose_of, Envelope};
 use super::failure::{Failure, FlagContext};
+use super::numbers;
 use super::output::{check_distinct_outputs, check_plot_paths, progress, write_file};
 use volmap::io::digest::machine_sha256;
 
@@ -315,49 +316,47 @@ fn print_budget(machine: &Machine, args: &BudgetArgs, grids: &[Grid], budget: &B
         args.tolerances.display()
     );
     outln!(
-        "  {:<16} {:>22} {:>12} {:>12} {:>12} {:>16} {:>7}  worst at",
+        "  {:<16} {:>22} {:>12} {:>12} {:>13} {:>16} {:>7}  worst at",
         "term",
         "limit",
-        "max |VE| mm",
-        "RMS |VE| mm",
-        "max |OE| rad",
-        "largest axis mm",
+        "max |VE| µm",
+        "RMS |VE| µm",
+        "max |OE| µrad",
+        "largest axis µm",
         "share"
     );
     for row in &budget.rows {
         let (axis, largest) = row.stats.largest_axis();
         outln!(
-            "  {:<16} {:>22} {:>12.6} {:>12.6} {:>12.3e} {:>16} {:>6.1}%  {}",
+            "  {:<16} {:>22} {:>12} {:>12} {:>13} {:>16} {:>7}  {}",
             row.tolerance.perturbation.target.key(),
             limit_text(&row.tolerance),
-            row.stats.max_ve_mm,
-            row.stats.rms_ve_mm(),
-            row.stats.max_oe_rad,
-            format!("{} {largest:.6}", ["X", "Y", "Z"][axis]),
-            100.0 * row.share,
-            axis_positions(machine, &row.worst_at)
-                .iter()
-                .map(|(l, v)| format!("{l}={v:.6}"))
-                .collect::<Vec<_>>()
-                .join(" ")
+            numbers::error(row.stats.max_ve_mm),
+            numbers::error(row.stats.rms_ve_mm()),
+            numbers::angle(row.stats.max_oe_rad),
+            format!("{} {}", ["X", "Y", "Z"][axis], numbers::error(largest)),
+            numbers::percent(100.0 * row.share),
+            position_words(machine, &row.worst_at)
         );
     }
     outln!(
-        "  total (root sum of squares of max |VE|): {:.6} mm",
-        budget.total_rss_mm
+        "  total (root sum of squares of max |VE|): {}",
+        numbers::error_um(budget.total_rss_mm)
     );
 }
 
-/// `±h mm (uniform)` or `2σ = v rad (normal)`.
+/// `±h µm (U)` (uniform) or `2σ = v µrad (N)` (normal).
 fn limit_text(tolerance: &Tolerance) -> String {
-    let unit = if tolerance.perturbation.target.is_angular() {
-        "rad"
-    } else {
-        "mm"
+    let shown = |v: f64| {
+        if tolerance.perturbation.target.is_angular() {
+            numbers::angle_urad(v)
+        } else {
+            numbers::error_um(v)
+        }
     };
     match tolerance.distribution {
-        Distribution::Uniform { half_width } => format!("±{half_width:e} {unit} (U)"),
-        Distribution::Normal { sigma } => format!("2σ = {:e} {unit} (N)", 2.0 * sigma),
+        Distribution::Uniform { half_width } => format!("±{} (U)", shown(half_width)),
+        Distribution::Normal { sigma } => format!("2σ = {} (N)", shown(2.0 * sigma)),
     }
 }
 
@@ -367,12 +366,12 @@ fn run_allocation(
     target: &Target,
 ) -> Result<Allocation, Failure> {
     outln!(
-        "Allocation: the largest common factor on {} of the {} tolerances for which {:.1}% of {} machines hold max |VE| ≤ {} mm",
+        "Allocation: the largest common factor on {} of the {} tolerances for which {} of {} machines hold max |VE| ≤ {}",
         target.chosen.iter().filter(|&&c| c).count(),
         target.chosen.len(),
-        100.0 * target.confidence,
+        numbers::percent(100.0 * target.confidence),
         target.samples,
-        target.spec_mm
+        numbers::error_um(target.spec_mm)
     );
     let bar = progress(Some(target.samples as u64), "allocating", "machines");
     let result = allocate(
@@ -382,8 +381,9 @@ fn run_allocation(
         |factor, fraction| {
             bar.suspend(|| {
                 outln!(
-                    "  factor {factor:<12.6} {:>6.2}% within the specification",
-                    100.0 * fraction
+                    "  factor {:<12} {:>6} within the specification",
+                    numbers::quantity(factor),
+                    numbers::percent(100.0 * fraction)
                 )
             });
             bar.set_position(0);
@@ -394,11 +394,11 @@ fn run_allocation(
     let allocation = result?;
     let w = allocation.within.fraction;
     outln!(
-        "  largest factor {:.6}: {:.2}% of the machines within (95% CI {:.2}% to {:.2}%), {} Monte Carlo runs on the same draws",
-        allocation.factor,
-        100.0 * w.fraction,
-        100.0 * w.ci95[0],
-        100.0 * w.ci95[1],
+        "  largest factor {}: {} of the machines within (95% CI {} to {}), {} Monte Carlo runs on the same draws",
+        numbers::quantity(allocation.factor),
+        numbers::percent(100.0 * w.fraction),
+        numbers::percent(100.0 * w.ci95[0]),
+        numbers::percent(100.0 * w.ci95[1]),
         allocation.tried.len()
     );
     Ok(allocation)

@@ -13,6 +13,7 @@ use volmap::model::{AxisLetter, Command, Machine};
 use volmap::plot::{bar_chart, histogram, stacked, Bar};
 
 use super::failure::Failure;
+use super::numbers;
 use super::output::write_plot;
 
 /// The machine's axes in the order X Y Z A B C with their positions in `command`.
@@ -22,6 +23,22 @@ pub fn axis_positions(machine: &Machine, command: &Command) -> Vec<(AxisLetter, 
         .filter(|&&l| machine.axis(l).is_some())
         .map(|&l| (l, command[l.index()]))
         .collect()
+}
+
+/// The machine's axes with their positions in `command`, as a summary prints them
+/// (`X=565.217 Y=0.000 Z=-120.500 B=30.000`: mm, and degrees for a rotary axis).
+pub fn position_words(machine: &Machine, command: &Command) -> String {
+    axis_positions(machine, command)
+        .iter()
+        .map(|(l, v)| {
+            if l.is_linear() {
+                format!("{l}={}", numbers::length(*v))
+            } else {
+                format!("{l}={}", numbers::rotary(*v))
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn position_json(machine: &Machine, command: &Command) -> Value {
@@ -56,12 +73,12 @@ pub fn budget_json(machine: &Machine, budget: &Budget) -> Value {
 /// The statistics over the samples, one row per statistic of a machine's field.
 fn statistics(mc: &MonteCarlo) -> [(&'static str, &'static str, Summary); 6] {
     [
-        ("max_ve_mm", "max |VE| mm", mc.max_ve_mm),
-        ("rms_ve_mm", "RMS |VE| mm", mc.rms_ve_mm),
-        ("max_oe_rad", "max |OE| rad", mc.max_oe_rad),
-        ("max_ve_x_mm", "max |VE·x| mm", mc.max_ve_axis_mm[0]),
-        ("max_ve_y_mm", "max |VE·y| mm", mc.max_ve_axis_mm[1]),
-        ("max_ve_z_mm", "max |VE·z| mm", mc.max_ve_axis_mm[2]),
+        ("max_ve_mm", "max |VE| µm", mc.max_ve_mm),
+        ("rms_ve_mm", "RMS |VE| µm", mc.rms_ve_mm),
+        ("max_oe_rad", "max |OE| µrad", mc.max_oe_rad),
+        ("max_ve_x_mm", "max |VE·x| µm", mc.max_ve_axis_mm[0]),
+        ("max_ve_y_mm", "max |VE·y| µm", mc.max_ve_axis_mm[1]),
+        ("max_ve_z_mm", "max |VE·z| µm", mc.max_ve_axis_mm[2]),
     ]
 }
 
@@ -84,10 +101,10 @@ pub fn print_monte_carlo(mc: &MonteCarlo, engine: String, inputs: &str) {
     );
     for (_, label, s) in statistics(mc) {
         let cell = |v: f64| {
-            if label.ends_with("rad") {
-                format!("{v:>12.4e}")
+            if label.ends_with("µrad") {
+                format!("{:>12}", numbers::angle(v))
             } else {
-                format!("{v:>12.6}")
+                format!("{:>12}", numbers::error(v))
             }
         };
         outln!(
@@ -102,11 +119,11 @@ pub fn print_monte_carlo(mc: &MonteCarlo, engine: String, inputs: &str) {
     }
     if let Some(w) = &mc.within_spec {
         outln!(
-            "  within {} mm: {:.2}% of the machines (95% CI {:.2}% to {:.2}%)",
-            w.spec_mm,
-            100.0 * w.fraction.fraction,
-            100.0 * w.fraction.ci95[0],
-            100.0 * w.fraction.ci95[1]
+            "  within {}: {} of the machines (95% CI {} to {})",
+            numbers::error_um(w.spec_mm),
+            numbers::percent(100.0 * w.fraction.fraction),
+            numbers::percent(100.0 * w.fraction.ci95[0]),
+            numbers::percent(100.0 * w.fraction.ci95[1])
         );
     }
 }

@@ -13,6 +13,7 @@ use volmap::model::AxisLetter;
 use super::args::{load_machine_flag, JsonArg, ReachArg};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
+use super::numbers;
 use super::output::{check_machine_text, copy_tables, out_folder, write_file, written_by};
 
 #[derive(clap::Args)]
@@ -133,10 +134,11 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
             .leave_one_out
             .iter()
             .map(|(name, s)| {
-                format!(
-                    "{name} {:.3}",
-                    s * 1e3_f64.powi(if c.index < 3 { 1 } else { 2 })
-                )
+                if c.index < 3 {
+                    format!("{name} {}", numbers::error(*s))
+                } else {
+                    format!("{name} {}", numbers::angle(*s))
+                }
             })
             .collect();
         outln!(

@@ -8,6 +8,7 @@ use volmap::nc::{self, NcError, NcOption, Options, ToolLengths};
 use super::args::{InputsArg, JsonArg, MachineArg};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
+use super::numbers;
 use super::output::{check_distinct_outputs, progress, write_file};
 
 #[derive(clap::Args)]
@@ -174,14 +175,16 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     );
     outln!("  points compensated          {}", report.points);
     outln!(
-        "  largest correction          {:.4} mm",
-        report.largest_correction_mm
+        "  largest correction          {}",
+        numbers::error_um(report.largest_correction_mm)
     );
     outln!("  blocks changed              {}", report.blocks_changed);
     outln!("  blocks added                {}", report.blocks_added);
     outln!(
-        "  largest tool-tip error along the feed moves: {:.4} mm before, {:.4} mm after (chord tolerance {} mm)",
-        report.largest_error_before_mm, report.largest_error_after_mm, options.chord_tolerance_mm
+        "  largest tool-tip error along the feed moves: {} before, {} after (chord tolerance {})",
+        numbers::error_um(report.largest_error_before_mm),
+        numbers::error_um(report.largest_error_after_mm),
+        numbers::error_um(options.chord_tolerance_mm)
     );
     if report.cycle_holes_expanded > 0 {
         outln!(
@@ -215,13 +218,15 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     }
     if let Some(tolerance) = options.orientation_tolerance_rad {
         outln!(
-            "  largest tool orientation error along the feed moves: {:.3e} rad before, {:.3e} rad after (angular tolerance {tolerance:e} rad)",
-            report.largest_orientation_error_before_rad, report.largest_orientation_error_after_rad
+            "  largest tool orientation error along the feed moves: {} before, {} after (angular tolerance {})",
+            numbers::angle_urad(report.largest_orientation_error_before_rad),
+            numbers::angle_urad(report.largest_orientation_error_after_rad),
+            numbers::angle_urad(tolerance)
         );
         outln!(
-            "  largest rotary correction   {:.4}° (at most {}°)",
-            report.largest_rotary_correction_deg,
-            options.max_rotary_correction_deg
+            "  largest rotary correction   {} (at most {})",
+            numbers::degrees(report.largest_rotary_correction_deg),
+            numbers::degrees(options.max_rotary_correction_deg)
         );
         if let Some(worst) = report.largest_orientation_left() {
             // The lines, the first ten (`--json` has them all, each with its angle).
@@ -231,12 +236,12 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
                 lines.push("…".into());
             }
             outln!(
-                "  orientation left            {} line{} ({}) near a singular pose, where the rotary axes cannot turn the tool axis within {}°: largest {:.3e} rad at line {} (the tip is compensated)",
+                "  orientation left            {} line{} ({}) near a singular pose, where the rotary axes cannot turn the tool axis within {}: largest {} at line {} (the tip is compensated)",
                 left.len(),
                 if left.len() == 1 { "" } else { "s" },
                 lines.join(", "),
-                options.max_rotary_correction_deg,
-                worst.left_rad,
+                numbers::degrees(options.max_rotary_correction_deg),
+                numbers::angle_urad(worst.left_rad),
                 worst.line
             );
         }

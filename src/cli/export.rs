@@ -10,6 +10,7 @@ use volmap::plot::{self, Color, Marker, Series};
 use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
+use super::numbers;
 use super::output::{check_distinct_outputs, check_plot_paths, progress, write_plot, written_by};
 
 const UM_PER_MM: f64 = 1000.0;
@@ -155,8 +156,8 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
         let why = if r.residual_offset_free.max_mm < r.before_offset_free.max_mm {
             format!(
                 "less a work offset it leaves {} against {}: what it adds is a constant offset, which a work offset (touch-off) takes up",
-                um(r.residual_offset_free.max_mm),
-                um(r.before_offset_free.max_mm)
+                numbers::error_um(r.residual_offset_free.max_mm),
+                numbers::error_um(r.before_offset_free.max_mm)
             )
         } else {
             "it holds too little of this machine's error to help".to_string()
@@ -164,8 +165,8 @@ pub fn run(args: ExportArgs) -> Result<ExitCode, Failure> {
         errln!(
             "warning: the {} table leaves a larger largest error than the machine has without it ({} against {}); {why}",
             r.format,
-            um(r.residual.max_mm),
-            um(r.before.max_mm)
+            numbers::error_um(r.residual.max_mm),
+            numbers::error_um(r.before.max_mm)
         );
     }
     if let Some(limit) = args.max_residual {
@@ -230,10 +231,6 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
     }
 }
 
-fn um(mm: f64) -> String {
-    format!("{:.3} µm", mm * UM_PER_MM)
-}
-
 fn print_report(r: &Report) {
     outln!("{}: {} for {}", r.format, r.controller, r.machine);
     outln!("  inputs                 {}", r.inputs);
@@ -244,26 +241,34 @@ fn print_report(r: &Report) {
     }
     let g = &r.grid;
     outln!(
-        "  residual measured on   {} x {} x {} points over the travels at the pose (spacing {:.3} x {:.3} x {:.3} mm)",
-        g.points[0], g.points[1], g.points[2], g.spacing_mm[0], g.spacing_mm[1], g.spacing_mm[2]
+        "  residual measured on   {} x {} x {} points over the travels at the pose (spacing {} x {} x {} mm)",
+        g.points[0],
+        g.points[1],
+        g.points[2],
+        numbers::length(g.spacing_mm[0]),
+        numbers::length(g.spacing_mm[1]),
+        numbers::length(g.spacing_mm[2])
     );
-    let at = |a: [f64; 3]| format!("X={:.3} Y={:.3} Z={:.3}", a[0], a[1], a[2]);
+    let at = |a: [f64; 3]| {
+        let [x, y, z] = a.map(numbers::length);
+        format!("X={x} Y={y} Z={z}")
+    };
     outln!(
         "  error before           largest {}, RMS {} (largest at {})",
-        um(r.before.max_mm),
-        um(r.before.rms_mm),
+        numbers::error_um(r.before.max_mm),
+        numbers::error_um(r.before.rms_mm),
         at(r.before.at_mm)
     );
     outln!(
         "  residual               largest {}, RMS {} (largest at {})",
-        um(r.residual.max_mm),
-        um(r.residual.rms_mm),
+        numbers::error_um(r.residual.max_mm),
+        numbers::error_um(r.residual.rms_mm),
         at(r.residual.at_mm)
     );
     outln!(
         "  less a work offset     largest {} before, {} after (each less its mean over the grid)",
-        um(r.before_offset_free.max_mm),
-        um(r.residual_offset_free.max_mm)
+        numbers::error_um(r.before_offset_free.max_mm),
+        numbers::error_um(r.residual_offset_free.max_mm)
     );
     if r.uses_direction {
         outln!("  directions             the control picks each axis's table by the direction it moves; the residual is for the approach above");
@@ -277,20 +282,20 @@ fn print_report(r: &Report) {
         } else if r.not_held.is_empty() {
             outln!(
                 "  cannot hold            up to {} of the correction at any table size (no single error's part above 0.001 µm)",
-                um(r.structural_mm)
+                numbers::error_um(r.structural_mm)
             );
         } else {
             outln!(
                 "  cannot hold            up to {} of the correction at any table size; of each error alone:",
-                um(r.structural_mm)
+                numbers::error_um(r.structural_mm)
             );
         }
         for n in &r.not_held {
             outln!(
                 "    {:<8} {} of the {} it causes alone",
                 n.error,
-                um(n.not_held_mm),
-                um(n.alone_mm)
+                numbers::error_um(n.not_held_mm),
+                numbers::error_um(n.alone_mm)
             );
         }
     }
@@ -341,8 +346,8 @@ fn sweep(
     );
     outln!(
         "  error before: largest {}, RMS {}",
-        um(first.before.max_mm),
-        um(first.before.rms_mm)
+        numbers::error_um(first.before.max_mm),
+        numbers::error_um(first.before.rms_mm)
     );
     outln!(
         "  {:>7} {:>16} {:>16}",
@@ -353,8 +358,8 @@ fn sweep(
     for (n, r) in &rows {
         outln!(
             "  {n:>7} {:>16} {:>16}",
-            um(r.residual.max_mm),
-            um(r.residual.rms_mm)
+            numbers::error_um(r.residual.max_mm),
+            numbers::error_um(r.residual.rms_mm)
         );
     }
     if let Some(path) = &args.plot {

@@ -16,6 +16,7 @@ use volmap::io::tolerance_file::ToleranceFile;
 use super::args::{load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
+use super::numbers;
 use super::output::{check_distinct_outputs, progress, write_file};
 use volmap::io::digest::machine_sha256;
 
@@ -158,7 +159,10 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
     let pose = if pose.is_empty() {
         String::new()
     } else {
-        let words: Vec<String> = pose.iter().map(|(a, d)| format!("{a}={d}°")).collect();
+        let words: Vec<String> = pose
+            .iter()
+            .map(|(a, d)| format!("{a}={}", numbers::degrees(**d)))
+            .collect();
         format!(", pose {}", words.join(" "))
     };
     outln!(
@@ -184,34 +188,37 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} {:<wide$} worst point (commanded X Y Z, mm)",
         "feature",
         "kind",
-        "error mm",
-        "tolerance mm",
+        "error µm",
+        "tolerance µm",
         "safety",
         "verdict",
         "against"
     );
     for (r, against) in rows.iter().zip(&against) {
-        let safety = r.safety.map_or("-".to_string(), |s| format!("{s:.2}"));
+        let safety = r.safety.map_or("-".to_string(), numbers::quantity);
         let verdict = match r.verdict {
             Verdict::Unfit => "unfit",
             Verdict::Inspect => "inspect",
             Verdict::Fit => "fit",
         };
         let area = r.area_outside.map_or(String::new(), |a| {
-            format!("  ({:.1}% of the area outside the zone)", 100.0 * a)
+            format!(
+                "  ({} of the area outside the zone)",
+                numbers::percent(100.0 * a)
+            )
         });
         outln!(
-            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>8}  {:<8} {:<wide$} {:.3} {:.3} {:.3}{area}",
+            "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} {:<wide$} {} {} {}{area}",
             r.name,
             r.kind,
-            r.error_mm,
-            r.tolerance_mm,
+            numbers::error(r.error_mm),
+            numbers::error(r.tolerance_mm),
             safety,
             verdict,
             against,
-            r.worst_point[0],
-            r.worst_point[1],
-            r.worst_point[2]
+            numbers::length(r.worst_point[0]),
+            numbers::length(r.worst_point[1]),
+            numbers::length(r.worst_point[2])
         );
     }
     // The deviations of each meshed surface that asks for them, written by the evaluation.
@@ -322,7 +329,7 @@ fn run_conformance(
         );
     }
     outln!(
-        "{} ({} features) on {} machines built to {} around {} at {} (seed {}), VE and OE on the {}; fit where at least {:.1}% conform",
+        "{} ({} features) on {} machines built to {} around {} at {} (seed {}), VE and OE on the {}; fit where at least {} conform",
         part.name,
         rows.len(),
         range.len(),
@@ -331,7 +338,7 @@ fn run_conformance(
         inputs_words(&machine),
         args.seed,
         engine.name(),
-        100.0 * confidence
+        numbers::percent(100.0 * confidence)
     );
     print_conformance(&rows);
     if let Some((path, text)) = per_sample {
@@ -356,27 +363,27 @@ pub fn print_conformance(rows: &[FeatureConformance]) {
         "  {:<24} {:<18} {:>12} {:>12} {:>12} {:>12} {:>11} {:>17}  verdict",
         "feature",
         "kind",
-        "tolerance mm",
-        "nominal mm",
-        "P50 mm",
-        "P95 mm",
+        "tolerance µm",
+        "nominal µm",
+        "P50 µm",
+        "P95 µm",
         "conforming",
         "95% CI"
     );
     for r in rows {
         outln!(
-            "  {:<24} {:<18} {:>12.6} {:>12.6} {:>12.6} {:>12.6} {:>10.2}% {:>17}  {}",
+            "  {:<24} {:<18} {:>12} {:>12} {:>12} {:>12} {:>11} {:>17}  {}",
             r.name,
             r.kind,
-            r.tolerance_mm,
-            r.error_mm,
-            r.error_p50_mm,
-            r.error_p95_mm,
-            100.0 * r.conforming_fraction,
+            numbers::error(r.tolerance_mm),
+            numbers::error(r.error_mm),
+            numbers::error(r.error_p50_mm),
+            numbers::error(r.error_p95_mm),
+            numbers::percent(100.0 * r.conforming_fraction),
             format!(
-                "{:.2}%-{:.2}%",
-                100.0 * r.conforming_ci95[0],
-                100.0 * r.conforming_ci95[1]
+                "{}-{}",
+                numbers::percent(100.0 * r.conforming_ci95[0]),
+                numbers::percent(100.0 * r.conforming_ci95[1])
             ),
             if r.verdict == Verdict::Fit {
                 "fit"

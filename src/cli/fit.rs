@@ -9,6 +9,7 @@ use volmap::calibrate::{self, fit, identifiability};
 use super::args::{JsonArg, MachineArg, ReachArg};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
+use super::numbers;
 use super::output::{check_machine_text, copy_tables, out_folder, write_file, written_by};
 
 const UM_PER_MM: f64 = 1000.0;
@@ -57,20 +58,20 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
         "uncertainty"
     );
     for e in &report.estimates {
+        let (shown, unit) = shown_in(&e.unit);
         outln!(
-            "  {:<width$} {:>14.6e} {:>14.6e} {:>14.3e}  {}",
+            "  {:<width$} {:>14} {:>14} {:>14}  {unit}",
             e.name,
-            e.initial,
-            e.value,
-            e.uncertainty,
-            e.unit
+            shown(e.initial),
+            shown(e.value),
+            shown(e.uncertainty),
         );
     }
     print_identifiability(&report, width);
     outln!(
-        "  RMS residual: {:.3} µm with the machine as given, {:.3} µm with the estimates",
-        report.rms_before_mm * UM_PER_MM,
-        report.rms_after_mm * UM_PER_MM
+        "  RMS residual: {} with the machine as given, {} with the estimates",
+        numbers::error_um(report.rms_before_mm),
+        numbers::error_um(report.rms_after_mm)
     );
     outln!("  (uncertainty: one standard uncertainty, from the residuals)");
     if let Some(path) = &args.out {
@@ -128,21 +129,24 @@ fn print_identifiability(report: &fit::FitReport, width: usize) {
             ""
         };
         outln!(
-            "  {:<width$} {:>20} {:>12.4} {:>10.3}{weak}",
+            "  {:<width$} {:>20} {:>12} {:>10}{weak}",
             e.name,
-            format!("{:.3e} mm/({})", figures.sensitivity[c], e.unit),
-            figures.independence[c],
-            figures.valuation[c],
+            sensitivity(figures.sensitivity[c], &e.unit),
+            numbers::quantity(figures.independence[c]),
+            numbers::quantity(figures.valuation[c]),
         );
     }
     outln!(
-        "  condition number {:.3} (of the readings' Jacobian, columns scaled to unit norm)",
-        figures.condition_number
+        "  condition number {} (of the readings' Jacobian, columns scaled to unit norm)",
+        numbers::quantity(figures.condition_number)
     );
     if report.estimates.len() > 1 {
         outln!("  correlations of the estimates:");
         for (a, row) in figures.correlation.iter().enumerate() {
-            let cells: Vec<String> = row.iter().map(|r| format!("{r:+7.4}")).collect();
+            let cells: Vec<String> = row
+                .iter()
+                .map(|r| format!("{:>9}", numbers::quantity(*r)))
+                .collect();
             outln!("  {:<width$} {}", report.estimates[a].name, cells.join(" "));
         }
     }
@@ -150,4 +154,25 @@ fn print_identifiability(report: &fit::FitReport, width: usize) {
         "  (sensitivity: RMS change of the readings per unit of the error; independence: the part of it no other estimate imitates, 0 to 1; valuation: 1 µm of a length or 10 µrad of an angle, per K for a coefficient, in standard uncertainties were the instruments to scatter 1 µm; below {} the tests barely resolve it)",
         identifiability::VALUATION_WEAK
     );
+}
+
+/// How an estimate in `unit` (the machine file's: mm, rad, mm/K, rad/K) is printed, and the unit
+/// printed: lengths in µm and angles in µrad as every error, their coefficients per K in the same.
+fn shown_in(unit: &str) -> (fn(f64) -> String, &str) {
+    match unit {
+        "mm" => (numbers::error, "µm"),
+        "rad" => (numbers::angle, "µrad"),
+        "mm/K" => (|v| numbers::quantity(v * 1e3), "µm/K"),
+        "rad/K" => (|v| numbers::quantity(v * 1e6), "µrad/K"),
+        _ => (numbers::quantity, unit),
+    }
+}
+
+/// The RMS change of the readings (mm) per unit of an error (its machine-file unit).
+fn sensitivity(value: f64, unit: &str) -> String {
+    if unit.contains('/') {
+        format!("{} mm/({unit})", numbers::quantity(value))
+    } else {
+        format!("{} mm/{unit}", numbers::quantity(value))
+    }
 }

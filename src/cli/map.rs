@@ -18,6 +18,7 @@ use super::args::{
 use super::envelope::{pose_of, Envelope};
 use super::failure::{Failure, FlagContext};
 use super::field_report::{check_json, file_json, poses_json, stats_json};
+use super::numbers;
 use super::output::progress;
 use super::sweep;
 
@@ -244,7 +245,7 @@ fn check_space(args: &MapArgs, points: u64) -> Result<(), Failure> {
     let value_bytes = if storage.half { 2 } else { 4 };
     let bytes = points.saturating_mul(6 * value_bytes);
     let folder = args.out.parent().unwrap_or(std::path::Path::new(""));
-    let gb = |b: u64| format!("{:.1} GB", b as f64 / 1e9);
+    let gb = |b: u64| format!("{} GB", numbers::quantity(b as f64 / 1e9));
     let compressed = !matches!(storage.compression, Compression::None);
     if let Some(free) = disk::free_bytes(folder) {
         let least = if compressed {
@@ -305,18 +306,18 @@ pub fn map_failure(error: EngineError, machine: &Machine, out: &std::path::Path)
 
 fn print_time(seconds: f64, points: u64) {
     outln!(
-        "  time        {:.3} s, {:.2} Mpts/s",
-        seconds,
-        points as f64 / seconds.max(1e-9) / 1e6
+        "  time        {} s, {} Mpts/s",
+        numbers::quantity(seconds),
+        numbers::quantity(points as f64 / seconds.max(1e-9) / 1e6)
     );
 }
 
 /// How the field file stores its values, and its size.
 fn print_stored(storage: &Storage, bytes: u64) {
     outln!(
-        "  stored      {}, {:.1} MB",
+        "  stored      {}, {} MB",
         storage.describe(),
-        bytes as f64 / 1e6
+        numbers::quantity(bytes as f64 / 1e6)
     );
 }
 
@@ -324,12 +325,13 @@ fn print_stored(storage: &Storage, bytes: u64) {
 fn print_check(check: Option<&CheckResult>) -> ExitCode {
     if let Some(check) = check {
         outln!(
-            "  check       {} points against the f64 reference: max ΔVE {:.3e} mm, max ΔOE {:.3e} rad (tolerance {:e} mm, {:e} rad): {}",
+            "  check       {} points against the f64 reference: max ΔVE {}, max ΔOE {} (tolerance {}, {}): {}",
             check.points,
-            check.max_ve_diff_mm,
-            check.max_oe_diff_rad,
-            map::VE_TOLERANCE_MM,
-            map::OE_TOLERANCE_RAD,
+            // Numerical agreement, far below the 0.001 of an error: 4 significant digits.
+            format!("{} µm", numbers::quantity(check.max_ve_diff_mm * 1e3)),
+            format!("{} µrad", numbers::quantity(check.max_oe_diff_rad * 1e6)),
+            format!("{} µm", numbers::quantity(map::VE_TOLERANCE_MM * 1e3)),
+            format!("{} µrad", numbers::quantity(map::OE_TOLERANCE_RAD * 1e6)),
             if check.passed() { "ok" } else { "FAILED" }
         );
         if !check.passed() {
@@ -346,14 +348,14 @@ pub fn print_summary(info: &FieldInfo, stats: &FieldStats) {
     let ijk = grid.indices(stats.max_ve_point);
     let command = grid.command(ijk);
     let at: Vec<String> = (0..3)
-        .map(|d| format!("{}={:.3}", ["X", "Y", "Z"][d], command[d]))
+        .map(|d| format!("{}={}", ["X", "Y", "Z"][d], numbers::length(command[d])))
         .collect();
     let pose: Vec<String> = info
         .pose_axes
         .chars()
         .map(|a| {
             let index = "ABC".find(a).unwrap_or(0);
-            format!("{a}={}°", volmap::error::shown(info.pose_deg[index]))
+            format!("{a}={}", numbers::degrees(info.pose_deg[index]))
         })
         .collect();
     outln!(
@@ -373,13 +375,13 @@ pub fn print_summary(info: &FieldInfo, stats: &FieldStats) {
     outln!("  device      {}", info.device);
     outln!("  inputs      {}", info.inputs.describe());
     outln!(
-        "  max |VE|    {:.6} mm at point ({}, {}, {}): {} mm",
-        stats.max_ve_mm,
+        "  max |VE|    {} at point ({}, {}, {}): {} mm",
+        numbers::error_um(stats.max_ve_mm),
         ijk[0],
         ijk[1],
         ijk[2],
         at.join(" ")
     );
-    outln!("  RMS |VE|    {:.6} mm", stats.rms_ve_mm());
-    outln!("  max |OE|    {:.3e} rad", stats.max_oe_rad);
+    outln!("  RMS |VE|    {}", numbers::error_um(stats.rms_ve_mm()));
+    outln!("  max |OE|    {}", numbers::angle_urad(stats.max_oe_rad));
 }

@@ -15,6 +15,7 @@ use super::budget_report;
 use super::envelope::Envelope;
 use super::failure::Failure;
 use super::features::print_conformance;
+use super::numbers;
 use super::output::check_distinct_outputs;
 
 #[derive(clap::Args)]
@@ -113,14 +114,14 @@ pub fn run(args: MergeSamplesArgs) -> Result<ExitCode, Failure> {
             let confidence = study.confidence.unwrap_or(0.95);
             let rows = summarize(nominal, errors, confidence);
             outln!(
-                "Merged {} sample files: {} ({} features) on {} machines of {} (seed {}); fit where at least {:.1}% conform",
+                "Merged {} sample files: {} ({} features) on {} machines of {} (seed {}); fit where at least {} conform",
                 files.len(),
                 study.part.as_deref().unwrap_or("the part"),
                 rows.len(),
                 study.samples,
                 study.machine,
                 study.seed,
-                100.0 * confidence
+                numbers::percent(100.0 * confidence)
             );
             print_conformance(&rows);
             // The same as `features --tolerances --json` over all the samples.

@@ -1,6 +1,7 @@
 //! The command line: one file per subcommand, the arguments they share ([`args`]), the one place
 //! errors become exit codes ([`failure`]), the one place for output ([`output`]) and the one
-//! shape of every `--json` report ([`envelope`]; a field's summary in it: [`field_report`]).
+//! shape of every `--json` report ([`envelope`]; a field's summary in it: [`field_report`]), and
+//! the one rule for the numbers it prints ([`numbers`]).
 //!
 //! Each command's work is done in the library; the file of a command here reads its arguments,
 //! calls that module and prints what it returns:
@@ -68,6 +69,7 @@ pub mod man;
 pub mod map;
 pub mod merge_maps;
 pub mod merge_samples;
+pub mod numbers;
 pub mod output;
 pub mod plot;
 pub mod reference;

@@ -11,6 +11,7 @@ use volmap::io::field::FieldInfo;
 use volmap::model::grid::Grid;
 use volmap::model::Machine;
 
+use super::numbers;
 use super::output::progress;
 
 /// Maps `machine` at every pose of the sweep (`grids`, one per pose) into `out`, with a progress
@@ -45,7 +46,7 @@ pub fn print_sweep_summary(
     let ijk = grid.indices(total.max_ve_point);
     let command = grid.command(ijk);
     let at: Vec<String> = (0..3)
-        .map(|d| format!("{}={:.3}", ["X", "Y", "Z"][d], command[d]))
+        .map(|d| format!("{}={}", ["X", "Y", "Z"][d], numbers::length(command[d])))
         .collect();
     let worst_name = names.get(total.max_ve_pose).map_or("", String::as_str);
     let per_pose = stats.first().map_or(0, |s| s.points);
@@ -63,30 +64,33 @@ pub fn print_sweep_summary(
     outln!("  device      {}", worst.device);
     outln!("  inputs      {}", worst.inputs.describe());
     outln!(
-        "  max |VE|    {:.6} mm at pose {worst_name}, point ({}, {}, {}): {} mm",
-        total.max_ve_mm,
+        "  max |VE|    {} at pose {worst_name}, point ({}, {}, {}): {} mm",
+        numbers::error_um(total.max_ve_mm),
         ijk[0],
         ijk[1],
         ijk[2],
         at.join(" ")
     );
     outln!("  worst pose  {worst_name}");
-    outln!("  RMS |VE|    {:.6} mm over every pose", total.rms_ve_mm());
-    outln!("  max |OE|    {:.3e} rad", total.max_oe_rad);
+    outln!(
+        "  RMS |VE|    {} over every pose",
+        numbers::error_um(total.rms_ve_mm())
+    );
+    outln!("  max |OE|    {}", numbers::angle_urad(total.max_oe_rad));
     let width = names.iter().map(|n| n.len()).max().unwrap_or(0).max(4);
     outln!(
-        "  {:<width$}  {:>12}  {:>12}  {:>12}",
+        "  {:<width$}  {:>12}  {:>12}  {:>13}",
         "pose",
-        "max |VE| mm",
-        "RMS |VE| mm",
-        "max |OE| rad"
+        "max |VE| µm",
+        "RMS |VE| µm",
+        "max |OE| µrad"
     );
     for (name, s) in names.iter().zip(stats) {
         outln!(
-            "  {name:<width$}  {:>12.6}  {:>12.6}  {:>12.3e}",
-            s.max_ve_mm,
-            s.rms_ve_mm(),
-            s.max_oe_rad
+            "  {name:<width$}  {:>12}  {:>12}  {:>13}",
+            numbers::error(s.max_ve_mm),
+            numbers::error(s.rms_ve_mm()),
+            numbers::angle(s.max_oe_rad)
         );
     }
 }

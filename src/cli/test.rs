@@ -10,6 +10,7 @@ use volmap::standards::{self, Setup, TestResult};
 use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
+use super::numbers;
 use super::output::check_plot_paths;
 use super::plot::write_test_plot;
 
@@ -311,7 +312,15 @@ const ROWS_PRINTED: usize = 40;
 /// The point-by-point table (µm, or arc-seconds for a rotary axis; with `all_rows` or at most
 /// [`ROWS_PRINTED`] rows) and the figures, predicted and measured side by side.
 fn print_result(result: &TestResult, all_rows: bool) {
-    let (factor, unit) = result.unit.shown();
+    let (_, unit) = result.unit.shown();
+    let value = |v: f64| result.unit.print(v);
+    let position_value = |p: f64| {
+        if result.position_label.contains("(deg)") {
+            numbers::rotary(p)
+        } else {
+            numbers::length(p)
+        }
+    };
     let predicted_label = format!("predicted {unit}");
     let measured_label = format!("measured {unit}");
     outln!("{}", result.title);
@@ -341,13 +350,13 @@ fn print_result(result: &TestResult, all_rows: bool) {
         outln!("{header}\n{units}");
     }
     for (n, position) in result.positions.iter().enumerate().take(shown) {
-        let mut row = format!("  {position:>width$.3}");
+        let mut row = format!("  {:>width$}", position_value(*position));
         for (c, curve) in result.predicted.iter().enumerate() {
-            let p = curve[n] * factor;
-            row += &format!(" | {p:>cell$.3}");
+            let p = curve[n];
+            row += &format!(" | {:>cell$}", value(p));
             if let Some(m) = &result.measured {
-                let v = m[c][n] * factor;
-                row += &format!(" {v:>cell$.3} {:>cell$.3}", v - p);
+                let v = m[c][n];
+                row += &format!(" {:>cell$} {:>cell$}", value(v), value(v - p));
             }
         }
         outln!("{row}");
@@ -366,11 +375,10 @@ fn print_result(result: &TestResult, all_rows: bool) {
     }
     outln!("{header}  meaning");
     for f in &result.figures {
-        let p = f.predicted * factor;
-        let mut row = format!("  {:<name_width$} {p:>cell$.3}", f.name);
+        let p = f.predicted;
+        let mut row = format!("  {:<name_width$} {:>cell$}", f.name, value(p));
         if let Some(m) = f.measured {
-            let m = m * factor;
-            row += &format!(" {m:>cell$.3} {:>cell$.3}", m - p);
+            row += &format!(" {:>cell$} {:>cell$}", value(m), value(m - p));
         }
         outln!("{row}  {}", f.meaning);
     }
@@ -378,10 +386,7 @@ fn print_result(result: &TestResult, all_rows: bool) {
         print_ballbar(report);
     }
     if let Some(d) = standards::largest_difference(result) {
-        outln!(
-            "\n  largest |measured − predicted|: {:.3} {unit}",
-            d * factor
-        );
+        outln!("\n  largest |measured − predicted|: {} {unit}", value(d));
     }
 }
 
@@ -389,10 +394,16 @@ fn print_result(result: &TestResult, all_rows: bool) {
 /// spike and a cyclic error that do not stand above the detection limit read "not detected".
 fn print_ballbar(report: &standards::ballbar::BallbarReport) {
     let [u, v] = report.axes;
-    outln!("\n  ballbar diagnostics (radius {} mm)", report.radius_mm);
+    outln!(
+        "\n  ballbar diagnostics (radius {})",
+        numbers::length_mm(report.radius_mm)
+    );
+    // The diagnostics are in µm and µrad already.
+    let um = |value: f64| numbers::error(value / 1e3);
+    let urad = |value: f64| numbers::angle(value / 1e6);
     let shown = |value: f64, found: bool| {
         if found {
-            format!("{value:.3}")
+            um(value)
         } else {
             "not detected".to_string()
         }
@@ -401,32 +412,34 @@ fn print_ballbar(report: &standards::ballbar::BallbarReport) {
         let mut rows = vec![
             (
                 format!("squareness {u}{v} (µrad; angle − 90°)"),
-                format!("{:.3}", d.squareness_urad),
+                urad(d.squareness_urad),
             ),
             (
                 format!("scale mismatch {u} − {v} (µm/m)"),
-                format!("{:.3}", d.scale_mismatch_ppm),
+                numbers::quantity(d.scale_mismatch_ppm),
             ),
             (
                 "scale mismatch over the radius (µm)".to_string(),
-                format!("{:.3}", d.scale_mismatch_um),
+                um(d.scale_mismatch_um),
             ),
-            (
-                format!("backlash {u} (µm)"),
-                format!("{:.3}", d.backlash_um[0]),
-            ),
-            (
-                format!("backlash {v} (µm)"),
-                format!("{:.3}", d.backlash_um[1]),
-            ),
+            (format!("backlash {u} (µm)"), um(d.backlash_um[0])),
+            (format!("backlash {v} (µm)"), um(d.backlash_um[1])),
         ];
         for r in &d.reversals {
             rows.push((
-                format!("reversal of {} at {}°: step (µm)", r.axis, r.angle_deg),
+                format!(
+                    "reversal of {} at {}: step (µm)",
+                    r.axis,
+                    numbers::degrees(r.angle_deg)
+                ),
                 shown(r.step_um, r.step_detected),
             ));
             rows.push((
-                format!("reversal of {} at {}°: spike (µm)", r.axis, r.angle_deg),
+                format!(
+                    "reversal of {} at {}: spike (µm)",
+                    r.axis,
+                    numbers::degrees(r.angle_deg)
+                ),
                 shown(r.spike_um, r.spike_detected),
             ));
         }
@@ -436,11 +449,11 @@ fn print_ballbar(report: &standards::ballbar::BallbarReport) {
         }
         rows.push((
             "left by the figures, RMS (µm)".to_string(),
-            format!("{:.3}", d.residual_um),
+            um(d.residual_um),
         ));
         rows.push((
             "detection limit, 3 × that RMS (µm)".to_string(),
-            format!("{:.3}", d.detection_um),
+            um(d.detection_um),
         ));
         rows
     };

@@ -12,6 +12,7 @@ use super::args::{InputsArg, JsonArg, MachineArg};
 use super::compensate::{corrupted_for_tests, option_failure, SetupArgs};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
+use super::numbers;
 use super::output::{check_distinct_outputs, check_plot_paths, write_file, write_plot};
 
 #[derive(clap::Args)]
@@ -151,11 +152,11 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
     outln!("{name}: tool-tip deviation on {}", machine.name);
     for s in &summaries {
         outln!(
-            "  {:<14} largest {:.4} mm along the feed moves at line {}, {:.4} mm along the rapids ({} blocks that move)",
+            "  {:<14} largest {} along the feed moves at line {}, {} along the rapids ({} blocks that move)",
             s.program,
-            s.largest_mm,
+            numbers::error_um(s.largest_mm),
             s.largest_line,
-            s.largest_rapid_mm,
+            numbers::error_um(s.largest_rapid_mm),
             s.per_block.len()
         );
     }
@@ -168,15 +169,17 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
             lines.join(", ")
         );
     }
-    outln!("  the blocks with the largest deviation (line: mm):");
+    outln!("  the blocks with the largest deviation (line: µm):");
     let mut worst = summaries[0].per_block.clone();
     worst.sort_by(|a, b| b.1.total_cmp(&a.1));
     for (line, mm) in worst.iter().take(10) {
         let after = summaries
             .get(1)
             .and_then(|s| s.per_block.iter().find(|b| b.0 == *line))
-            .map_or(String::new(), |b| format!(", {:.4} compensated", b.1));
-        outln!("    {line:>6}: {mm:.4}{after}");
+            .map_or(String::new(), |b| {
+                format!(", {} compensated", numbers::error(b.1))
+            });
+        outln!("    {line:>6}: {}{after}", numbers::error(*mm));
     }
     if let Some(path) = &args.out {
         write_file(path, |out| {

@@ -16,6 +16,7 @@ use super::{
 };
 use crate::limits::MAX_TEST_POINTS;
 use crate::model::AxisLetter;
+use crate::report::numbers::{length, length_mm};
 
 /// ISO 230-4 circular test (ballbar) in one plane.
 #[derive(Debug, Clone, Deserialize)]
@@ -279,10 +280,10 @@ pub(crate) fn circular_with(
     Ok(TestResult {
         unit: super::ErrorUnit::Mm,
         title: format!(
-            "ISO 230-4 circular test in {plane}, {}: centre ({:.1}, {:.1}, {:.1}) mm, radius {} mm",
+            "ISO 230-4 circular test in {plane}, {}: centre ({}, {}, {}) mm, radius {}",
             if sense > 0.0 { "counter-clockwise" } else { "clockwise" },
-            centre.x, centre.y, centre.z,
-            crate::error::shown(radius)
+            length(centre.x), length(centre.y), length(centre.z),
+            length_mm(radius)
         ),
         position_label: "angle (deg)".into(),
         positions: angles,

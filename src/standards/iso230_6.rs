@@ -13,6 +13,7 @@ use super::{
 };
 use crate::limits::MAX_TEST_POINTS;
 use crate::model::AxisLetter;
+use crate::report::numbers;
 
 /// ISO 230-6 displacement along a body or face diagonal.
 #[derive(Debug, Clone, Deserialize)]
@@ -226,14 +227,15 @@ pub(crate) fn diagonal_with(
         ballbar: None,
         unit: super::ErrorUnit::Mm,
         title: format!(
-            "ISO 230-6 {}: ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) mm, {length:.1} mm",
+            "ISO 230-6 {}: ({}, {}, {}) to ({}, {}, {}) mm, {}",
             called(&label).trim_start_matches("the "),
-            from.x,
-            from.y,
-            from.z,
-            to.x,
-            to.y,
-            to.z
+            numbers::length(from.x),
+            numbers::length(from.y),
+            numbers::length(from.z),
+            numbers::length(to.x),
+            numbers::length(to.y),
+            numbers::length(to.z),
+            numbers::length_mm(length)
         ),
         position_label: format!("position along {} (mm)", called(&label)),
         positions,

@@ -367,11 +367,20 @@ pub enum ErrorUnit {
 }
 
 impl ErrorUnit {
-    /// The factor to the unit values are shown in, and its name.
+    /// The factor to the unit values are shown in, and its name: µm and µrad, as every error
+    /// volmap prints ([`crate::report::numbers`]).
     pub fn shown(self) -> (f64, &'static str) {
         match self {
             ErrorUnit::Mm => (1000.0, "µm"),
-            ErrorUnit::Arcsec => (1.0, "arcsec"),
+            ErrorUnit::Arcsec => (1e6 / ARCSEC_PER_RAD, "µrad"),
+        }
+    }
+
+    /// A value in this unit as volmap prints it, without the unit ([`Self::shown`] names it).
+    pub fn print(self, value: f64) -> String {
+        match self {
+            ErrorUnit::Mm => crate::report::numbers::error(value),
+            ErrorUnit::Arcsec => crate::report::numbers::angle(value / ARCSEC_PER_RAD),
         }
     }
 

@@ -177,9 +177,9 @@ pub(crate) fn rtest_with(
         unit: super::ErrorUnit::Mm,
         title: format!(
             "R-test of {letter}: sphere at ({}, {}, {}) mm (workpiece frame)",
-            tenths(sphere.x),
-            tenths(sphere.y),
-            tenths(sphere.z)
+            crate::report::numbers::length(sphere.x),
+            crate::report::numbers::length(sphere.y),
+            crate::report::numbers::length(sphere.z)
         ),
         position_label: format!("{letter} (deg)"),
         positions: angles,
@@ -268,14 +268,4 @@ fn default_sphere(
         "no sphere at {} points over the travels can be followed over the whole sweep ({why}): give the sphere (sphere_mm) or fewer angles (from_deg, to_deg)",
         candidates.len()
     )))
-}
-
-/// `v` to 0.1 mm, a negative zero written 0.0.
-fn tenths(v: f64) -> String {
-    let text = format!("{v:.1}");
-    if text == "-0.0" {
-        "0.0".into()
-    } else {
-        text
-    }
 }

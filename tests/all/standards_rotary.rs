@@ -157,7 +157,7 @@ fn measured_rotary_runs_are_read_in_arcseconds_or_microradians() {
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
-        stdout.contains("predicted arcsec") && stdout.contains("target C (deg)"),
+        stdout.contains("predicted µrad") && stdout.contains("target C (deg)"),
         "{stdout}"
     );
     std::fs::write(&path, text.replace("deviation_urad", "deviation_mm")).unwrap();

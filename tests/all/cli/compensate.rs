@@ -24,7 +24,7 @@ fn compensate_writes_a_new_program_and_never_the_input() {
         .stdout(
             predicate::str::contains("largest correction")
                 .and(predicate::str::contains("blocks changed"))
-                .and(predicate::str::contains("mm before")),
+                .and(predicate::str::contains("µm before")),
         );
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(

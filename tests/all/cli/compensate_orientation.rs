@@ -32,7 +32,7 @@ fn orientation_rewrites_the_rotary_words_and_reports_the_orientation_error() {
     run(&["--orientation"])
         .success()
         .stdout(predicate::str::contains(
-            "rad after (angular tolerance 1e-5 rad)",
+            "µrad after (angular tolerance 10.000 µrad)",
         ));
     let report: serde_json::Value = super::json_result(&json);
     let before = report["largest_orientation_error_before_rad"]

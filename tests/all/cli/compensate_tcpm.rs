@@ -22,7 +22,7 @@ fn a_g43_4_program_is_compensated_and_a_g28_under_it_refused() {
         command.assert()
     };
     run(PROGRAM).success().stdout(predicate::str::contains(
-        "rad after (angular tolerance 1e-5 rad)",
+        "µrad after (angular tolerance 10.000 µrad)",
     ));
     // The codes stay; the tip's words and the rotary words are rewritten (the machine's errors
     // move the tip by tens of µm: the programmed X30. Y-10. is no longer written).

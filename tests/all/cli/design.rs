@@ -82,7 +82,7 @@ fn budget_json_plot_and_monte_carlo_with_per_sample_rows() {
         .success()
         .stdout(
             predicate::str::contains("Monte Carlo: 64 machines")
-                .and(predicate::str::contains("within 0.13 mm")),
+                .and(predicate::str::contains("within 130.000 µm")),
         );
     let v = read_json(&json);
     let rows = v["budget"].as_array().unwrap();

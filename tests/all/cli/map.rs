@@ -38,7 +38,7 @@ fn map_check_and_info_on_the_cpu() {
         );
     volmap().arg("info").arg(&out).assert().success().stdout(
         predicate::str::contains("FYXCFZB")
-            .and(predicate::str::contains("pose B=30° C=45°"))
+            .and(predicate::str::contains("pose B=30.000° C=45.000°"))
             .and(predicate::str::contains("315 points")),
     );
 }

@@ -48,7 +48,7 @@ fn trace_samples_every_move_and_names_the_largest_line() {
         .assert()
         .success()
         .stdout(predicate::str::contains(
-            "as-programmed  largest 0.0050 mm along the feed moves at line 3",
+            "as-programmed  largest 5.000 µm along the feed moves at line 3",
         ));
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut rows = text.lines();
@@ -118,7 +118,7 @@ fn trace_and_compensate_report_the_same_after_over_the_feed_moves() {
         .arg(&traced)
         .assert()
         .success()
-        .stdout(predicate::str::contains("mm along the feed moves at line"));
+        .stdout(predicate::str::contains("µm along the feed moves at line"));
     volmap()
         .args(["compensate", "--machine"])
         .arg(&machine)
