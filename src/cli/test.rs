@@ -313,7 +313,7 @@ const ROWS_PRINTED: usize = 40;
 /// [`ROWS_PRINTED`] rows) and the figures, predicted and measured side by side.
 fn print_result(result: &TestResult, all_rows: bool) {
     let (_, unit) = result.unit.shown();
-    let value = |v: f64| result.unit.print(v);
+    let value = |v: f64| result.unit.printed(v);
     let position_value = |p: f64| {
         if result.position_label.contains("(deg)") {
             numbers::rotary(p)

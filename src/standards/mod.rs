@@ -377,7 +377,7 @@ impl ErrorUnit {
     }
 
     /// A value in this unit as volmap prints it, without the unit ([`Self::shown`] names it).
-    pub fn print(self, value: f64) -> String {
+    pub fn printed(self, value: f64) -> String {
         match self {
             ErrorUnit::Mm => crate::report::numbers::error(value),
             ErrorUnit::Arcsec => crate::report::numbers::angle(value / ARCSEC_PER_RAD),

@@ -72,9 +72,9 @@ fn orientation_rewrites_the_rotary_words_and_reports_the_orientation_error() {
     run(&["--orientation", "--max-rotary-correction", "0.5"])
         .success()
         .stdout(
-            predicate::str::contains("(at most 0.5°)").and(predicate::str::contains(
-                "orientation left            1 line (2) near a singular pose, where the rotary axes cannot turn the tool axis within 0.5°",
-            ).and(predicate::str::contains("rad at line 2"))),
+            predicate::str::contains("(at most 0.500°)").and(predicate::str::contains(
+                "orientation left            1 line (2) near a singular pose, where the rotary axes cannot turn the tool axis within 0.500°",
+            ).and(predicate::str::contains("µrad at line 2"))),
         );
     let report: serde_json::Value = super::json_result(&json);
     assert_eq!(report["orientation_left"][0]["line"], 2, "{report}");
