@@ -135,6 +135,15 @@ pub fn write_json_for(
 
 /// Writes a plot (SVG or PNG by the extension) and says where.
 pub fn write_plot(drawing: &Drawing, path: &Path) -> Result<(), Failure> {
+    // A text off the canvas or a legend over a curve is a bug of the plot's layout: debug builds
+    // (the tests' runs of every command) refuse it rather than write a picture that misleads.
+    #[cfg(debug_assertions)]
+    if let Some(problem) = drawing.layout().problems().into_iter().next() {
+        return Err(Failure::work(anyhow::anyhow!(
+            "{}: the plot's layout: {problem}",
+            path.display()
+        )));
+    }
     drawing.write(path)?;
     errln!("plot: {}", path.display());
     Ok(())

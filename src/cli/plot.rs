@@ -197,7 +197,10 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
                 slice.cols,
                 slice.rows,
                 &slice.values,
-                &slice.unit,
+                plot::ColourBar {
+                    label: &slice.unit,
+                    signed: slice.signed,
+                },
             )?
         }
         PlotKind::Grid {

@@ -195,7 +195,13 @@ pub fn histogram(
             1.5,
             true,
         );
-        d.text(sx(value) + 4.0, y1 + 14.0, label, 11.0, Anchor::Start);
+        // Right of the line, or left of it where the label would leave the picture.
+        let x = sx(value);
+        if x + 4.0 + super::text_width(label, 11.0) <= WIDTH - 4.0 {
+            d.text(x + 4.0, y1 + 14.0, label, 11.0, Anchor::Start);
+        } else {
+            d.text(x - 4.0, y1 + 14.0, label, 11.0, Anchor::End);
+        }
     }
     d.line(vec![[x0, y0], [x1, y0]], Color::BLACK, 1.0, false);
     d.line(vec![[x0, y0], [x0, y1]], Color::BLACK, 1.0, false);
@@ -223,7 +229,10 @@ pub fn stacked(drawings: Vec<Drawing>) -> Drawing {
     let width = drawings.iter().map(|d| d.width).fold(0.0, f64::max);
     let mut out = Drawing::new(width, 0.0);
     for d in drawings {
-        let dy = out.height;
+        let (dy, first) = (out.height, out.shapes.len());
+        out.curves.extend(d.curves.iter().map(|n| n + first));
+        out.legends
+            .extend(d.legends.iter().map(|&[l, t, r, b]| [l, t + dy, r, b + dy]));
         out.shapes
             .extend(d.shapes.into_iter().map(|s| shifted(s, dy)));
         out.height += d.height;

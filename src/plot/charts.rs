@@ -80,16 +80,8 @@ pub(super) const MARGIN_BOTTOM: f64 = 60.0;
 
 /// The legend's rows from `(x, y)` down, framed; the frame, `[x, y, w, h]`.
 pub(super) fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64; 4] {
-    let wide = series
-        .iter()
-        .map(|s| 30.0 + super::text_width(&s.name, 12.0))
-        .fold(0.0, f64::max);
-    let frame = [
-        x - 6.0,
-        y - 16.0,
-        wide + 12.0,
-        18.0 * series.len() as f64 + 6.0,
-    ];
+    let (w, h) = legend_size(series);
+    let frame = [x - 6.0, y - 16.0, w, h];
     // A white frame: the curves pass behind the legend, not through its words.
     d.shapes.push(Shape::Rect {
         x: frame[0],
@@ -99,6 +91,8 @@ pub(super) fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64
         fill: Some(Color(255, 255, 255)),
         stroke: Some(Color::LIGHT),
     });
+    d.legends
+        .push([frame[0], frame[1], frame[0] + frame[2], frame[1] + frame[3]]);
     for (n, s) in series.iter().enumerate() {
         let row = y + 18.0 * n as f64;
         d.line(
@@ -112,6 +106,61 @@ pub(super) fn legend(d: &mut Drawing, series: &[Series], x: f64, y: f64) -> [f64
         d.text(x + 30.0, row, s.name.clone(), 12.0, Anchor::Start);
     }
     frame
+}
+
+/// The legend's size, `(w, h)`, as [`legend`] frames it.
+fn legend_size(series: &[Series]) -> (f64, f64) {
+    let wide = series
+        .iter()
+        .map(|s| 30.0 + super::text_width(&s.name, 12.0))
+        .fold(0.0, f64::max);
+    (wide + 12.0, 18.0 * series.len() as f64 + 6.0)
+}
+
+/// The legend in the first corner of the plotting area `[left, top, right, bottom]` that no
+/// curve drawn so far passes through (with room for a marker and the line's width); where every
+/// corner has a curve, below the chart, the drawing made taller for it. A legend over a curve
+/// would hide the data it names.
+pub(super) fn place_legend(
+    d: &mut Drawing,
+    series: &[Series],
+    [left, top, right, bottom]: [f64; 4],
+) {
+    if series.is_empty() {
+        return;
+    }
+    let (w, h) = legend_size(series);
+    let clear = 8.0;
+    // Frames' top-left corners: top left, top right, bottom left, bottom right, top and bottom
+    // middle.
+    let middle = (left + right - w) / 2.0;
+    let corners = [
+        (left + 8.0, top + 8.0),
+        (right - w - 8.0, top + 8.0),
+        (left + 8.0, bottom - h - 8.0),
+        (right - w - 8.0, bottom - h - 8.0),
+        (middle, top + 8.0),
+        (middle, bottom - h - 8.0),
+    ];
+    let fits = |&(x, y): &(f64, f64)| x >= left && x + w <= right && y >= top && y + h <= bottom;
+    let curves = d.curve_points();
+    let free = corners.iter().filter(|c| fits(c)).find(|&&(x, y)| {
+        super::layout::first_crossing(
+            &curves,
+            [x - clear, y - clear, x + w + clear, y + h + clear],
+        )
+        .is_none()
+    });
+    let (x, y) = match free {
+        Some(&corner) => corner,
+        None => {
+            let y = d.height + 4.0;
+            d.height += h + 12.0;
+            (left, y)
+        }
+    };
+    // legend() draws its frame from 6 px left of and 16 px above its first row's sample.
+    legend(d, series, x + 6.0, y + 16.0);
 }
 
 /// Curves over a common x axis, with round ticks, a grid, axis labels and a legend.
@@ -209,15 +258,15 @@ pub fn line_chart(
                 let edge = edge
                     .map(|((&x, &y), b)| [sx(x), sy(y + side * b)])
                     .collect();
-                d.line(edge, s.color, 0.8, false);
+                d.curve(edge, s.color, 0.8, false);
             }
         }
-        d.line(points.clone(), s.color, 2.0, s.dashed);
+        d.curve(points.clone(), s.color, 2.0, s.dashed);
         for p in points {
             d.shapes.extend(marker_shape(s.marker, p, 5.0, s.color));
         }
     }
-    legend(&mut d, &shown, x0 + 14.0, y1 + 20.0);
+    place_legend(&mut d, &shown, [x0, y1, x1, y0]);
     Ok(d)
 }
 
@@ -312,7 +361,7 @@ pub fn polar_chart(
         if full_turn && !points.is_empty() {
             points.push(points[0]);
         }
-        d.line(points, s.color, 2.0, s.dashed);
+        d.curve(points, s.color, 2.0, s.dashed);
     }
     d.text(
         width / 2.0,

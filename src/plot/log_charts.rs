@@ -1,10 +1,11 @@
 //! Curves over decades: the y axis in log10 (and the x axis too where asked), ticks at 1, 2 and
-//! 5 × 10ⁿ (decades only over more than three), the legend in the corner that hides the fewest
-//! points. For quantities that fall by orders of magnitude (a residual against a table's size).
+//! 5 × 10ⁿ (decades only over more than three), the legend in a corner no curve passes through
+//! (below the chart where each has one). For quantities that fall by orders of magnitude (a
+//! residual against a table's size).
 
 use super::axis::{finite_range, tick_label, ticks};
 use super::charts::{
-    legend, marker_shape, Series, MARGIN_BOTTOM, MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP,
+    marker_shape, place_legend, Series, MARGIN_BOTTOM, MARGIN_LEFT, MARGIN_RIGHT, MARGIN_TOP,
 };
 use super::{Anchor, Color, Drawing, PlotError, Shape};
 
@@ -132,40 +133,12 @@ pub fn log_chart(
         .map(|points| points.iter().map(|p| [sx(p[0]), sy(p[1])]).collect())
         .collect();
     for (s, points) in series.iter().zip(&pixels) {
-        d.line(points.clone(), s.color, 2.0, s.dashed);
+        d.curve(points.clone(), s.color, 2.0, s.dashed);
         for &p in points {
             d.shapes.extend(marker_shape(s.marker, p, 5.0, s.color));
         }
     }
-    // The legend where it hides the fewest points.
-    let wide = series
-        .iter()
-        .map(|s| 30.0 + super::text_width(&s.name, 12.0))
-        .fold(0.0, f64::max)
-        + 12.0;
-    let tall = 18.0 * series.len() as f64 + 6.0;
-    let corners = [
-        (x0 + 14.0, y1 + 20.0),
-        (x1 - wide - 8.0, y1 + 20.0),
-        (x0 + 14.0, y0 - tall + 6.0),
-        (x1 - wide - 8.0, y0 - tall + 6.0),
-    ];
-    // The frame legend() draws from (x, y), widened by a marker's size.
-    let hidden = |&(x, y): &(f64, f64)| {
-        let (left, top) = (x - 6.0 - 8.0, y - 16.0 - 8.0);
-        let (right, bottom) = (x - 6.0 + wide + 8.0, y - 16.0 + tall + 8.0);
-        pixels
-            .iter()
-            .flatten()
-            .filter(|p| p[0] >= left && p[0] <= right && p[1] >= top && p[1] <= bottom)
-            .count()
-    };
-    let (lx, ly) = corners
-        .iter()
-        .min_by_key(|c| hidden(c))
-        .copied()
-        .unwrap_or(corners[0]);
-    legend(&mut d, series, lx, ly);
+    place_legend(&mut d, series, [x0, y1, x1, y0]);
     Ok(d)
 }
 

@@ -1,10 +1,11 @@
-//! Pictures of a field: colour maps of a slice with a scale bar, the isometric deformed grid.
+//! Colour maps of a field's slice with a scale bar: viridis for magnitudes, a diverging scale
+//! about zero for signed values.
 
 use super::axis::{drawable, finite_range, fraction, is_wide, tick_label, ticks};
 use super::charts::{MARGIN_BOTTOM, MARGIN_LEFT, MARGIN_TOP};
 use super::{Anchor, Color, Drawing, PlotError, Shape};
 
-/// A perceptually ordered colour scale (viridis, sampled), `t` in [0, 1].
+/// A perceptually ordered colour scale (viridis, sampled), `t` in [0, 1]: for magnitudes.
 pub fn colour(t: f64) -> [u8; 3] {
     const STOPS: [[u8; 3]; 9] = [
         [68, 1, 84],
@@ -17,20 +18,87 @@ pub fn colour(t: f64) -> [u8; 3] {
         [170, 220, 50],
         [253, 231, 37],
     ];
+    interpolate(&STOPS, t)
+}
+
+/// A diverging colour scale, `t` in [0, 1]: dark blue at 0 through white at ½ (zero) to dark red
+/// at 1 (ColorBrewer's RdBu reversed, as matplotlib's RdBu_r): for signed values, so that a sign
+/// reads as a hue and zero as white.
+pub fn diverging(t: f64) -> [u8; 3] {
+    const STOPS: [[u8; 3]; 11] = [
+        [5, 48, 97],
+        [33, 102, 172],
+        [67, 147, 195],
+        [146, 197, 222],
+        [209, 229, 240],
+        [247, 247, 247],
+        [253, 219, 199],
+        [244, 165, 130],
+        [214, 96, 77],
+        [178, 24, 43],
+        [103, 0, 31],
+    ];
+    interpolate(&STOPS, t)
+}
+
+/// The colour at `t` in [0, 1] of evenly spaced stops, linearly between them.
+fn interpolate(stops: &[[u8; 3]], t: f64) -> [u8; 3] {
     let t = if t.is_finite() {
         t.clamp(0.0, 1.0)
     } else {
         0.0
-    } * (STOPS.len() - 1) as f64;
-    let k = (t.floor() as usize).min(STOPS.len() - 2);
+    } * (stops.len() - 1) as f64;
+    let k = (t.floor() as usize).min(stops.len() - 2);
     let f = t - k as f64;
     std::array::from_fn(|c| {
-        (STOPS[k][c] as f64 * (1.0 - f) + STOPS[k + 1][c] as f64 * f).round() as u8
+        (stops[k][c] as f64 * (1.0 - f) + stops[k + 1][c] as f64 * f).round() as u8
     })
 }
 
-/// A colour map of `values` (`rows × cols`, row 0 at `extent.2`, the low end of the vertical
-/// axis) over `extent = (x_lo, x_hi, y_lo, y_hi)`, with a scale bar in `unit`.
+/// A colour map's scale bar: its label (the quantity and unit), and whether the values are
+/// signed (a channel: the diverging scale about zero, limits ±max|v|) or a magnitude (viridis
+/// from the smallest value to the largest).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColourBar<'a> {
+    pub label: &'a str,
+    pub signed: bool,
+}
+
+impl ColourBar<'_> {
+    /// The range the colours run over, and the colour at a fraction of it.
+    fn scale(&self, lo: f64, hi: f64) -> ((f64, f64), fn(f64) -> [u8; 3]) {
+        if self.signed {
+            (symmetric(lo, hi), diverging)
+        } else {
+            (value_range(lo, hi), colour)
+        }
+    }
+}
+
+/// `±max|v|` over values from `lo` to `hi`, so that zero is the middle colour; ±1 where every
+/// value is zero (all white).
+fn symmetric(lo: f64, hi: f64) -> (f64, f64) {
+    let most = lo.abs().max(hi.abs());
+    if is_wide((-most, most)) {
+        (-most, most)
+    } else {
+        (-1.0, 1.0)
+    }
+}
+
+/// The cells of an axis of `n` grid points drawn in halves: cell `k` of `2(n − 1)` is half a
+/// spacing wide and shows point `(k + 1) / 2`, so each point's cell is centred on it and the two
+/// outer ones, half as wide, end at the travel's ends; one point is one cell.
+fn half_cells(n: usize) -> (usize, impl Fn(usize) -> usize) {
+    let halves = if n > 1 { 2 * (n - 1) } else { 1 };
+    (halves, move |k: usize| if n > 1 { (k + 1) / 2 } else { 0 })
+}
+
+/// A colour map of `values` (`rows × cols` grid points, row 0 at `extent.2`, the low end of the
+/// vertical axis) over `extent = (x_lo, x_hi, y_lo, y_hi)`, the positions of the first and last
+/// points, with a scale bar. Each point colours the cell about it (half a spacing either side),
+/// the outer cells cut at the extent: the axes are the travel, and a value sits where it was
+/// computed.
 pub fn colour_map(
     title: &str,
     labels: (&str, &str),
@@ -38,7 +106,7 @@ pub fn colour_map(
     cols: usize,
     rows: usize,
     values: &[f64],
-    unit: &str,
+    bar: ColourBar,
 ) -> Result<Drawing, PlotError> {
     let [e0, e1, e2, e3] = [extent.0, extent.1, extent.2, extent.3];
     if values
@@ -47,6 +115,12 @@ pub fn colour_map(
         .any(|v| !v.is_finite())
     {
         return Err(PlotError::NotFinite(title.into()));
+    }
+    if cols == 0 || rows == 0 || values.len() != cols * rows {
+        return Err(PlotError::Empty(format!(
+            "{title}: {} values for {cols} × {rows} points",
+            values.len()
+        )));
     }
     let (lo, hi) =
         finite_range(values.iter().copied()).ok_or_else(|| PlotError::Empty(title.into()))?;
@@ -67,12 +141,15 @@ pub fn colour_map(
         (available.0, available.0 / aspect)
     };
     let y0 = y1 + h;
-    // The colours run over the values' range; all values alike take the lowest colour.
-    let range = value_range(lo, hi);
-    let rgb: Vec<[u8; 3]> = (0..rows)
+    // A magnitude's colours run over its values' range (all values alike take the lowest); a
+    // signed value's over ±max|v|, white at zero.
+    let (range, paint) = bar.scale(lo, hi);
+    let (across, col_of) = half_cells(cols);
+    let (up, row_of) = half_cells(rows);
+    let rgb: Vec<[u8; 3]> = (0..up)
         .rev()
-        .flat_map(|r| (0..cols).map(move |c| (r, c)))
-        .map(|(r, c)| colour(fraction(values[r * cols + c], range)))
+        .flat_map(|r| (0..across).map(move |c| (r, c)))
+        .map(|(r, c)| paint(fraction(values[row_of(r) * cols + col_of(c)], range)))
         .collect();
     let mut d = Drawing::new(width, y0 + MARGIN_BOTTOM);
     d.title(title);
@@ -81,8 +158,8 @@ pub fn colour_map(
         y: y1,
         w,
         h,
-        cols,
-        rows,
+        cols: across,
+        rows: up,
         rgb,
     });
     d.shapes.push(Shape::Rect {
@@ -130,7 +207,7 @@ pub fn colour_map(
         color: Color::BLACK,
         vertical: true,
     });
-    scale_bar(&mut d, [x0 + w + 40.0, y1, h], (lo, hi), unit);
+    scale_bar(&mut d, [x0 + w + 40.0, y1, h], (lo, hi), bar);
     Ok(d)
 }
 
@@ -147,12 +224,12 @@ fn value_range(lo: f64, hi: f64) -> (f64, f64) {
     }
 }
 
-/// The scale bar of a colour map: the colour ramp from `lo` to `hi` at `[x, top, height]`, with
-/// round values marked and the unit above.
-fn scale_bar(d: &mut Drawing, [bx, top, h]: [f64; 3], (lo, hi): (f64, f64), unit: &str) {
+/// The scale bar of a colour map: the colour ramp over the map's range at `[x, top, height]`,
+/// with round values marked (zero among them where the values are signed) and the label above.
+fn scale_bar(d: &mut Drawing, [bx, top, h]: [f64; 3], (lo, hi): (f64, f64), bar: ColourBar) {
     let bw = 22.0;
-    let range = value_range(lo, hi);
-    let ramp: Vec<[u8; 3]> = (0..256).rev().map(|k| colour(k as f64 / 255.0)).collect();
+    let (range, paint) = bar.scale(lo, hi);
+    let ramp: Vec<[u8; 3]> = (0..256).rev().map(|k| paint(k as f64 / 255.0)).collect();
     d.shapes.push(Shape::Image {
         x: bx,
         y: top,
@@ -170,7 +247,9 @@ fn scale_bar(d: &mut Drawing, [bx, top, h]: [f64; 3], (lo, hi): (f64, f64), unit
         fill: None,
         stroke: Some(Color::BLACK),
     });
-    let bt = if is_wide((lo, hi)) {
+    let bt = if bar.signed {
+        ticks(range.0, range.1, 6)
+    } else if is_wide((lo, hi)) {
         ticks(lo, hi, 6)
     } else {
         vec![lo]
@@ -192,129 +271,5 @@ fn scale_bar(d: &mut Drawing, [bx, top, h]: [f64; 3], (lo, hi): (f64, f64), unit
             Anchor::Start,
         );
     }
-    d.text(bx, top - 10.0, unit, 12.0, Anchor::Start);
-}
-
-/// An isometric view of the workspace grid, nominal (grey) and displaced by the magnified error
-/// (colour): `nominal[n]` and `deformed[n]` are the same grid line, points in mm.
-pub fn deformed_grid(
-    title: &str,
-    note: &str,
-    nominal: &[Vec<[f64; 3]>],
-    deformed: &[Vec<[f64; 3]>],
-) -> Result<Drawing, PlotError> {
-    let (width, height) = (900.0, 760.0);
-    // Isometric projection: x to the right and down, y to the left and down, z up.
-    let (c, s) = (30f64.to_radians().cos(), 30f64.to_radians().sin());
-    // In halves: no sum of two finite coordinates overflows.
-    let project = |p: &[f64; 3]| {
-        [
-            (p[0] / 2.0 - p[1] / 2.0) * c,
-            -(p[0] / 2.0 + p[1] / 2.0) * s - p[2] / 2.0,
-        ]
-    };
-    if nominal
-        .iter()
-        .chain(deformed)
-        .flatten()
-        .flatten()
-        .any(|v| !v.is_finite())
-    {
-        return Err(PlotError::NotFinite(title.into()));
-    }
-    let all = nominal.iter().chain(deformed).flatten().map(project);
-    let (mut x_lo, mut x_hi, mut y_lo, mut y_hi) = (
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-    );
-    for [x, y] in all {
-        x_lo = x_lo.min(x);
-        x_hi = x_hi.max(x);
-        y_lo = y_lo.min(y);
-        y_hi = y_hi.max(y);
-    }
-    if !x_lo.is_finite() {
-        return Err(PlotError::Empty(title.into()));
-    }
-    // Pixels per projected half-mm, the picture centred: spans and middles in halves again.
-    let (x_half, y_half) = (x_hi / 2.0 - x_lo / 2.0, y_hi / 2.0 - y_lo / 2.0);
-    let scale =
-        ((width - 80.0) / 2.0 / x_half.max(5e-10)).min((height - 140.0) / 2.0 / y_half.max(5e-10));
-    let ox = width / 2.0 - scale * (x_lo / 2.0 + x_hi / 2.0);
-    let oy = 60.0 + (height - 140.0) / 2.0 - scale * (y_lo / 2.0 + y_hi / 2.0);
-    let to_canvas = |p: &[f64; 3]| {
-        let [x, y] = project(p);
-        [ox + scale * x, oy + scale * y]
-    };
-    let mut d = Drawing::new(width, height);
-    d.title(title);
-    for line in nominal {
-        d.line(line.iter().map(to_canvas).collect(), Color::GREY, 1.0, true);
-    }
-    for line in deformed {
-        d.line(
-            line.iter().map(to_canvas).collect(),
-            Color::BLUE,
-            1.5,
-            false,
-        );
-    }
-    axis_labels(&mut d, nominal, to_canvas);
-    d.text(width / 2.0, height - 40.0, note, 12.0, Anchor::Middle);
-    d.text(width / 2.0, height - 20.0, "grey dashed: nominal grid; blue: the tool tip's actual positions, error magnified (isometric view, z up)", 11.0, Anchor::Middle);
-    Ok(d)
-}
-
-/// Names the axes along the nominal grid's edges: X along the lower right front edge, Y along the
-/// lower left, Z up the left edge, each with its range in mm.
-fn axis_labels(
-    d: &mut Drawing,
-    nominal: &[Vec<[f64; 3]>],
-    to_canvas: impl Fn(&[f64; 3]) -> [f64; 2],
-) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in nominal.iter().flatten() {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    if !lo[0].is_finite() {
-        return;
-    }
-    let mid = |k: usize| lo[k] / 2.0 + hi[k] / 2.0;
-    let range = |k: usize| {
-        format!(
-            "{} to {} mm",
-            tick_label(lo[k], 1.0),
-            tick_label(hi[k], 1.0)
-        )
-    };
-    let x = to_canvas(&[mid(0), lo[1], lo[2]]);
-    d.text(
-        x[0] + 14.0,
-        x[1] + 22.0,
-        format!("X {}", range(0)),
-        13.0,
-        Anchor::Start,
-    );
-    let y = to_canvas(&[lo[0], mid(1), lo[2]]);
-    d.text(
-        y[0] - 14.0,
-        y[1] + 22.0,
-        format!("Y {}", range(1)),
-        13.0,
-        Anchor::End,
-    );
-    let z = to_canvas(&[lo[0], hi[1], mid(2)]);
-    d.text(
-        z[0] - 12.0,
-        z[1] + 4.0,
-        format!("Z {}", range(2)),
-        13.0,
-        Anchor::End,
-    );
+    d.text(bx, top - 10.0, bar.label, 12.0, Anchor::Start);
 }

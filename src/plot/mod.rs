@@ -16,6 +16,8 @@ use crate::io::FileError;
 mod axis;
 mod bars;
 mod charts;
+mod grid;
+mod layout;
 mod log_charts;
 mod maps;
 mod png;
@@ -24,8 +26,10 @@ mod svg;
 pub use axis::ticks;
 pub use bars::{bar_chart, histogram, stacked, Bar};
 pub use charts::{line_chart, polar_chart, Marker, Series};
+pub use grid::deformed_grid;
+pub use layout::{Layout, LayoutProblem, TextBox};
 pub use log_charts::log_chart;
-pub use maps::{colour, colour_map, deformed_grid};
+pub use maps::{colour, colour_map, diverging, ColourBar};
 
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {
@@ -124,6 +128,11 @@ pub struct Drawing {
     pub width: f64,
     pub height: f64,
     pub shapes: Vec<Shape>,
+    /// Which of `shapes` are data (a curve, not a grid line or a legend's sample): what a legend
+    /// must not cover.
+    pub curves: Vec<usize>,
+    /// The legends' frames, `[left, top, right, bottom]`.
+    pub legends: Vec<[f64; 4]>,
 }
 
 const FONT_BYTES: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
@@ -149,7 +158,15 @@ impl Drawing {
             width,
             height,
             shapes: Vec::new(),
+            curves: Vec::new(),
+            legends: Vec::new(),
         }
+    }
+
+    /// A line of data: drawn as [`Drawing::line`], and kept clear of the legend.
+    pub fn curve(&mut self, points: Vec<[f64; 2]>, color: Color, width: f64, dashed: bool) {
+        self.curves.push(self.shapes.len());
+        self.line(points, color, width, dashed);
     }
 
     pub fn line(&mut self, points: Vec<[f64; 2]>, color: Color, width: f64, dashed: bool) {

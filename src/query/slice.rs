@@ -19,7 +19,12 @@ pub struct FieldSlice {
     pub cols: usize,
     pub rows: usize,
     pub values: Vec<f64>,
+    /// The colour bar's label, the quantity as the title names it with its unit: `|VE| (mm)`,
+    /// `OE.Z (rad)`.
     pub unit: String,
+    /// Whether the values are signed (a channel, drawn on a scale diverging about zero) rather
+    /// than a magnitude.
+    pub signed: bool,
     /// Where the plane lies in the field's grid (one index along the normal), for VTK.
     pub image: ImageGrid,
     /// The quantity with its unit as one word, the name of a VTK array: `VE_magnitude_mm`,
@@ -69,8 +74,8 @@ impl Quantity {
     /// The channels that make the quantity, whether it is their magnitude, and the unit.
     fn channels(self) -> (Vec<usize>, bool, &'static str) {
         match self {
-            Quantity::VolumetricMagnitude => (vec![3, 4, 5], true, "|VE| (mm)"),
-            Quantity::OrientationMagnitude => (vec![0, 1, 2], true, "|OE| (rad)"),
+            Quantity::VolumetricMagnitude => (vec![3, 4, 5], true, "mm"),
+            Quantity::OrientationMagnitude => (vec![0, 1, 2], true, "rad"),
             Quantity::Channel(c) => (vec![c], false, if c < 3 { "rad" } else { "mm" }),
         }
     }
@@ -182,7 +187,8 @@ pub fn field_slice_at_pose(
         cols,
         rows,
         values,
-        unit: unit.to_string(),
+        unit: format!("{} ({unit})", parsed.name()),
+        signed: !magnitude,
         image,
         array_name,
     })

@@ -53,6 +53,7 @@ mod nc_unknown;
 mod nc_writing;
 mod plot;
 mod plot_extremes;
+mod plot_layout;
 mod plot_looks;
 mod profile_datums;
 mod query;

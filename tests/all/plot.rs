@@ -184,7 +184,10 @@ fn a_field_slice_holds_the_field_values() {
         slice.cols,
         slice.rows,
         &slice.values,
-        &slice.unit,
+        plot::ColourBar {
+            label: &slice.unit,
+            signed: slice.signed,
+        },
     )
     .unwrap();
     assert!(drawing.svg().unwrap().contains("data:image/png;base64,"));

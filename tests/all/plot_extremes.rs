@@ -70,9 +70,15 @@ fn charts_of_any_finite_values_are_drawn_finite() {
             let histogram = plot::histogram("t", "x", &ys, 20, Some((xs[1], "spec"))).unwrap();
             assert_drawable(&histogram, &what);
             let (lo, hi) = (xs[0].min(xs[2]), xs[0].max(xs[2]));
-            let map =
-                plot::colour_map("t", ("x", "y"), (lo, hi, ys[0], ys[2]), 3, 1, &ys, "mm").unwrap();
-            assert_drawable(&map, &what);
+            for signed in [false, true] {
+                let bar = plot::ColourBar {
+                    label: "mm",
+                    signed,
+                };
+                let map = plot::colour_map("t", ("x", "y"), (lo, hi, ys[0], ys[2]), 3, 1, &ys, bar)
+                    .unwrap();
+                assert_drawable(&map, &what);
+            }
         }
         let bars: Vec<Bar> = xs
             .iter()
@@ -121,7 +127,10 @@ fn charts_of_values_that_are_not_numbers_are_refused() {
             2,
             1,
             &[0.0, bad],
-            "mm"
+            plot::ColourBar {
+                label: "mm",
+                signed: true,
+            }
         )));
         let grid = vec![vec![[0.0, 0.0, 0.0], [bad, 0.0, 0.0]]];
         assert!(refused(plot::deformed_grid("t", "n", &grid, &grid)));
