@@ -25,7 +25,7 @@ use super::envelope::{pose_of, Envelope};
 use super::failure::{Failure, FlagContext};
 use super::numbers;
 use super::output::{check_distinct_outputs, check_plot_paths, progress, write_file};
-use volmap::io::digest::machine_sha256;
+use volmap::io::digest;
 
 #[derive(clap::Args)]
 pub struct BudgetArgs {
@@ -240,10 +240,7 @@ fn study_key(
     let inputs = machine.inputs.record(machine);
     StudyKey {
         machine: machine.name.clone(),
-        machine_sha256: Some(machine_sha256(
-            &machine.source.toml,
-            &machine.source.csv_files,
-        )),
+        machine_sha256: Some(digest::of_machine(machine)),
         tolerances: study.tolerances.iter().map(tolerance_text).collect(),
         grid: args.grid.grid,
         poses: study

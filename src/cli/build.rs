@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use serde_json::json;
 use volmap::calibrate::{self, build, CalibrateError};
 use volmap::error::excerpt;
-use volmap::io::digest::machine_sha256;
+use volmap::io::digest;
 use volmap::io::source::Reach;
 use volmap::model::AxisLetter;
 
@@ -158,7 +158,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
         // What every command reads from the file written: its hash as read back.
         let written =
             volmap::io::embedded::load_reaching(&args.out.display().to_string(), Reach::Folder)
-                .map(|m| machine_sha256(&m.source.toml, &m.source.csv_files))
+                .map(|m| digest::of_machine(&m))
                 .flag("--out")?;
         let components: Vec<serde_json::Value> = built
             .iter()

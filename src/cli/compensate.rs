@@ -128,9 +128,12 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
     ])?;
     let machine = args.machine.load()?;
     let inputs = args.inputs.on(&machine)?;
-    let envelope = Envelope::new("compensate")
-        .machine(&machine)
-        .at_inputs(&machine, &inputs);
+    // Only a report needs it: hashing the machine's files is work a plain run need not do.
+    let envelope = args.json.json.is_some().then(|| {
+        Envelope::new("compensate")
+            .machine(&machine)
+            .at_inputs(&machine, &inputs)
+    });
     let options = Options {
         chord_tolerance_mm: args.chord_tolerance,
         decimals: args.decimals,
@@ -258,7 +261,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
             report.against_direction
         );
     }
-    if let Some(path) = &args.json.json {
+    if let (Some(path), Some(envelope)) = (&args.json.json, &envelope) {
         envelope.write(path, "--json", &report)?;
     }
     Ok(ExitCode::SUCCESS)

@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 use serde_json::{json, Map, Value};
-use volmap::io::digest::machine_sha256;
+use volmap::io::digest;
 use volmap::io::field::FieldInfo;
 use volmap::model::inputs::{Inputs, InputsRecord};
 use volmap::model::{AxisLetter, Command, Machine};
@@ -35,12 +35,11 @@ impl Envelope {
 
     /// Computed from `machine`, at its evaluation inputs ([`Machine::inputs`]).
     pub fn machine(self, machine: &Machine) -> Envelope {
-        let source = &machine.source;
         Envelope {
             machine: machine_json(
                 &machine.name,
                 &machine.chain.hwang_notation(),
-                Some(machine_sha256(&source.toml, &source.csv_files)),
+                Some(digest::of_machine(machine)),
             ),
             inputs: inputs_json(&machine.inputs.record(machine)),
             ..self
@@ -53,7 +52,7 @@ impl Envelope {
             machine: machine_json(
                 &info.machine_name,
                 &info.chain,
-                Some(machine_sha256(&info.machine_toml, &info.csv_files)),
+                Some(digest::machine_sha256(&info.machine_toml, &info.csv_files)),
             ),
             inputs: inputs_json(&info.inputs),
             ..self

@@ -18,7 +18,7 @@ use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
 use super::numbers;
 use super::output::{check_distinct_outputs, progress, write_file};
-use volmap::io::digest::machine_sha256;
+use volmap::io::digest;
 
 #[derive(clap::Args)]
 #[command(mut_arg("machine", |a| a.conflicts_with("field")))]
@@ -148,11 +148,14 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             ),
         ),
     };
-    let envelope = match &source {
-        ErrorSource::Exact(machine) => Envelope::new("features").machine(machine),
-        ErrorSource::Field(field) => Envelope::new("features").field(&field.info),
-    }
-    .pose(part_pose(&part));
+    // Only a report needs it: hashing the machine's files is work a plain run need not do.
+    let envelope = args.json.json.is_some().then(|| {
+        match &source {
+            ErrorSource::Exact(machine) => Envelope::new("features").machine(machine),
+            ErrorSource::Field(field) => Envelope::new("features").field(&field.info),
+        }
+        .pose(part_pose(&part))
+    });
     let rows = part::evaluate(&part, source, &part_name)?;
     let mut pose: Vec<(&String, &f64)> = part.placement.pose_deg.iter().collect();
     pose.sort_by(|a, b| a.0.cmp(b.0));
@@ -235,7 +238,7 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             );
         }
     }
-    if let Some(path) = &args.json.json {
+    if let (Some(path), Some(envelope)) = (&args.json.json, &envelope) {
         envelope.write(path, "--json", &rows)?;
     }
     if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
@@ -297,10 +300,7 @@ fn run_conformance(
     let per_sample = args.per_sample.as_ref().map(|path| {
         let key = StudyKey {
             machine: machine.name.clone(),
-            machine_sha256: Some(machine_sha256(
-                &machine.source.toml,
-                &machine.source.csv_files,
-            )),
+            machine_sha256: Some(digest::of_machine(&machine)),
             tolerances: file.tolerances.iter().map(tolerance_text).collect(),
             grid: [0; 3],
             poses: Vec::new(),

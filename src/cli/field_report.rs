@@ -43,7 +43,7 @@ pub fn file_json(path: &Path, info: &FieldInfo, stored: String) -> Value {
 }
 
 /// The poses of a sweep, each with its statistics: `infos[k]` the header of pose `k`.
-pub fn poses_json(infos: &[FieldInfo], names: &[String], stats: &[FieldStats]) -> Value {
+fn poses_json(infos: &[FieldInfo], names: &[String], stats: &[FieldStats]) -> Value {
     infos
         .iter()
         .zip(names)
@@ -52,6 +52,25 @@ pub fn poses_json(infos: &[FieldInfo], names: &[String], stats: &[FieldStats]) -
             json!({ "name": name, "pose_deg": field_pose(info), "stats": stats_json(info, stats) })
         })
         .collect()
+}
+
+/// A sweep's summary (map --poses, or a multi-part field): the worst pose's file and grid, the
+/// statistics over every pose (`total`), the worst pose's name and each pose's statistics;
+/// `infos[k]` is the header of pose `k`.
+pub fn sweep_json(
+    path: &Path,
+    infos: &[FieldInfo],
+    names: &[String],
+    stats: &[FieldStats],
+    total: &FieldStats,
+    stored: String,
+) -> Value {
+    let worst = &infos[total.max_ve_pose];
+    let mut result = file_json(path, worst, stored);
+    result["stats"] = stats_json(worst, total);
+    result["worst_pose"] = names[total.max_ve_pose].clone().into();
+    result["poses"] = poses_json(infos, names, stats);
+    result
 }
 
 /// The spot check against the f64 reference, with its tolerances; null where none was asked.

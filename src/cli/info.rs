@@ -10,7 +10,7 @@ use volmap::io::field::{FieldFile, FieldReader};
 use super::args::JsonArg;
 use super::envelope::{field_pose, Envelope};
 use super::failure::Failure;
-use super::field_report::{file_json, poses_json, stats_json};
+use super::field_report::{file_json, stats_json, sweep_json};
 use super::map::print_summary;
 use super::sweep::print_sweep_summary;
 
@@ -58,14 +58,10 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
     );
     if let Some(path) = &args.json.json {
         let infos: Vec<_> = (0..file.parts()).map(|p| file.info(p)).collect();
-        let worst = &infos[total.max_ve_pose];
-        let mut result = file_json(&args.file, worst, file.storage(0));
-        result["stats"] = stats_json(worst, &total);
-        result["worst_pose"] = names[total.max_ve_pose].clone().into();
-        result["poses"] = poses_json(&infos, &names, &stats);
+        let result = sweep_json(&args.file, &infos, &names, &stats, &total, file.storage(0));
         let poses = infos.iter().map(field_pose).collect();
         Envelope::new("info")
-            .field(worst)
+            .field(&infos[total.max_ve_pose])
             .pose(serde_json::Value::Array(poses))
             .write(path, "--json", &result)?;
     }

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use volmap::io::embedded;
 
 use serde_json::json;
-use volmap::io::digest::machine_sha256;
+use volmap::io::digest;
 
 use super::args::JsonArg;
 use super::envelope::Envelope;
@@ -59,7 +59,7 @@ pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
             "chain": machine.chain.hwang_notation(),
             "axes": axes,
             "description": machine.description,
-            "sha256": machine_sha256(&machine.source.toml, &machine.source.csv_files),
+            "sha256": digest::of_machine(&machine),
         }));
     }
     if let Some(path) = &args.json.json {

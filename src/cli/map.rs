@@ -17,7 +17,7 @@ use super::args::{
 };
 use super::envelope::{pose_of, Envelope};
 use super::failure::{Failure, FlagContext};
-use super::field_report::{check_json, file_json, poses_json, stats_json};
+use super::field_report::{check_json, file_json, stats_json, sweep_json};
 use super::numbers;
 use super::output::progress;
 use super::sweep;
@@ -186,13 +186,16 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
                 .collect();
             let names: Vec<String> = summary.poses.iter().map(|p| p.name.clone()).collect();
             let stats: Vec<FieldStats> = summary.poses.iter().map(|p| p.stats.clone()).collect();
-            let worst = &infos[summary.stats.max_ve_pose];
-            let mut result = file_json(&args.out, worst, options.storage.describe());
+            let mut result = sweep_json(
+                &args.out,
+                &infos,
+                &names,
+                &stats,
+                &summary.stats,
+                options.storage.describe(),
+            );
             result["bytes"] = summary.times.write.bytes.into();
             result["seconds"] = summary.seconds.into();
-            result["stats"] = stats_json(worst, &summary.stats);
-            result["worst_pose"] = names[summary.stats.max_ve_pose].clone().into();
-            result["poses"] = poses_json(&infos, &names, &stats);
             result["check"] = check_json(summary.check.as_ref());
             let poses = grids.iter().map(|g| pose_of(&machine, &g.pose)).collect();
             Envelope::new("map")

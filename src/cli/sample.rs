@@ -134,7 +134,8 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         .as_ref()
         .map(|f| format!("from {} at {}", f.path().display(), f.inputs(0).describe()));
     // The pose of a five-axis map's points is each point's own.
-    let mut field_envelope = file.as_ref().map(|f| {
+    // Only a report needs it: hashing the machine's files is work a plain run need not do.
+    let mut field_envelope = file.as_ref().filter(|_| args.json.json.is_some()).map(|f| {
         Envelope::new("sample")
             .field(&f.info(0))
             .pose(serde_json::Value::Null)
@@ -161,9 +162,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     let envelope;
     let (mut source, precision) = match (&loaded, &args.machine.machine) {
         (Some(loaded), _) => {
-            envelope = field_envelope
-                .take()
-                .unwrap_or_else(|| Envelope::new("sample"));
+            envelope = field_envelope.take();
             let (sampler, note) = args.device.sampler()?;
             if let Some(note) = note {
                 errln!("note: {note}");
@@ -182,10 +181,12 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
                 inputs.describe(&machine)
             ));
             let pose = args.pose.on(&machine)?;
-            envelope = Envelope::new("sample")
-                .machine(&machine)
-                .at_inputs(&machine, &inputs)
-                .at_pose(&machine, &pose);
+            envelope = args.json.json.is_some().then(|| {
+                Envelope::new("sample")
+                    .machine(&machine)
+                    .at_inputs(&machine, &inputs)
+                    .at_pose(&machine, &pose)
+            });
             query::check_exact_columns(&machine, reader.columns(), &path).flag("--points")?;
             let source = Source::Exact {
                 machine,
@@ -269,7 +270,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
              the first at line {line} of {path}"
         );
     }
-    if let Some(json) = &args.json.json {
+    if let (Some(json), Some(envelope)) = (&args.json.json, &envelope) {
         let result = serde_json::json!({
             "points": read,
             "sampled": sampled,

@@ -262,7 +262,7 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
     for path in &common.plot {
         write_test_plot(path, &result)?;
     }
-    if let Some(path) = &common.json.json {
+    if let (Some(path), Some(envelope)) = (&common.json.json, &envelope) {
         envelope.write(path, "--json", &result)?;
     }
     Ok(ExitCode::SUCCESS)
@@ -272,14 +272,18 @@ pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
 fn run_on_machine(
     common: &Common,
     test: impl FnOnce(&Setup) -> Result<TestResult, standards::StandardsError>,
-) -> Result<(TestResult, Envelope), Failure> {
+) -> Result<(TestResult, Option<Envelope>), Failure> {
     let machine = common.machine.load()?;
     let inputs = common.inputs.on(&machine)?;
     let setup = Setup::with_inputs(&machine, &common.pose.pose, &inputs).flag("--pose")?;
-    let envelope = Envelope::new("test")
-        .machine(&machine)
-        .at_inputs(&machine, &inputs)
-        .at_pose(&machine, &common.pose.on(&machine)?);
+    let pose = common.pose.on(&machine)?;
+    // Only a report needs it: hashing the machine's files is work a plain run need not do.
+    let envelope = common.json.json.is_some().then(|| {
+        Envelope::new("test")
+            .machine(&machine)
+            .at_inputs(&machine, &inputs)
+            .at_pose(&machine, &pose)
+    });
     let result = test(&setup).map_err(|e| match &e {
         // A count beyond its limit comes from the flags of the spec's keys.
         standards::StandardsError::Limit { key, message } => {

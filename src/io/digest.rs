@@ -4,6 +4,13 @@
 
 use sha2::{Digest, Sha256};
 
+use crate::model::Machine;
+
+/// [`machine_sha256`] of the files `machine` was read from.
+pub fn of_machine(machine: &Machine) -> String {
+    machine_sha256(&machine.source.toml, &machine.source.csv_files)
+}
+
 /// `sha256:` and the hex SHA-256 of the machine file's `toml` text followed by each table's
 /// path (as the machine file writes it) and text, in the order the file reads them; each part is
 /// preceded by its length in bytes (8 bytes, little-endian), so that no two different sets of

@@ -64,9 +64,12 @@ pub struct ColourBar<'a> {
     pub signed: bool,
 }
 
+/// The colour at a fraction (0 to 1) of a colour bar's range.
+type ColourAt = fn(f64) -> [u8; 3];
+
 impl ColourBar<'_> {
     /// The range the colours run over, and the colour at a fraction of it.
-    fn scale(&self, lo: f64, hi: f64) -> ((f64, f64), fn(f64) -> [u8; 3]) {
+    fn scale(&self, lo: f64, hi: f64) -> ((f64, f64), ColourAt) {
         if self.signed {
             (symmetric(lo, hi), diverging)
         } else {
@@ -91,7 +94,10 @@ fn symmetric(lo: f64, hi: f64) -> (f64, f64) {
 /// outer ones, half as wide, end at the travel's ends; one point is one cell.
 fn half_cells(n: usize) -> (usize, impl Fn(usize) -> usize) {
     let halves = if n > 1 { 2 * (n - 1) } else { 1 };
-    (halves, move |k: usize| if n > 1 { (k + 1) / 2 } else { 0 })
+    (
+        halves,
+        move |k: usize| if n > 1 { k.div_ceil(2) } else { 0 },
+    )
 }
 
 /// A colour map of `values` (`rows × cols` grid points, row 0 at `extent.2`, the low end of the
