@@ -110,6 +110,26 @@ fn short_numbers(text: &str) -> std::borrow::Cow<'_, str> {
     std::borrow::Cow::Owned(out)
 }
 
+/// `text` safe to show on a terminal: every control character but the newline and the tab
+/// (escape sequences, a carriage return, a NUL, the C1 controls) written as its escape, `\u{1b}`,
+/// so that nothing read from an input (a feature's name, a CSV field, a key) can move the
+/// cursor, rewrite a line or hide text in a message or a table.
+pub fn terminal_safe(text: &str) -> std::borrow::Cow<'_, str> {
+    let unsafe_char = |c: char| c.is_control() && c != '\n' && c != '\t';
+    if !text.chars().any(unsafe_char) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 16);
+    for c in text.chars() {
+        if unsafe_char(c) {
+            out.extend(c.escape_unicode());
+        } else {
+            out.push(c);
+        }
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 /// A TOML parse error of `text` as a message says it: `line L, column C: what`, then the line
 /// quoted around the column (at most [`EXCERPT_CHARS`] characters of it, where the parser's own
 /// message would quote the whole line however long).
@@ -122,18 +142,52 @@ pub fn toml_message(error: &toml::de::Error, text: &str) -> String {
 /// reports anything. volmap's own files nest four levels at most.
 pub const MAX_TOML_DEPTH: usize = 64;
 
-/// Where `text` nests arrays and inline tables deeper than [`MAX_TOML_DEPTH`], the message a
-/// parse error would give (`line L, column C: …`, the line quoted); `None` where it does not.
-/// Brackets inside strings and comments do not count.
-pub fn toml_too_deep(text: &str) -> Option<String> {
+/// The most parts a dotted key (`a.b.c = 1`, `[a.b.c]`) may have: the parser recurses once per
+/// part too, and reports a thousand of them as a recursion limit with no line. volmap's own keys
+/// have three at most.
+pub const MAX_TOML_KEY_PARTS: usize = 64;
+
+/// The most values a TOML file may hold in its arrays and inline tables (counted by their
+/// separating commas and their brackets). The parsers hold 150 to 280 bytes per value (an array of
+/// 30 million numbers in a 60 MB file ran out of 4 GiB), so the bound keeps any file within the
+/// 64 MiB text limit under about 700 MB of parsing. `build` writes a measured table inline: two
+/// components of 400,000 nodes each fit.
+pub const MAX_TOML_VALUES: usize = 2_500_000;
+
+/// The most keys a TOML file may hold (each `=`) with its table headers. A key costs the parsers
+/// up to 700 bytes (a million took 670 MB in the parser of tolerance files): the bound keeps
+/// that under about 180 MB. volmap's files hold hundreds.
+pub const MAX_TOML_KEYS: usize = 250_000;
+
+/// Where `text` is beyond what a TOML file may hold, the message a parse error would give (`line
+/// L, column C: …`, the line quoted); `None` where it is within the bounds. The bounds, checked
+/// before the file is parsed: arrays and inline tables nested at most [`MAX_TOML_DEPTH`] levels,
+/// dotted keys of at most [`MAX_TOML_KEY_PARTS`] parts, at most [`MAX_TOML_VALUES`] values and
+/// [`MAX_TOML_KEYS`] keys.
+/// Brackets, commas and dots inside strings and comments do not count.
+pub fn toml_beyond_limits(text: &str) -> Option<String> {
     let bytes = text.as_bytes();
-    let mut depth = 0usize;
+    let at = |what: String, n: usize| Some(located_message(&what, Some(n..n + 1), text));
+    // What each open bracket is: `[`/`{` of a value, or a table header (`[a]`, `[[a]]`).
+    let mut open: Vec<u8> = Vec::new();
+    let (mut values, mut keys) = (0usize, 0usize);
+    // Whether a key is being read (at a line's start outside arrays, after `{` or `,` in an
+    // inline table, in a header), and its dots so far.
+    let mut in_key = true;
+    let mut key_parts = 1usize;
     let mut n = 0;
     while n < bytes.len() {
         match bytes[n] {
             b'#' => {
                 while n < bytes.len() && bytes[n] != b'\n' {
                     n += 1;
+                }
+                continue;
+            }
+            b'\n' => {
+                if !open.iter().any(|&b| b == b'[') {
+                    in_key = true;
+                    key_parts = 1;
                 }
             }
             quote @ (b'"' | b'\'') => {
@@ -160,20 +214,63 @@ pub fn toml_too_deep(text: &str) -> Option<String> {
                     n += 1;
                 }
             }
+            b'[' if in_key && open.is_empty() => {
+                // A table header: its key follows, up to the closing bracket.
+                if bytes[n..].starts_with(b"[[") {
+                    n += 1;
+                }
+                open.push(b'h');
+                keys += 1;
+                key_parts = 1;
+            }
             b'[' | b'{' => {
-                depth += 1;
-                if depth > MAX_TOML_DEPTH {
-                    return Some(located_message(
-                        &format!(
-                            "arrays and inline tables nested more than {MAX_TOML_DEPTH} levels deep"
-                        ),
-                        Some(n..n + 1),
-                        text,
-                    ));
+                if open.len() >= MAX_TOML_DEPTH {
+                    return at(
+                        format!("arrays and inline tables nested more than {MAX_TOML_DEPTH} levels deep"),
+                        n,
+                    );
+                }
+                open.push(bytes[n]);
+                values += 1;
+                in_key = bytes[n] == b'{';
+                key_parts = 1;
+            }
+            b']' | b'}' => {
+                if open.pop() == Some(b'h') {
+                    in_key = false;
+                }
+                in_key &= open.last() == Some(&b'{');
+            }
+            b'=' => {
+                keys += 1;
+                in_key = false;
+            }
+            b',' => {
+                values += 1;
+                in_key = open.last() == Some(&b'{');
+                key_parts = 1;
+            }
+            b'.' if in_key || open.last() == Some(&b'h') => {
+                key_parts += 1;
+                if key_parts > MAX_TOML_KEY_PARTS {
+                    return at(
+                        format!("a dotted key of more than {MAX_TOML_KEY_PARTS} parts"),
+                        n,
+                    );
                 }
             }
-            b']' | b'}' => depth = depth.saturating_sub(1),
             _ => {}
+        }
+        if values > MAX_TOML_VALUES {
+            return at(
+                format!(
+                    "more than {MAX_TOML_VALUES} values in arrays and inline tables: a table this large belongs in a CSV file"
+                ),
+                n,
+            );
+        }
+        if keys > MAX_TOML_KEYS {
+            return at(format!("more than {MAX_TOML_KEYS} keys and tables"), n);
         }
         n += 1;
     }
@@ -260,13 +357,13 @@ mod toml_tests {
     #[test]
     fn nesting_beyond_the_limit_is_found_outside_strings_and_comments() {
         let deep = "a = ".to_string() + &"[".repeat(MAX_TOML_DEPTH + 1);
-        let message = toml_too_deep(&deep).unwrap();
+        let message = toml_beyond_limits(&deep).unwrap();
         assert!(
             message.starts_with("line 1, column 69: arrays and inline tables nested more than 64"),
             "{message}"
         );
         let unclosed = "x = { [1.0]\n".repeat(100);
-        assert!(toml_too_deep(&unclosed)
+        assert!(toml_beyond_limits(&unclosed)
             .unwrap()
             .starts_with("line 64, column 7:"));
         let fine = format!(
@@ -277,11 +374,74 @@ mod toml_tests {
             "[".repeat(100),
             "{".repeat(100)
         );
-        assert_eq!(toml_too_deep(&fine), None, "{fine}");
+        assert_eq!(toml_beyond_limits(&fine), None, "{fine}");
         let at_limit =
             "a = ".to_string() + &"[".repeat(MAX_TOML_DEPTH) + &"]".repeat(MAX_TOML_DEPTH);
-        assert_eq!(toml_too_deep(&at_limit), None);
+        assert_eq!(toml_beyond_limits(&at_limit), None);
         assert!(toml::from_str::<toml::Table>(&at_limit).is_ok());
+    }
+
+    #[test]
+    fn elements_and_dotted_keys_beyond_the_limits_are_found_before_parsing() {
+        // One array a value more than the bound (its bracket is one): refused at its last
+        // comma; one key more than the bound, as separate lines, at its `=`.
+        let values = "0,".repeat(MAX_TOML_VALUES - 2);
+        let at_limit = format!("a = [{values}0]\n");
+        assert_eq!(toml_beyond_limits(&at_limit), None);
+        let over = format!("a = [{values}0,0]\n");
+        let message = toml_beyond_limits(&over).unwrap();
+        assert!(message.starts_with("line 1, column "), "{message}");
+        assert!(
+            message.contains(&format!("more than {MAX_TOML_VALUES} values")),
+            "{message}"
+        );
+        let keys: String = (0..=MAX_TOML_KEYS).map(|k| format!("k{k} = 1\n")).collect();
+        let message = toml_beyond_limits(&keys).unwrap();
+        assert!(
+            // `k250000 = 1`: the `=` at column 9.
+            message.starts_with(&format!("line {}, column 9:", MAX_TOML_KEYS + 1))
+                && message.contains(&format!("more than {MAX_TOML_KEYS} keys")),
+            "{message}"
+        );
+        let at_limit: String = (1..MAX_TOML_KEYS).map(|k| format!("k{k} = 1\n")).collect();
+        assert_eq!(toml_beyond_limits(&format!("[t]\n{at_limit}")), None);
+        // Commas, dots and brackets in strings and comments are not elements or parts.
+        let quoted = format!("a = \"{}\" # {}\n", ",".repeat(2_000_000), ".".repeat(100));
+        assert_eq!(toml_beyond_limits(&quoted), None);
+        let parts = |n: usize| vec!["k"; n].join(".");
+        for text in [
+            format!("{} = 1\n", parts(MAX_TOML_KEY_PARTS)),
+            format!("[{}]\n", parts(MAX_TOML_KEY_PARTS)),
+            format!("t = {{ {} = 1.5 }}\n", parts(MAX_TOML_KEY_PARTS)),
+            format!("x = 1.5\ny = [1.5, 2.5, {{ a.b = 3.5 }}]\n"),
+        ] {
+            assert_eq!(toml_beyond_limits(&text), None, "{text}");
+            assert!(toml::from_str::<toml::Table>(&text).is_ok(), "{text}");
+        }
+        for (text, line) in [
+            (format!("x = 1\n{} = 1\n", parts(MAX_TOML_KEY_PARTS + 1)), 2),
+            (format!("[[{}]]\n", parts(MAX_TOML_KEY_PARTS + 1)), 1),
+            (format!("a = 1\nt = {{ b = 2, {} = 1 }}\n", parts(500)), 2),
+        ] {
+            let message = toml_beyond_limits(&text).unwrap();
+            assert!(
+                message.starts_with(&format!("line {line}, column "))
+                    && message.contains("a dotted key of more than 64 parts"),
+                "{message}"
+            );
+        }
+    }
+
+    #[test]
+    fn control_characters_are_shown_escaped_but_newlines_and_tabs_kept() {
+        assert_eq!(
+            terminal_safe("a\u{1b}[2K\rfit\u{1b}[8m\0\u{9b}b\n\tc"),
+            "a\\u{1b}[2K\\u{d}fit\\u{1b}[8m\\u{0}\\u{9b}b\n\tc"
+        );
+        assert!(matches!(
+            terminal_safe("plain µm ±"),
+            std::borrow::Cow::Borrowed(_)
+        ));
     }
 
     #[test]

@@ -10,7 +10,7 @@ mod cli;
 
 use std::process::ExitCode;
 
-use clap::{CommandFactory, Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// Maps the volumetric error of multi-axis machine tools: the full chain of homogeneous
 /// transforms with every measured axis error, at every point of a grid over the workspace.
@@ -79,11 +79,31 @@ enum Command {
     CliReference,
 }
 
+/// The command line, every value allowed to be a negative number (`--from -5,0,0`, `--spec -1`):
+/// a value that is one reaches its own check and message, not clap's "unexpected argument".
+fn command() -> clap::Command {
+    fn negative_numbers(command: clap::Command) -> clap::Command {
+        command
+            .mut_args(|arg| {
+                if arg.get_action().takes_values() {
+                    arg.allow_negative_numbers(true)
+                } else {
+                    arg
+                }
+            })
+            .mut_subcommands(negative_numbers)
+    }
+    negative_numbers(Cli::command())
+}
+
 fn main() -> ExitCode {
     volmap::gpu::device::quiet_window_system();
     cli::interrupt::install();
     volmap::gpu::slow::on_slow_compile(cli::output::say_slow_compile);
-    let result = match Cli::parse().command {
+    // A run's outputs are put in place together when it succeeds, none when it fails.
+    volmap::io::outputs::hold_commits();
+    let cli = Cli::from_arg_matches(&command().get_matches()).unwrap_or_else(|e| e.exit());
+    let result = match cli.command {
         Command::Map(args) => cli::map::run(args),
         Command::Machines(args) => cli::machines::run(args),
         Command::Info(args) => cli::info::run(args),
@@ -100,11 +120,16 @@ fn main() -> ExitCode {
         Command::Compensate(args) => cli::compensate::run(args),
         Command::Trace(args) => cli::trace::run(args),
         Command::Export(args) => cli::export::run(args),
-        Command::Completions(args) => cli::completions::run(args, Cli::command()),
-        Command::Man(args) => cli::man::run(args, Cli::command()),
-        Command::CliReference => cli::reference::run(Cli::command()),
+        Command::Completions(args) => cli::completions::run(args, command()),
+        Command::Man(args) => cli::man::run(args, command()),
+        Command::CliReference => cli::reference::run(command()),
     };
+    let result = result.and_then(|code| {
+        volmap::io::outputs::commit_held().map_err(cli::failure::Failure::from)?;
+        Ok(code)
+    });
     result.unwrap_or_else(|failure| {
+        volmap::io::outputs::discard_held();
         failure.report();
         failure.exit_code()
     })

@@ -181,7 +181,7 @@ impl FitFile {
     pub fn read_reaching(path: &Path, reach: Reach) -> Result<FitFile, CalibrateError> {
         let name = path.display().to_string();
         let text = read_text(path)?;
-        if let Some(message) = crate::error::toml_too_deep(&text) {
+        if let Some(message) = crate::error::toml_beyond_limits(&text) {
             return Err(CalibrateError::Parameter(format!("{name}: {message}")));
         }
         let raw: RawFitFile = toml::from_str(&text).map_err(|e| {

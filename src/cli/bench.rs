@@ -39,6 +39,7 @@ pub struct BenchArgs {
 }
 
 pub fn run(args: BenchArgs) -> Result<ExitCode, Failure> {
+    super::output::check_distinct_outputs(&[("--json", args.json.json.as_deref())])?;
     let mut machines = Vec::new();
     for name in args
         .machines

@@ -233,5 +233,5 @@ pub fn plot(
             marker.as_ref().map(|(v, l)| (*v, l.as_str())),
         )?);
     }
-    write_plot(&stacked(drawings), path)
+    write_plot(&stacked(drawings), path, "--plot")
 }

@@ -38,6 +38,10 @@ pub struct BuildArgs {
 }
 
 pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
+    super::output::check_distinct_outputs(&[
+        ("--out", Some(args.out.as_path())),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     let base = load_machine_flag(&args.base, &args.reach, "--base")?;
     let mut axes = Vec::new();
     for pair in &args.axes {

@@ -395,7 +395,7 @@ fn sweep(
             first.format, first.machine
         );
         let drawing = plot::log_chart(&title, "points per table", "residual (µm)", &series, true)?;
-        write_plot(&drawing, path)?;
+        write_plot(&drawing, path, "--plot")?;
     }
     if let Some(path) = &args.json.json {
         let json: Vec<serde_json::Value> = rows

@@ -103,9 +103,10 @@ impl Failure {
         // Whatever a message quotes of the input, it shows a few characters of it.
         // A closed standard error has nobody to tell: no panic over it.
         let mut err = std::io::stderr().lock();
-        let _ = writeln!(err, "error: {}", volmap::error::capped(&message));
+        let safe = volmap::error::terminal_safe;
+        let _ = writeln!(err, "error: {}", safe(&volmap::error::capped(&message)));
         if let Some(hint) = &self.hint {
-            let _ = writeln!(err, "  hint: {}", volmap::error::capped(hint));
+            let _ = writeln!(err, "  hint: {}", safe(&volmap::error::capped(hint)));
         }
     }
 }

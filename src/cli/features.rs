@@ -119,6 +119,22 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
     }
     let part_name = args.part.display().to_string();
     let part = PartFile::read(&args.part).flag("--part")?;
+    // Every output before any work: --json, --per-sample and each feature's deviation file.
+    let plies: Vec<(String, std::path::PathBuf)> = part
+        .ply_paths()
+        .into_iter()
+        .map(|(name, path)| (format!("--part: feature `{name}`'s ply"), path))
+        .collect();
+    let mut outputs: Vec<(&str, Option<&Path>)> = vec![
+        ("--json", args.json.json.as_deref()),
+        ("--per-sample", args.per_sample.as_deref()),
+    ];
+    outputs.extend(
+        plies
+            .iter()
+            .map(|(label, path)| (label.as_str(), Some(path.as_path()))),
+    );
+    check_distinct_outputs(&outputs)?;
     if let (Some(tolerances), Some(name)) = (&args.tolerances, &args.machine.machine) {
         return run_conformance(&args, &part, &part_name, tolerances, name);
     }
@@ -285,12 +301,6 @@ fn run_conformance(
         Some(shard) => shard.range(samples).flag("--shard")?,
         None => 0..samples,
     };
-    if let Some(path) = &args.per_sample {
-        check_distinct_outputs(&[
-            ("--per-sample", Some(path.as_path())),
-            ("--json", args.json.json.as_deref()),
-        ])?;
-    }
     let bar = progress(Some(range.len() as u64), "evaluating", "machines");
     let result = feature_errors(&engine, &study, part, part_name, range.clone(), |n| {
         bar.set_position(n as u64)

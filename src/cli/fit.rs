@@ -30,6 +30,10 @@ pub struct FitArgs {
 }
 
 pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
+    super::output::check_distinct_outputs(&[
+        ("--out", args.out.as_deref()),
+        ("--json", args.json.json.as_deref()),
+    ])?;
     let machine = args.machine.load()?;
     let file = fit::FitFile::read_reaching(&args.measurements, args.machine.reach.reach())
         .map_err(|e| {

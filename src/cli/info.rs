@@ -23,6 +23,7 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
+    super::output::check_distinct_outputs(&[("--json", args.json.json.as_deref())])?;
     let file = FieldFile::open(&args.file)?;
     if !file.is_multipart() {
         let mut reader = file.reader(0)?;

@@ -22,6 +22,7 @@ pub struct MachinesArgs {
 }
 
 pub fn run(args: MachinesArgs) -> Result<ExitCode, Failure> {
+    super::output::check_distinct_outputs(&[("--json", args.json.json.as_deref())])?;
     if let Some(name) = &args.show {
         let (_, text) = embedded::EMBEDDED
             .iter()

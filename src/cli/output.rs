@@ -15,8 +15,19 @@ use super::failure::{Failure, FlagContext};
 /// quietly, as Unix tools end, with 141 (128 + SIGPIPE); any other failure to write it ends the
 /// command with an error and exit code 1 (`> /dev/full`). Either way the temporary files of the
 /// command are removed first, and nothing panics.
+///
+/// What is printed is [`volmap::error::terminal_safe`]: a name read from an input cannot drive
+/// the terminal (a feature named `\e[2K\r… fit` rewriting its row).
 pub fn print_out(args: std::fmt::Arguments) {
-    if let Err(e) = std::io::stdout().lock().write_fmt(args) {
+    let result = match args.as_str() {
+        Some(text) => std::io::stdout().lock().write_all(text.as_bytes()),
+        None => {
+            let text = args.to_string();
+            let safe = volmap::error::terminal_safe(&text);
+            std::io::stdout().lock().write_all(safe.as_bytes())
+        }
+    };
+    if let Err(e) = result {
         stdout_failed(&e)
     }
 }
@@ -25,7 +36,9 @@ pub fn print_out(args: std::fmt::Arguments) {
 /// error ends the command quietly as a closed standard output does; a message nobody can read
 /// is dropped.
 pub fn print_err(args: std::fmt::Arguments) {
-    if let Err(e) = std::io::stderr().lock().write_fmt(args) {
+    let text = args.to_string();
+    let safe = volmap::error::terminal_safe(&text);
+    if let Err(e) = std::io::stderr().lock().write_all(safe.as_bytes()) {
         if e.kind() == std::io::ErrorKind::BrokenPipe {
             volmap::io::atomic::remove_live_temporaries_and_exit(141)
         }
@@ -133,8 +146,8 @@ pub fn write_json_for(
     write_file(path, |out| writeln!(out, "{text}")).flag(flag)
 }
 
-/// Writes a plot (SVG or PNG by the extension) and says where.
-pub fn write_plot(drawing: &Drawing, path: &Path) -> Result<(), Failure> {
+/// Writes a plot (SVG or PNG by the extension) to the file `flag` names and says where.
+pub fn write_plot(drawing: &Drawing, path: &Path, flag: &str) -> Result<(), Failure> {
     // A text off the canvas or a legend over a curve is a bug of the plot's layout: debug builds
     // (the tests' runs of every command) refuse it rather than write a picture that misleads.
     #[cfg(debug_assertions)]
@@ -142,9 +155,10 @@ pub fn write_plot(drawing: &Drawing, path: &Path) -> Result<(), Failure> {
         return Err(Failure::work(anyhow::anyhow!(
             "{}: the plot's layout: {problem}",
             path.display()
-        )));
+        ))
+        .context(flag.to_string()));
     }
-    drawing.write(path)?;
+    drawing.write(path).flag(flag)?;
     errln!("plot: {}", path.display());
     Ok(())
 }
@@ -166,8 +180,11 @@ pub fn check_machine_text(text: &str, path: &Path, folder: &Path) -> Result<(), 
     Ok(())
 }
 
-/// Every output of one run at a path of its own: two flags naming one file would leave the one
-/// written last, and the run would report both.
+/// Checks every output of a run before any work: each at a path of its own (two flags naming
+/// one file would leave the one written last, and the run would report both), in a folder that
+/// exists, not a folder, a link to nothing or a file the user could not write
+/// ([`volmap::io::outputs::check_writable`]), and not a file the run has read so far. Each is
+/// noted as an output of the run, so an input read later that is one of them is refused too.
 ///
 /// Two names are one file when they resolve to one path (links followed, in the file's name or
 /// its folder's) or, for files that exist, to one inode (a hard link).
@@ -183,6 +200,11 @@ pub fn check_distinct_outputs(outputs: &[(&str, Option<&Path>)]) -> Result<(), F
                 volmap::io::shown_path(path)
             )));
         }
+    }
+    for (flag, path, _) in &given {
+        volmap::io::source::check_not_source(path).flag(flag)?;
+        volmap::io::outputs::check_writable(path).flag(flag)?;
+        volmap::io::source::note_output(path);
     }
     Ok(())
 }

@@ -81,7 +81,7 @@ pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> 
             &series,
         ),
     }?;
-    write_plot(&drawing, path)
+    write_plot(&drawing, path, "--plot")
 }
 
 #[derive(clap::Args)]
@@ -139,6 +139,12 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
         PlotKind::Grid { out, .. } => (Vec::new(), out.clone()),
     };
     check_plot_paths(&outputs, "--out")?;
+    let every: Vec<(&str, Option<&std::path::Path>)> = images
+        .iter()
+        .chain(&outputs)
+        .map(|p| ("--out", Some(p.as_path())))
+        .collect();
+    super::output::check_distinct_outputs(&every)?;
     let drawing = match args.kind {
         PlotKind::Slice {
             field,
@@ -243,7 +249,7 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
         }
     };
     for path in &outputs {
-        write_plot(&drawing, path)?;
+        write_plot(&drawing, path, "--out")?;
     }
     Ok(ExitCode::SUCCESS)
 }

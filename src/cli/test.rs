@@ -169,13 +169,19 @@ enum TestKind {
 }
 
 pub fn run(args: TestArgs) -> Result<ExitCode, Failure> {
-    let plots = match &args.kind {
+    let (plots, json) = match &args.kind {
         TestKind::Positioning { common, .. }
         | TestKind::Diagonal { common, .. }
         | TestKind::Circular { common, .. }
-        | TestKind::Rtest { common, .. } => &common.plot,
+        | TestKind::Rtest { common, .. } => (&common.plot, common.json.json.as_deref()),
     };
     check_plot_paths(plots, "--plot")?;
+    let mut outputs: Vec<(&str, Option<&std::path::Path>)> = plots
+        .iter()
+        .map(|p| ("--plot", Some(p.as_path())))
+        .collect();
+    outputs.push(("--json", json));
+    super::output::check_distinct_outputs(&outputs)?;
     let (common, (result, envelope)) = match args.kind {
         TestKind::Positioning {
             axis,

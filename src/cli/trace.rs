@@ -231,7 +231,7 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
             "deviation (µm)",
             &series,
         )?;
-        write_plot(&drawing, path)?;
+        write_plot(&drawing, path, "--plot")?;
     }
     if let (Some(path), Some(envelope)) = (&args.json.json, &envelope) {
         envelope.write(path, "--json", &summaries)?;

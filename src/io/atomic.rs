@@ -32,42 +32,23 @@ impl AtomicFile {
     /// Starts writing `path` (through a buffer of `buffer_bytes`).
     pub fn create(path: &Path, buffer_bytes: usize) -> Result<AtomicFile, FileError> {
         super::source::check_not_source(path)?;
-        if let Ok(metadata) = std::fs::metadata(path) {
-            if metadata.is_dir() {
-                return Err(FileError::write(
-                    path,
-                    std::io::Error::new(std::io::ErrorKind::IsADirectory, "it is a folder"),
-                ));
-            }
-            if !metadata.is_file() {
-                // A device or a pipe (`/dev/null`, `/dev/stdout`): renaming over it would
-                // replace the device with a file, so it is written directly.
-                let file = std::fs::OpenOptions::new()
-                    .write(true)
-                    .open(path)
-                    .map_err(|e| FileError::write(path, e))?;
-                return Ok(AtomicFile {
-                    out: BufWriter::with_capacity(buffer_bytes, file),
-                    temp: None,
-                    path: path.to_path_buf(),
-                    committed: false,
-                });
-            }
-        }
-        // A folder that is not there is a mistyped name more often than one to make: refused
-        // before anything is written, as bad input.
-        let folder = match path.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
-        if !folder.is_dir() {
-            return Err(FileError::write(
-                path,
-                std::io::Error::new(
-                    std::io::ErrorKind::InvalidInput,
-                    format!("its folder `{}` does not exist", super::shown_path(folder)),
-                ),
-            ));
+        super::outputs::check_writable(path)?;
+        // A link is written through: the file it leads to is replaced, the link stays.
+        let target = super::outputs::target_of(path)?;
+        let path = target.as_path();
+        if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+            // A device or a pipe (`/dev/null`, `/dev/stdout`): renaming over it would
+            // replace the device with a file, so it is written directly.
+            let file = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(|e| FileError::write(path, e))?;
+            return Ok(AtomicFile {
+                out: BufWriter::with_capacity(buffer_bytes, file),
+                temp: None,
+                path: path.to_path_buf(),
+                committed: false,
+            });
         }
         let name = path
             .file_name()
@@ -139,16 +120,19 @@ impl AtomicFile {
             match &self.temp {
                 Some(temp) => {
                     self.out.get_ref().sync_all()?;
-                    std::fs::rename(temp, &self.path)
+                    // Held complete until the run ends, where the run holds its outputs.
+                    if super::outputs::hold(temp, &self.path) {
+                        return Ok(());
+                    }
+                    std::fs::rename(temp, &self.path)?;
+                    forget(temp);
+                    Ok(())
                 }
                 None => Ok(()),
             }
         })();
         result.map_err(|e| self.error(e))?;
         self.committed = true;
-        if let Some(temp) = &self.temp {
-            forget(temp);
-        }
         Ok(())
     }
 }
@@ -243,8 +227,14 @@ impl Drop for ScratchDir {
     }
 }
 
+/// Whether `path` lies in a scratch folder alive now: a benchmark's scratch fields are put in
+/// place at once, never held to the run's end (the folder is gone by then).
+pub(super) fn in_scratch(path: &Path) -> bool {
+    live_folders().iter().any(|folder| path.starts_with(folder))
+}
+
 /// Takes a temporary file off the list of live ones (committed or removed).
-fn forget(temp: &Path) {
+pub(super) fn forget(temp: &Path) {
     live().retain(|t| t != temp);
 }
 

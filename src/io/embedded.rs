@@ -48,7 +48,8 @@ pub fn load_reaching(name_or_path: &str, reach: Reach) -> Result<Machine, Machin
         return machine;
     }
     let path = Path::new(name_or_path);
-    if path.exists() {
+    // A machine file this run wrote is there, held until the run ends.
+    if path.exists() || crate::io::outputs::held_temporary(path).is_some() {
         return Machine::from_path_reaching(path, reach);
     }
     Err(MachineError::UnknownMachine {

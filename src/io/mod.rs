@@ -11,6 +11,7 @@ pub mod embedded;
 pub mod field;
 pub mod machine_file;
 pub mod mesh;
+pub mod outputs;
 pub mod points;
 pub mod source;
 pub mod tolerance_file;
@@ -46,6 +47,11 @@ pub enum FileError {
         read_as(path, input)
     )]
     OverwritesInput { path: String, input: String },
+    #[error(
+        "{path} is an input of this run and one of its outputs{}: volmap never writes over its inputs",
+        written_as(path, output)
+    )]
+    ReadsOutput { path: String, output: String },
     #[error("`{name}` lies outside the folder {folder}: files named in a file must be in its folder or below it")]
     OutsideFolder { name: String, folder: String },
 }
@@ -101,6 +107,16 @@ pub fn shown_path(path: &Path) -> String {
     format!("{head}…{tail}")
 }
 
+/// How the output an input would be replaced by was named, where that differs from the input's
+/// name.
+fn written_as(path: &str, output: &str) -> String {
+    if path == output {
+        String::new()
+    } else {
+        format!(" (written as {output})")
+    }
+}
+
 /// How the input an output would replace was named, where that differs from the output's name.
 fn read_as(path: &str, input: &str) -> String {
     if path == input {
@@ -119,6 +135,7 @@ impl Classify for FileError {
             FileError::Read { .. }
             | FileError::TooLarge { .. }
             | FileError::OverwritesInput { .. }
+            | FileError::ReadsOutput { .. }
             | FileError::OutsideFolder { .. } => ErrorKind::Input,
             FileError::Write { source, .. }
                 if matches!(

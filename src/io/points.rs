@@ -167,7 +167,17 @@ impl<R: BufRead> PointReader<R> {
             let read = (&mut self.input)
                 .take(LINE_LIMIT_BYTES as u64 + 1)
                 .read_line(&mut self.text)
-                .map_err(|e| FileError::read(Path::new(&self.path), e))?;
+                .map_err(|e| {
+                    if e.kind() == std::io::ErrorKind::InvalidData {
+                        // The line that is not UTF-8 (read_line says none).
+                        return PointsError::from(CsvError {
+                            path: self.path.clone(),
+                            line: self.line + 1,
+                            message: "not UTF-8 text".to_string(),
+                        });
+                    }
+                    FileError::read(Path::new(&self.path), e).into()
+                })?;
             if read == 0 {
                 return Ok(None);
             }

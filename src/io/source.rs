@@ -83,6 +83,7 @@ pub fn without_byte_order_mark(bytes: &[u8]) -> &[u8] {
 /// Reads a whole file of `kind`, at most its limit; a leading byte-order mark is kept (binary
 /// files have none to drop; text readers drop it).
 pub fn read_bytes(path: &Path, kind: SourceKind) -> Result<Vec<u8>, FileError> {
+    refuse_special(path)?;
     let file = open(path)?;
     let limit = kind.limit_bytes();
     if file
@@ -130,11 +131,18 @@ pub fn read_text(path: &Path) -> Result<String, FileError> {
     }
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
+        let before = &e.as_bytes()[..at];
+        let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let column = before
+            .rsplit(|&b| b == b'\n')
+            .next()
+            .map_or(0, |l| String::from_utf8_lossy(l).chars().count())
+            + 1;
         FileError::read(
             path,
             std::io::Error::new(
                 std::io::ErrorKind::InvalidData,
-                format!("not UTF-8 text (byte {at})"),
+                format!("line {line}, column {column}: not UTF-8 text (byte {at} of the file)"),
             ),
         )
     })
@@ -156,6 +164,11 @@ fn open(path: &Path) -> Result<File, FileError> {
 /// Opens `path` for reading, a folder refused as one, without noting it as an input (field
 /// files, which their readers note where a run writes beside them).
 pub fn open_file(path: &Path) -> Result<File, FileError> {
+    // What this run wrote and holds until it ends is read where it is held.
+    if let Some(temp) = super::outputs::held_temporary(path) {
+        return File::open(&temp).map_err(|e| FileError::read(path, e));
+    }
+    check_not_output(path)?;
     let file = File::open(path).map_err(|e| FileError::read(path, e))?;
     if file.metadata().is_ok_and(|m| m.is_dir()) {
         return Err(FileError::read(
@@ -244,6 +257,64 @@ pub fn note_source(path: &Path) {
     }
 }
 
+/// The outputs this run will write, as the command line declared them before any work.
+fn outputs() -> std::sync::MutexGuard<'static, Vec<(PathBuf, Identity)>> {
+    static OUTPUTS: Mutex<Vec<(PathBuf, Identity)>> = Mutex::new(Vec::new());
+    OUTPUTS.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Notes `path` as an output this run will write: reading it as an input later is refused
+/// ([`check_not_output`]), before the work rather than when the output is written.
+pub fn note_output(path: &Path) {
+    outputs().push((path.to_path_buf(), Identity::of_named(path)));
+}
+
+/// Refuses to read `path` when it is an existing file this run is to write.
+fn check_not_output(path: &Path) -> Result<(), FileError> {
+    let Some(identity) = Identity::of(path) else {
+        return Ok(());
+    };
+    if let Some((output, _)) = outputs().iter().find(|(_, o)| o.is(&identity)) {
+        return Err(FileError::ReadsOutput {
+            path: super::shown_path(path),
+            output: super::shown_path(output),
+        });
+    }
+    Ok(())
+}
+
+/// Refuses a pipe, a socket or a block device where a file is read whole or by seeking (every
+/// input but the streamed ones: points, meshes): opening a pipe nobody writes (a FIFO named as a
+/// machine's table) waits for ever, and a field is read by seeking. A shell's `<(…)` is a pipe
+/// too: save the data to a file first. Character devices are read up to the size bound
+/// (`/dev/zero` is refused when it passes it).
+pub fn refuse_special(path: &Path) -> Result<(), FileError> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if let Ok(metadata) = std::fs::metadata(path) {
+            let kind = metadata.file_type();
+            let what = if kind.is_fifo() {
+                "a pipe (FIFO)"
+            } else if kind.is_socket() {
+                "a socket"
+            } else if kind.is_block_device() {
+                "a block device"
+            } else {
+                return Ok(());
+            };
+            return Err(FileError::read(
+                path,
+                std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    format!("{what}, not a file: volmap reads inputs from regular files"),
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Refuses `path` as an output when it is a file this run has read: an output never replaces
 /// one of the run's inputs.
 pub fn check_not_source(path: &Path) -> Result<(), FileError> {
@@ -295,6 +366,7 @@ pub fn confined(folder: &Path, name: &Path, reach: Reach) -> Result<PathBuf, Fil
         (Err(_), Ok(_)) => false,
     };
     if inside {
+        refuse_special(&path)?;
         Ok(path)
     } else {
         Err(FileError::OutsideFolder {

@@ -77,7 +77,7 @@ impl ToleranceFile {
         machine: &Machine,
     ) -> Result<ToleranceFile, ToleranceError> {
         let file = path.display().to_string();
-        if let Some(message) = crate::error::toml_too_deep(text) {
+        if let Some(message) = crate::error::toml_beyond_limits(text) {
             return Err(ToleranceError::Toml { file, message });
         }
         let document: DocumentMut =

@@ -196,7 +196,7 @@ pub fn read_work_offsets(path: &std::path::Path) -> Result<Vec<(u32, [f64; 6])>,
         message,
     };
     let text = read_text(path)?;
-    if let Some(message) = crate::error::toml_too_deep(&text) {
+    if let Some(message) = crate::error::toml_beyond_limits(&text) {
         return Err(file_error(message));
     }
     let table: std::collections::BTreeMap<String, Vec<f64>> =

@@ -276,11 +276,63 @@ impl PartFile {
         let text = read_text(path)?;
         let mut part = PartFile::parse(&text, &file)?;
         part.base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        part.check_named_files(&file)?;
         Ok(part)
     }
 
+    /// Every deviation file the part's features write: (feature, path).
+    pub fn ply_paths(&self) -> Vec<(&str, std::path::PathBuf)> {
+        self.features
+            .iter()
+            .filter_map(|f| match f {
+                FeatureSpec::Profile {
+                    name,
+                    ply: Some(ply),
+                    ..
+                } => Some((name.as_str(), self.base.join(ply))),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The meshes read and the deviation files written lie in the part file's folder or below it
+    /// (a `ply` naming `/etc/…` or `../../x` would replace a file the part has no business
+    /// with), and no two features write one deviation file.
+    fn check_named_files(&self, file: &str) -> Result<(), FeatureError> {
+        use crate::io::source::{confined, Identity, Reach};
+        let check = Check { file };
+        let mut written: Vec<(&str, Identity)> = Vec::new();
+        for f in &self.features {
+            let FeatureSpec::Profile {
+                name, mesh, ply, ..
+            } = f
+            else {
+                continue;
+            };
+            confined(&self.base, Path::new(mesh), Reach::Folder)
+                .map_err(|e| check.error(name, format!("mesh: {e}")))?;
+            let Some(ply) = ply else {
+                continue;
+            };
+            let path = confined(&self.base, Path::new(ply), Reach::Folder)
+                .map_err(|e| check.error(name, format!("ply: {e}")))?;
+            let identity = Identity::of_named(&path);
+            if let Some((first, _)) = written.iter().find(|(_, i)| i.is(&identity)) {
+                return Err(check.error(
+                    name,
+                    format!(
+                        "ply: `{}` is also the deviation file of feature `{first}`: each needs a file of its own",
+                        crate::error::excerpt(ply)
+                    ),
+                ));
+            }
+            written.push((name, identity));
+        }
+        Ok(())
+    }
+
     pub fn parse(text: &str, file: &str) -> Result<PartFile, FeatureError> {
-        if let Some(message) = crate::error::toml_too_deep(text) {
+        if let Some(message) = crate::error::toml_beyond_limits(text) {
             return Err(FeatureError::Toml {
                 file: file.to_string(),
                 message,

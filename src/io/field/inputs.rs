@@ -72,7 +72,7 @@ impl RawInputs {
 /// The `[thermal]` section of a machine file's text, where it has one that reads (a field's
 /// machine file was read when the field was written; this asks nothing more of it).
 fn thermal_of(machine_toml: &str) -> Option<Thermal> {
-    if crate::error::toml_too_deep(machine_toml).is_some() {
+    if crate::error::toml_beyond_limits(machine_toml).is_some() {
         return None;
     }
     let table: toml::Table = toml::from_str(machine_toml).ok()?;

@@ -53,6 +53,7 @@ pub struct FieldFile {
 impl FieldFile {
     pub fn open(path: &Path) -> Result<FieldFile, FieldError> {
         let display = path.display().to_string();
+        crate::io::source::refuse_special(path)?;
         let file = crate::io::source::open_file(path)?;
         let mut reader = BufReader::with_capacity(1 << 20, file);
         let mut c = Cursor {

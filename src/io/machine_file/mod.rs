@@ -176,7 +176,7 @@ impl Machine {
         csv_base: Option<&Path>,
         reach: Reach,
     ) -> Result<Machine, MachineError> {
-        if let Some(message) = crate::error::toml_too_deep(text) {
+        if let Some(message) = crate::error::toml_beyond_limits(text) {
             return Err(MachineError::Toml {
                 file: file.to_string(),
                 message,

@@ -102,9 +102,9 @@ fn every_input_given_an_endless_device_is_refused_at_its_size_limit() {
             text,
         ),
         (
-            // A binary STL's header says how much follows: no further is read.
+            // A mesh lies in the part's folder: a device elsewhere is refused by its name.
             vec!["features", "--part", "part.toml"],
-            "the header announces 0 triangles (84 bytes) but more follow",
+            "`/dev/zero` lies outside the folder",
         ),
         (
             vec!["fit", "--measurements", "fit.toml", "--allow-outside-paths"],

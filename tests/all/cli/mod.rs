@@ -17,6 +17,8 @@ mod flag_values;
 mod input_files;
 mod interrupt;
 mod json;
+mod limits_outputs;
+mod limits_toml;
 mod machine_files;
 mod machine_files_tables;
 mod machine_values;

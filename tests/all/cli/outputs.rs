@@ -154,8 +154,9 @@ fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
         ])
         .assert()
         .code(2)
+        // The output is declared before the points are read: reading them is refused.
         .stderr(predicate::str::contains(
-            "./p.csv is an input of this run (read as p.csv)",
+            "--points: p.csv is an input of this run and one of its outputs (written as ./p.csv)",
         ));
     assert_eq!(
         std::fs::read_to_string(d.join("p.csv")).unwrap(),
@@ -219,8 +220,9 @@ fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
             ])
             .assert()
             .code(2)
+            // The output is declared before the program is read: reading it is refused.
             .stderr(predicate::str::contains(
-                "link.nc is an input of this run (read as prog.nc)",
+                "--program: prog.nc is an input of this run and one of its outputs (written as link.nc)",
             ));
         assert_eq!(
             std::fs::read_to_string(d.join("prog.nc")).unwrap(),
