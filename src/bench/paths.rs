@@ -252,7 +252,7 @@ pub(super) fn bench_disk_ceiling(
     for _ in 0..runs {
         let (written, s) = timed(|| -> Result<u64, BenchError> {
             let mut writer = FieldWriter::create(&path, &info)?;
-            for (first, lines) in grid.chunks(lines_per_chunk * nx) {
+            for (first, lines) in grid.chunks(lines_per_chunk * nx).iter() {
                 writer.write_lines(first, lines, &values)?;
             }
             Ok(writer.finish()?.bytes)

@@ -58,11 +58,14 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         file.parts()
     );
     if let Some(path) = &args.json.json {
-        let infos: Vec<_> = (0..file.parts()).map(|p| file.info(p)).collect();
+        // Without the machine's text, which a copy per part would multiply by the parts.
+        let infos: Vec<_> = (0..file.parts())
+            .map(|p| file.info_without_machine(p))
+            .collect();
         let result = sweep_json(&args.file, &infos, &names, &stats, &total, file.storage(0));
         let poses = infos.iter().map(field_pose).collect();
         Envelope::new("info")
-            .field(&infos[total.max_ve_pose])
+            .field(&file.info(total.max_ve_pose))
             .pose(serde_json::Value::Array(poses))
             .write(path, "--json", &result)?;
     }

@@ -153,10 +153,21 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
         }
     }
     if !device_out {
-        check_space(
-            &args,
-            grid.points() * grids.as_ref().map_or(1, |g| g.len() as u64),
-        )?;
+        let parts = grids.as_ref().map_or(1, |g| g.len() as u64);
+        let text_bytes = machine.source.toml.len()
+            + machine
+                .source
+                .csv_files
+                .iter()
+                .map(|(path, text)| path.len() + text.len())
+                .sum::<usize>();
+        let container = volmap::io::field::container_bytes(
+            grid.dims,
+            args.storage.storage(),
+            parts,
+            text_bytes as u64,
+        );
+        check_space(&args, grid.points().saturating_mul(parts), container)?;
     }
     let (engine, note) = args.device.engine()?;
     if let Some(note) = note {
@@ -180,9 +191,15 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
             grids.len()
         );
         if let Some(path) = &args.json.json {
+            // Each pose's grid and pose, the machine's text left out: the JSON reads neither,
+            // and a copy per pose would grow with the sweep.
+            let bare = map::field_info(&machine, &grid, &summary.device).without_machine();
             let infos: Vec<FieldInfo> = grids
                 .iter()
-                .map(|g| map::field_info(&machine, g, &summary.device))
+                .map(|g| FieldInfo {
+                    pose_deg: [g.pose[3], g.pose[4], g.pose[5]],
+                    ..bare.clone()
+                })
                 .collect();
             let names: Vec<String> = summary.poses.iter().map(|p| p.name.clone()).collect();
             let stats: Vec<FieldStats> = summary.poses.iter().map(|p| p.stats.clone()).collect();
@@ -242,17 +259,20 @@ const SAID_BYTES: u64 = 2_000_000_000;
 const BEST_COMPRESSION: u64 = 16;
 
 /// Refuses a field that cannot fit in the free space of its folder (uncompressed: its size;
-/// compressed: a sixteenth of it), and says the size of a large one.
-fn check_space(args: &MapArgs, points: u64) -> Result<(), Failure> {
+/// compressed: a sixteenth of its values), and says the size of a large one. `container_bytes`
+/// (headers, offset tables: never compressed) counts whole.
+fn check_space(args: &MapArgs, points: u64, container_bytes: u64) -> Result<(), Failure> {
     let storage = args.storage.storage();
     let value_bytes = if storage.half { 2 } else { 4 };
-    let bytes = points.saturating_mul(6 * value_bytes);
+    let bytes = points
+        .saturating_mul(6 * value_bytes)
+        .saturating_add(container_bytes);
     let folder = args.out.parent().unwrap_or(std::path::Path::new(""));
     let gb = |b: u64| format!("{} GB", numbers::quantity(b as f64 / 1e9));
     let compressed = !matches!(storage.compression, Compression::None);
     if let Some(free) = disk::free_bytes(folder) {
         let least = if compressed {
-            bytes / BEST_COMPRESSION
+            (bytes - container_bytes) / BEST_COMPRESSION + container_bytes
         } else {
             bytes
         };
@@ -296,9 +316,14 @@ pub fn map_failure(error: EngineError, machine: &Machine, out: &std::path::Path)
         EngineError::Gpu(GpuError::ErrorAngles { .. } | GpuError::CrossAxis { .. })
     );
     let half = matches!(error, EngineError::Field(FieldError::HalfRange { .. }));
+    let tables = matches!(error, EngineError::Gpu(GpuError::GridTables { .. }));
     let failure =
         Failure::from(error).context(format!("mapping {} into {}", machine.name, out.display()));
-    if angles {
+    if tables {
+        failure
+            .context("--grid".to_string())
+            .hint("--device cpu maps it")
+    } else if angles {
         failure.hint("--device cpu maps it")
     } else if half {
         failure.hint("leave out --half: FLOAT channels hold it")

@@ -148,7 +148,7 @@ pub(crate) fn run_in_chunks<E>(
     mut on_chunk: impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
 ) -> Result<(), E> {
     let mut buffer = Vec::new();
-    for (first_line, lines) in grid.chunks(chunk_points) {
+    for (first_line, lines) in grid.chunks(chunk_points).iter() {
         buffer.resize(lines as usize * grid.dims[0] * CHANNELS.len(), 0.0f32);
         compute(first_line, lines, &mut buffer);
         on_chunk(first_line, lines, &buffer)?;

@@ -33,11 +33,24 @@ pub enum GpuError {
     /// maps and statistics of such machines take the per-point kernels instead.
     #[error("{machine}: {key} depends on the position of another axis (`of` or `table2d`), which the folded chain kernel does not evaluate; the per-point map does")]
     CrossAxis { machine: String, key: String },
+    /// The tables of a machine whose errors read other axes' positions, over the grid asked
+    /// for, exceed one buffer of the adapter (bad input: the grid is too fine for it).
+    #[error("the tables of {machine}'s errors over a grid of {grid} take {bytes} bytes, more than one buffer of {adapter} holds ({limit}): use a coarser grid")]
+    GridTables {
+        machine: String,
+        grid: String,
+        adapter: String,
+        bytes: u64,
+        limit: u64,
+    },
 }
 
 impl crate::error::Classify for GpuError {
     fn kind(&self) -> crate::error::ErrorKind {
-        crate::error::ErrorKind::Work
+        match self {
+            GpuError::GridTables { .. } => crate::error::ErrorKind::Input,
+            _ => crate::error::ErrorKind::Work,
+        }
     }
 }
 

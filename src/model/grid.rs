@@ -14,8 +14,10 @@ pub enum GridError {
     Syntax(String),
     #[error("{axis} has {n} points but the machine has no {axis} axis: use 1")]
     AbsentAxis { axis: AxisLetter, n: usize },
-    #[error("{0} is more than a map can hold (at most 2^21 points along X and 2^31 - 1 along Y times Z)")]
-    TooLarge(String),
+    /// A grid beyond [`MAX_AXIS_POINTS`] along an axis or [`MAX_LINES`] lines: `what` says
+    /// which, and what to use instead.
+    #[error("{grid} is more than a map can hold: {what}")]
+    TooLarge { grid: String, what: String },
     #[error("`{0}`: expected LETTER=DEGREES pairs separated by commas, e.g. B=30,C=-45")]
     PoseSyntax(String),
     #[error("`{0}`: expected LETTER=DEGREES or LETTER=START:STOP:STEP separated by commas, e.g. B=-90:90:15,C=0:345:15")]
@@ -41,8 +43,49 @@ pub struct Grid {
     pub pose: Command,
 }
 
-/// The largest line (points along X) a map accepts: one line must fit in one GPU chunk.
-pub const MAX_LINE_POINTS: usize = 1 << 21;
+/// The most points a map takes along each of X, Y and Z. Both engines tabulate every axis at
+/// every value of its grid coordinate once per map (a GPU in one buffer and one dispatch of the
+/// axis pass): 2^18 keeps those tables within what every adapter offers (a 128 MiB buffer, 65,535
+/// workgroups: 96 bytes an entry, 3·2^18 entries) and the CPU engine's within 64 MiB an axis, so
+/// no grid inside the limit fails on one engine and maps on the other.
+pub const MAX_AXIS_POINTS: usize = 1 << 18;
+
+/// The most lines (`NY·NZ`) a map takes: an EXR data window is addressed with i32.
+pub const MAX_LINES: u64 = i32::MAX as u64;
+
+/// The chunks of whole lines a map is computed in, `(first line, lines)`, each of at most
+/// `lines_per_chunk` lines: computed as they are asked for, never held as a list (a grid of 2^31
+/// lines in chunks of one line is 2^31 chunks).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Chunks {
+    lines_per_chunk: u64,
+    total: u64,
+}
+
+impl Chunks {
+    pub fn len(&self) -> usize {
+        self.total.div_ceil(self.lines_per_chunk) as usize
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.total == 0
+    }
+
+    /// Chunk `n`: its first line and its lines.
+    pub fn get(&self, n: usize) -> (u64, u64) {
+        let first = n as u64 * self.lines_per_chunk;
+        (first, self.lines_per_chunk.min(self.total - first))
+    }
+
+    /// The lines of the largest chunk (the first).
+    pub fn most_lines(&self) -> u64 {
+        self.lines_per_chunk.min(self.total)
+    }
+
+    pub fn iter(self) -> impl ExactSizeIterator<Item = (u64, u64)> {
+        (0..self.len()).map(move |n| self.get(n))
+    }
+}
 
 impl Grid {
     /// A grid spanning the full travel of each linear axis of `machine`. A linear axis the
@@ -74,10 +117,7 @@ impl Grid {
                 None => {}
             }
         }
-        // An EXR data window is addressed with i32: ny·nz lines at most 2^31 − 1.
-        if dims[0] > MAX_LINE_POINTS || (dims[1] as u64) * (dims[2] as u64) > i32::MAX as u64 {
-            return Err(GridError::TooLarge(dims_text(dims)));
-        }
+        check_size(dims)?;
         Ok(Grid {
             dims,
             origin_mm,
@@ -96,15 +136,11 @@ impl Grid {
 
     /// Chunks of whole lines, `(first line, lines)`, each of at most `max_points` points (at
     /// least one line).
-    pub fn chunks(&self, max_points: u64) -> Vec<(u64, u64)> {
-        let lines_per_chunk = (max_points / self.dims[0] as u64).max(1);
-        let total = self.lines();
-        (0..total.div_ceil(lines_per_chunk))
-            .map(|c| {
-                let first = c * lines_per_chunk;
-                (first, lines_per_chunk.min(total - first))
-            })
-            .collect()
+    pub fn chunks(&self, max_points: u64) -> Chunks {
+        Chunks {
+            lines_per_chunk: (max_points / self.dims[0] as u64).max(1),
+            total: self.lines(),
+        }
     }
 
     /// Every commanded position `axis` takes on this grid: the grid values along its dimension
@@ -139,6 +175,30 @@ impl Grid {
         }
         c
     }
+}
+
+/// Refuses dimensions beyond [`MAX_AXIS_POINTS`] along an axis or [`MAX_LINES`] lines, before
+/// anything is tabulated, allocated or written.
+pub fn check_size(dims: [usize; 3]) -> Result<(), GridError> {
+    let too_large = |what: String| GridError::TooLarge {
+        grid: dims_text(dims),
+        what,
+    };
+    for (d, letter) in ["X", "Y", "Z"].into_iter().enumerate() {
+        if dims[d] > MAX_AXIS_POINTS {
+            return Err(too_large(format!(
+                "{} points along {letter}, more than the limit of {MAX_AXIS_POINTS} along each axis: use at most {MAX_AXIS_POINTS}",
+                dims[d]
+            )));
+        }
+    }
+    let lines = dims[1] as u64 * dims[2] as u64;
+    if lines > MAX_LINES {
+        return Err(too_large(format!(
+            "{lines} lines (NY·NZ), more than the limit of {MAX_LINES}: use fewer points along Y or Z"
+        )));
+    }
+    Ok(())
 }
 
 /// Grid dimensions as [`parse_dims`] reads them, `NXxNYxNZ`.

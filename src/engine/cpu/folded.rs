@@ -13,6 +13,9 @@ use crate::reference::{self, Twin};
 
 type Transform = Matrix4<f64>;
 
+/// The most entries of one axis's table (real and ideal, 256 bytes an entry).
+const MAX_TABLE_ENTRIES: u64 = crate::engine::CPU_CHUNK_POINTS;
+
 /// One axis's transforms, real and ideal.
 enum AxisTable {
     /// Over the grid dimensions `dims` (none, one or two, in increasing order): entry
@@ -32,11 +35,14 @@ impl AxisTable {
         let axis = twin.real().axis(letter).expect("an axis of the machine");
         let ideal_axis = twin.ideal().axis(letter).expect("same axes");
         let dims = axis.grid_dims();
-        if dims.len() > 2 {
+        let sizes: Vec<usize> = dims.iter().map(|&d| grid.dims[d]).collect();
+        // A table over two dimensions larger than a chunk (2^18 entries, 64 MiB) is evaluated
+        // point by point instead: memory bounded whatever the grid.
+        let too_large = sizes.iter().map(|&n| n as u64).product::<u64>() > MAX_TABLE_ENTRIES;
+        if dims.len() > 2 || too_large {
             return AxisTable::PerPoint(letter);
         }
         // Row-major over `dims`: the last varies fastest.
-        let sizes: Vec<usize> = dims.iter().map(|&d| grid.dims[d]).collect();
         let stride: Vec<usize> = (0..dims.len())
             .map(|n| sizes[n + 1..].iter().product())
             .collect();

@@ -106,11 +106,13 @@ impl GpuMapper {
         let base = Base::new(machine, perturbations, grid);
         let binding = self.gpu.max_storage_binding_bytes();
         if layout.bytes() > binding {
-            return Err(self.error(format!(
-                "the tables of {}'s errors over this grid take {} bytes, more than one buffer holds ({binding}): use a coarser grid",
-                machine.name,
-                layout.bytes()
-            )));
+            return Err(GpuError::GridTables {
+                machine: machine.name.clone(),
+                grid: crate::model::grid::dims_text(grid.dims),
+                adapter: self.adapter_name().to_string(),
+                bytes: layout.bytes(),
+                limit: binding,
+            });
         }
         let terms = perturbations.len().max(1) as u64;
         let order = base.order.len() as u64;
@@ -329,7 +331,7 @@ impl GpuMapper {
         let x_alone = layout.x_alone;
         let lines = (limit / nx).clamp(1, ChunkDispatch::max_lines(self, nx, x_alone));
         let chunks = grid.chunks(lines * nx);
-        let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
+        let chunk_lines = chunks.most_lines().max(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
         let folded = self.prepare_folded((machine, &[]), (grid, layout), (1, 2), false, |_| {
             chunk_bytes
@@ -342,7 +344,7 @@ impl GpuMapper {
             })?
         };
         let mut pending = None;
-        for (n, &chunk) in chunks.iter().enumerate() {
+        for (n, chunk) in chunks.iter().enumerate() {
             let slot = &folded.slots[n % folded.slots.len()];
             let bytes = chunk.1 * nx * BYTES_PER_POINT;
             let submission = self.submit_folded_chunk(&folded, slot, chunk, 1, bytes, grid)?;
@@ -372,7 +374,7 @@ impl GpuMapper {
         let x_alone = layout.x_alone;
         let chunks = grid.chunks(ChunkDispatch::max_lines(self, nx, x_alone) * nx);
         let mut most_groups = 1;
-        for &(_, lines) in &chunks {
+        for (_, lines) in chunks.iter() {
             most_groups = most_groups.max(ChunkDispatch::of(self, lines, nx, x_alone)?.groups());
         }
         let partial = std::mem::size_of::<Partial>() as u64;
@@ -390,7 +392,7 @@ impl GpuMapper {
             let samples = batch_rows.len();
             let batch_stats = &mut stats[done..done + samples];
             let mut best: Vec<(f64, u64)> = vec![(-1.0, u64::MAX); samples];
-            for &chunk in &chunks {
+            for chunk in chunks.iter() {
                 let groups = ChunkDispatch::of(self, chunk.1, nx, x_alone)?.groups();
                 let bytes = samples as u64 * groups * partial;
                 let slot = &folded.slots[0];
@@ -459,7 +461,7 @@ impl GpuMapper {
         let lines = (self.max_chunk_points() / nx)
             .clamp(1, ChunkDispatch::max_lines(self, nx, layout.x_alone));
         let chunks = grid.chunks(lines * nx);
-        let chunk_lines = chunks.iter().map(|&(_, l)| l).max().unwrap_or(1);
+        let chunk_lines = chunks.most_lines().max(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
         let slots = chunks.len().min(2);
         let folded =
@@ -478,7 +480,7 @@ impl GpuMapper {
             .collect();
         let pass = |ceiling: bool, timer: Option<&crate::gpu::device::Timer>| {
             let mut last = None;
-            for (n, &(first_line, lines)) in chunks.iter().enumerate() {
+            for (n, (first_line, lines)) in chunks.iter().enumerate() {
                 let slot = &folded.slots[n % folded.slots.len()];
                 let dispatch = self.set_chunk(&folded, slot, (first_line, lines), 1, grid)?;
                 let (kernel, bindings) = if ceiling {

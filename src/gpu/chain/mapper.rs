@@ -13,7 +13,7 @@ use super::{
 use crate::gpu::device::{self, Buffer, Gpu, Pass, Readback};
 use crate::gpu::layout::{DevData, Params, WORKGROUP_SIZE};
 use crate::gpu::GpuError;
-use crate::model::grid::Grid;
+use crate::model::grid::{Chunks, Grid};
 use crate::model::Machine;
 
 /// The buffers of one chunk in flight.
@@ -44,7 +44,7 @@ pub(super) struct Plan {
 pub(super) struct Prepared {
     params: Params,
     nx: u64,
-    pub chunks: Vec<(u64, u64)>,
+    pub chunks: Chunks,
     in_flight: Vec<InFlight>,
     pub plans: Vec<Plan>,
 }
@@ -278,7 +278,7 @@ impl GpuMapper {
         }
         let lines_per_chunk = (limit / nx).min(self.max_chunk_lines()).max(1);
         let chunks = grid.chunks(lines_per_chunk * nx);
-        let chunk_lines = chunks.iter().map(|&(_, lines)| lines).max().unwrap_or(1);
+        let chunk_lines = chunks.most_lines().max(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
         let tables = self.per_map_passes(&packed, nx)?;
         let in_flight: Vec<InFlight> = (0..2.min(chunks.len()))
@@ -440,7 +440,7 @@ impl GpuMapper {
         readback: bool,
         timed: Option<(&device::Timer, u32)>,
     ) -> device::Submission {
-        let (first_line, lines) = prepared.chunks[n];
+        let (first_line, lines) = prepared.chunks.get(n);
         let buffers = n % prepared.in_flight.len();
         let chunk = &prepared.in_flight[buffers];
         let plan = &prepared.plans[plan];
@@ -509,7 +509,7 @@ impl GpuMapper {
         n: usize,
         on_chunk: &mut impl FnMut(u64, u64, &[f32]) -> Result<(), E>,
     ) -> Result<(), E> {
-        let (first_line, lines) = prepared.chunks[n];
+        let (first_line, lines) = prepared.chunks.get(n);
         let chunk = &prepared.in_flight[n % prepared.in_flight.len()];
         let bytes = lines * prepared.nx * BYTES_PER_POINT;
         self.gpu.read(submission, &chunk.staging, bytes, |data| {

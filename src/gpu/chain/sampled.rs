@@ -356,11 +356,7 @@ impl GpuMapper {
         })?;
         let chunks = grid.chunks(max_groups * tiles.lines_per_workgroup * nx);
         let chunk_groups = |lines: u64| tiles.x_groups as u64 * tiles.line_groups(lines) as u64;
-        let most_groups = chunks
-            .iter()
-            .map(|&(_, l)| chunk_groups(l))
-            .max()
-            .unwrap_or(1);
+        let most_groups = chunk_groups(chunks.most_lines().max(1));
         let packed = &base.packed;
         let [entries, group_entries, _, _] = packed.params.counts.map(u64::from);
         let terms = perturbations.len().max(1);
@@ -451,7 +447,7 @@ impl GpuMapper {
             );
             let batch_stats = &mut stats[done..done + batch_rows.len()];
             let mut best: Vec<(f64, u64)> = vec![(-1.0, u64::MAX); batch_rows.len()];
-            for &(first_line, lines) in &chunks {
+            for (first_line, lines) in chunks.iter() {
                 params.chunk = [
                     first_line as u32,
                     lines as u32,

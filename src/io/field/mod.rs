@@ -58,6 +58,21 @@ use crate::model::grid::Grid;
 use crate::model::inputs::InputsRecord;
 use crate::model::{poses, AxisLetter};
 
+/// The bytes of a field's container besides its values: each part's header (the machine file
+/// and its CSV tables among its attributes, `header_text_bytes` of them, and about a kilobyte of
+/// others) and its offset table (8 bytes a block of lines), for `parts` parts of a grid `dims`.
+pub fn container_bytes(
+    dims: [usize; 3],
+    storage: Storage,
+    parts: u64,
+    header_text_bytes: u64,
+) -> u64 {
+    let lines = dims[1] as u64 * dims[2] as u64;
+    let codec = blocks::BlockCodec::for_writing(dims[0], lines, storage);
+    let table = 8 * lines.div_ceil(codec.lines_per_block());
+    parts.saturating_mul(table.saturating_add(header_text_bytes).saturating_add(1024))
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum FieldError {
     #[error(transparent)]
@@ -175,6 +190,23 @@ pub struct FieldInfo {
 }
 
 impl FieldInfo {
+    /// The header without the machine's file and CSV tables (never copied).
+    pub fn without_machine(&self) -> FieldInfo {
+        FieldInfo {
+            dims: self.dims,
+            origin_mm: self.origin_mm,
+            spacing_mm: self.spacing_mm,
+            pose_deg: self.pose_deg,
+            pose_axes: self.pose_axes.clone(),
+            machine_name: self.machine_name.clone(),
+            chain: self.chain.clone(),
+            machine_toml: String::new(),
+            csv_files: Vec::new(),
+            device: self.device.clone(),
+            inputs: self.inputs.clone(),
+        }
+    }
+
     /// The name of the field's pose: every rotary axis of the machine in the order A, B, C
     /// (`B=-90,C=0`), as the parts of a multi-part file are named.
     pub fn pose_name(&self) -> String {

@@ -148,6 +148,11 @@ impl Pipeline {
         }
     }
 
+    /// Each part's number of lines.
+    pub fn part_lines(&self) -> Vec<u64> {
+        self.parts.iter().map(|p| p.lines).collect()
+    }
+
     /// Hands over `lines` lines of part `part` from `first_line` (which follow the lines handed
     /// over before), `data` holding per line `nx` values of each channel.
     pub fn push(

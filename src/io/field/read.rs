@@ -161,6 +161,12 @@ impl FieldFile {
         self.parts.len()
     }
 
+    /// Part `part`'s header without the machine's file and CSV tables: what a summary of every
+    /// part reads, in memory that does not grow with the machine's text times the parts.
+    pub fn info_without_machine(&self, part: usize) -> FieldInfo {
+        self.parts[part].info.without_machine()
+    }
+
     /// The header of part `part`.
     pub fn info(&self, part: usize) -> FieldInfo {
         let mut info = self.parts[part].info.clone();

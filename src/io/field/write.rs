@@ -17,43 +17,47 @@ fn zeros(out: &mut AtomicFile, count: u64) -> std::io::Result<()> {
     std::io::copy(&mut std::io::repeat(0).take(count), out).map(|_| ())
 }
 
-/// Creates `path` with the headers of `parts` (name, header) and zeroed offset tables, and
-/// starts the pipeline that writes their blocks.
+/// Creates `path` with the headers of `count` parts and zeroed offset tables, and starts the
+/// pipeline that writes their blocks. `part(p)` gives part `p`'s name (`None` for the one field
+/// of a single-part file) and header: each header is built, written and dropped before the next,
+/// so memory holds one header (a machine file and its CSV tables) whatever the number of parts.
 fn start(
     path: &Path,
-    parts: &[(Option<String>, FieldInfo)],
+    count: usize,
+    part: &dyn Fn(usize) -> (Option<String>, FieldInfo),
     storage: Storage,
 ) -> Result<Pipeline, FieldError> {
     let mut out = AtomicFile::create(path, 8 << 20)?;
-    let multipart = parts.iter().any(|(name, _)| name.is_some());
-    let mut plans = Vec::with_capacity(parts.len());
-    let mut headers = Vec::with_capacity(parts.len());
-    for (name, info) in parts {
-        let [nx, ny, nz] = info.dims;
-        let lines = (ny * nz) as u64;
-        let codec = BlockCodec::for_writing(nx, lines, storage);
-        let chunks = lines.div_ceil(codec.lines_per_block());
-        let header = header_attributes(
-            info,
-            storage,
-            name.as_deref().map(|name| PartAttributes { name, chunks }),
-        )
-        .map_err(|e| out.error(e))?;
-        headers.push(header);
-        plans.push(PartPlan {
-            codec,
-            dims: info.dims,
-            lines,
-            table: 0,
-        });
-    }
-    let long_names = headers.iter().any(|h| h.long_names);
+    let mut plans = Vec::with_capacity(count);
+    let mut multipart = false;
+    let mut long_names = false;
     let mut at = 8u64;
     let written = (|| -> std::io::Result<u64> {
-        write_file_start(&mut out, multipart, long_names)?;
-        for h in &headers {
-            out.write_all(&h.bytes)?;
-            at += h.bytes.len() as u64;
+        for p in 0..count {
+            let (name, info) = part(p);
+            if p == 0 {
+                multipart = name.is_some();
+                // The version flags say whether names are long: rewritten below if one is.
+                write_file_start(&mut out, multipart, false)?;
+            }
+            let [nx, ny, nz] = info.dims;
+            let lines = (ny * nz) as u64;
+            let codec = BlockCodec::for_writing(nx, lines, storage);
+            let chunks = lines.div_ceil(codec.lines_per_block());
+            let header = header_attributes(
+                &info,
+                storage,
+                name.as_deref().map(|name| PartAttributes { name, chunks }),
+            )?;
+            long_names |= header.long_names;
+            out.write_all(&header.bytes)?;
+            at += header.bytes.len() as u64;
+            plans.push(PartPlan {
+                codec,
+                dims: info.dims,
+                lines,
+                table: 0,
+            });
         }
         if multipart {
             write_headers_end(&mut out)?;
@@ -66,6 +70,11 @@ fn start(
         }
         // The tables are filled in place as blocks are written: they must be in the file first.
         out.flush()?;
+        if long_names {
+            let mut start = Vec::new();
+            write_file_start(&mut start, multipart, true)?;
+            out.write_at(&start, 0)?;
+        }
         Ok(at)
     })();
     let data_start = written.map_err(|e| out.error(e))?;
@@ -93,7 +102,7 @@ impl FieldWriter {
         info: &FieldInfo,
         storage: Storage,
     ) -> Result<FieldWriter, FieldError> {
-        let pipeline = start(path, &[(None, info.clone())], storage)?;
+        let pipeline = start(path, 1, &|_| (None, info.clone()), storage)?;
         Ok(FieldWriter {
             pipeline,
             display: path.display().to_string(),
@@ -177,18 +186,18 @@ impl PartsWriter {
                 what: "a multi-part field needs a part".into(),
             });
         }
-        let parts: Vec<(Option<String>, FieldInfo)> = (0..count)
-            .map(|p| {
+        let pipeline = start(
+            path,
+            count,
+            &|p| {
                 let (name, info) = part(p);
                 (Some(name), info)
-            })
-            .collect();
-        let lines = parts
-            .iter()
-            .map(|(_, info)| (info.dims[1] * info.dims[2]) as u64)
-            .collect();
+            },
+            storage,
+        )?;
+        let lines = pipeline.part_lines();
         Ok(PartsWriter {
-            pipeline: start(path, &parts, storage)?,
+            pipeline,
             display: path.display().to_string(),
             parts: lines,
             part: 0,
