@@ -34,6 +34,11 @@ pub const MAX_TRACE_SAMPLES: u64 = 4_000_000;
 /// Points along the lines of a deformed-grid drawing (`plot grid`: about 34 lines each way).
 pub const MAX_DRAWN_POINTS: u64 = 1_000_000;
 
+/// Machine-points of one Monte Carlo run (`budget`: (terms + `--samples`) × grid points ×
+/// poses): about a day of work on a fast GPU (58 billion machine-points per second measured on an
+/// NVIDIA H200, docs/performance.md, times 86,400 s), years on a CPU.
+pub const MAX_MACHINE_POINTS: u64 = 5_000_000_000_000_000;
+
 /// The largest magnitude of a measured value (`volmap test --measured`, fit files' tests: mm,
 /// degrees, arc-seconds): a thousand kilometres, beyond any machine tool's travel or error, so
 /// that every figure computed from measurements stays a finite number.

@@ -257,10 +257,13 @@ impl InputsArg {
     pub fn on(&self, machine: &Machine) -> Result<Inputs, Failure> {
         let temperatures = Inputs::parse(&self.temperatures, "", machine).flag("--temperatures")?;
         let approach = Inputs::parse("", &self.approach, machine).flag("--approach")?;
-        Ok(Inputs {
+        let inputs = Inputs {
             approach: approach.approach,
             temperatures_c: temperatures.temperatures_c,
-        })
+        };
+        // The file's thermal terms were checked at ±50 K; the run's temperatures may lie further.
+        volmap::io::machine_file::check_at_inputs(machine, &inputs).flag("--temperatures")?;
+        Ok(inputs)
     }
 
     /// The machine at these inputs, and the inputs.

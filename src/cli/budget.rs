@@ -5,10 +5,11 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use serde_json::{json, Value};
-use volmap::design::allocate::{allocate, Allocation, Target};
+use serde_json::json;
+use volmap::design::allocate::Target;
 use volmap::design::budget::{budget, Budget};
 use volmap::design::monte_carlo::{check_confidence, check_samples, check_spec, MonteCarlo, Study};
+use volmap::design::plausible::check_angles;
 use volmap::design::shards::{tolerance_text, SampleFile, Shard, StudyKey};
 use volmap::error::excerpt;
 use volmap::io::tolerance_file::ToleranceFile;
@@ -20,8 +21,10 @@ use volmap::model::Machine;
 use super::args::{
     sweep_grids, DeviceArg, GridArg, InputsArg, JsonArg, MachineArg, PoseArg, PosesArg,
 };
+use super::budget_allocate::{allocated_text, allocation_json, print_stopped, run_allocation};
 use super::budget_report::{self, position_words};
 use super::envelope::{pose_of, Envelope};
+use super::estimate::{check_machine_points, Estimate};
 use super::failure::{Failure, FlagContext};
 use super::numbers;
 use super::output::{check_distinct_outputs, check_plot_paths, progress, write_file};
@@ -113,11 +116,29 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
     if let Some(plot) = &args.plot {
         check_plot_paths(&[plot], "--plot")?;
     }
+    let tolerances = &file.tolerances;
+    let study = Study {
+        machine: &machine,
+        tolerances,
+        grids: &grids,
+        seed: args.seed,
+    };
+    // Before any device is chosen: every engine refuses the same runs and answers the others.
+    let terms = tolerances.len() as u64;
+    let drawn = samples.unwrap_or(0) as u64;
+    let points_each = check_machine_points(
+        terms + drawn,
+        &format!("({terms} terms + {drawn} machines drawn)"),
+        &grids,
+        "--samples, --grid, --poses",
+    )? / (terms + drawn) as f64;
+    if samples.is_some() {
+        check_angles(&study, &vec![1.0; tolerances.len()]).flag("--tolerances")?;
+    }
     let (engine, note) = args.device.engine()?;
     if let Some(note) = note {
         errln!("volmap: {note}");
     }
-    let tolerances = &file.tolerances;
 
     let bar = progress(Some(tolerances.len() as u64), "budgeting", "terms");
     let result = budget(&engine, &machine, tolerances, &grids, |n| {
@@ -139,12 +160,6 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         "total_rss_mm": budget.total_rss_mm,
     });
 
-    let study = Study {
-        machine: &machine,
-        tolerances,
-        grids: &grids,
-        seed: args.seed,
-    };
     let mut histogram = None;
     if let Some(samples) = samples {
         let range = match args.shard {
@@ -153,7 +168,13 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
         };
         let bar = progress(Some(range.len() as u64), "sampling", "machines");
         let ones = vec![1.0; tolerances.len()];
+        let estimate = Estimate::new(
+            range.len(),
+            points_each,
+            format!("sampling {} machines", range.len()),
+        );
         let stats = study.range_stats(&engine, range.clone(), &ones, |n| {
+            estimate.progress(n, |line| bar.suspend(|| errln!("{line}")));
             bar.set_position(n as u64)
         });
         bar.finish_and_clear();
@@ -193,20 +214,21 @@ pub fn run(args: BudgetArgs) -> Result<ExitCode, Failure> {
                 spec_mm: spec.unwrap_or(0.0),
                 confidence,
             };
-            let allocation = run_allocation(&engine, &study, &target).flag("--allocate")?;
-            json["allocation"] = allocation_json(&file, &chosen, &target, &allocation, &args);
+            let allocation =
+                run_allocation(&engine, &study, &target, points_each).flag("--allocate")?;
+            print_stopped(&file, &allocation);
+            json["allocation"] =
+                allocation_json(&file, &chosen, &target, &allocation, args.out.as_deref());
             if let Some(out) = &args.out {
-                let text = format!(
-                    "# Scaled by `volmap budget --allocate`: the widths of {} times {:.6}, for which {:.2}% of {} machines of {} hold max |VE| <= {} mm (seed {}).\n{}",
-                    allocation_json_terms(&file, &chosen).join(", "),
-                    allocation.factor,
-                    100.0 * allocation.within.fraction.fraction,
-                    samples,
-                    machine.name,
-                    target.spec_mm,
+                let text = allocated_text(
+                    &file,
+                    &chosen,
+                    &target,
+                    &allocation,
                     args.seed,
-                    file.scaled_text(|t| chosen[t].then_some(allocation.factor))
-                );
+                    &loaded,
+                    out,
+                )?;
                 write_file(out, |w| w.write_all(text.as_bytes())).flag("--out")?;
                 outln!("  scaled tolerances written to {}", out.display());
             }
@@ -355,78 +377,4 @@ fn limit_text(tolerance: &Tolerance) -> String {
         Distribution::Uniform { half_width } => format!("±{} (U)", shown(half_width)),
         Distribution::Normal { sigma } => format!("2σ = {} (N)", shown(2.0 * sigma)),
     }
-}
-
-fn run_allocation(
-    engine: &volmap::engine::Engine,
-    study: &Study,
-    target: &Target,
-) -> Result<Allocation, Failure> {
-    outln!(
-        "Allocation: the largest common factor on {} of the {} tolerances for which {} of {} machines hold max |VE| ≤ {}",
-        target.chosen.iter().filter(|&&c| c).count(),
-        target.chosen.len(),
-        numbers::percent(100.0 * target.confidence),
-        target.samples,
-        numbers::error_um(target.spec_mm)
-    );
-    let bar = progress(Some(target.samples as u64), "allocating", "machines");
-    let result = allocate(
-        engine,
-        study,
-        target,
-        |factor, fraction| {
-            bar.suspend(|| {
-                outln!(
-                    "  factor {:<12} {:>6} within the specification",
-                    numbers::quantity(factor),
-                    numbers::percent(100.0 * fraction)
-                )
-            });
-            bar.set_position(0);
-        },
-        |n| bar.set_position(n as u64),
-    );
-    bar.finish_and_clear();
-    let allocation = result?;
-    let w = allocation.within.fraction;
-    outln!(
-        "  largest factor {}: {} of the machines within (95% CI {} to {}), {} Monte Carlo runs on the same draws",
-        numbers::quantity(allocation.factor),
-        numbers::percent(100.0 * w.fraction),
-        numbers::percent(100.0 * w.ci95[0]),
-        numbers::percent(100.0 * w.ci95[1]),
-        allocation.tried.len()
-    );
-    Ok(allocation)
-}
-
-fn allocation_json(
-    file: &ToleranceFile,
-    chosen: &[bool],
-    target: &Target,
-    allocation: &Allocation,
-    args: &BudgetArgs,
-) -> Value {
-    let terms = allocation_json_terms(file, chosen);
-    json!({
-        "factor": allocation.factor,
-        "terms": terms,
-        "spec_mm": target.spec_mm,
-        "confidence": target.confidence,
-        "fraction": allocation.within.fraction.fraction,
-        "ci95": allocation.within.fraction.ci95,
-        "tried": allocation.tried.iter().map(|(f, p)| json!({"factor": f, "fraction": p})).collect::<Vec<_>>(),
-        "out": args.out.as_ref().map(|p| p.display().to_string()),
-    })
-}
-
-/// The keys of the tolerances an allocation scales.
-fn allocation_json_terms(file: &ToleranceFile, chosen: &[bool]) -> Vec<String> {
-    file.tolerances
-        .iter()
-        .zip(chosen)
-        .filter(|(_, &c)| c)
-        .map(|(t, _)| t.perturbation.target.key())
-        .collect()
 }

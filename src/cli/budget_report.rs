@@ -120,11 +120,21 @@ pub fn print_monte_carlo(mc: &MonteCarlo, engine: String, inputs: &str) {
     if let Some(w) = &mc.within_spec {
         outln!(
             "  within {}: {} of the machines (95% CI {} to {})",
-            numbers::error_um(w.spec_mm),
+            spec_words(w.spec_mm),
             numbers::percent(100.0 * w.fraction.fraction),
             numbers::percent(100.0 * w.fraction.ci95[0]),
             numbers::percent(100.0 * w.fraction.ci95[1])
         );
+    }
+}
+
+/// A specification as a summary prints it: in µm where that is short (`140.000 µm`), else in
+/// mm in scientific notation (`1e308 mm`, not 309 digits).
+pub fn spec_words(spec_mm: f64) -> String {
+    if spec_mm.abs() < 1e6 {
+        numbers::error_um(spec_mm)
+    } else {
+        format!("{} mm", volmap::limits::number_words(spec_mm))
     }
 }
 
@@ -221,7 +231,9 @@ pub fn plot(
     )?];
     if let Some((values, spec)) = samples {
         let microns: Vec<f64> = values.iter().map(|v| v * 1000.0).collect();
-        let marker = spec.map(|s| (s * 1000.0, format!("spec {:.2} µm", s * 1000.0)));
+        let marker = spec
+            .filter(|s| (s * 1000.0).is_finite())
+            .map(|s| (s * 1000.0, format!("spec {}", spec_words(s))));
         drawings.push(histogram(
             &format!(
                 "max |VE| of {} machines built to the tolerances",

@@ -287,16 +287,34 @@ fn run_conformance(
     let (machine, _) = args.inputs.machine_at(&loaded)?;
     let confidence = check_confidence(args.confidence).flag("--confidence")?;
     let samples = check_samples(args.samples.unwrap_or(1)).flag("--samples")?;
-    let (engine, note) = args.device.engine()?;
-    if let Some(note) = note {
-        errln!("volmap: {note}");
-    }
     let study = Study {
         machine: &machine,
         tolerances: &file.tolerances,
         grids: &[],
         seed: args.seed,
     };
+    // Before any device is chosen, as `budget` does: the machines' angles where the positions
+    // pass takes the machine's own (its pose, the linear axes at zero).
+    let mut pose = part.pose();
+    pose[..3].fill(0.0);
+    let at_pose = [volmap::model::grid::Grid {
+        dims: [1, 1, 1],
+        origin_mm: [0.0; 3],
+        spacing_mm: [0.0; 3],
+        pose,
+    }];
+    volmap::design::plausible::check_angles(
+        &Study {
+            grids: &at_pose,
+            ..study
+        },
+        &vec![1.0; file.tolerances.len()],
+    )
+    .flag("--tolerances")?;
+    let (engine, note) = args.device.engine()?;
+    if let Some(note) = note {
+        errln!("volmap: {note}");
+    }
     let range = match args.shard {
         Some(shard) => shard.range(samples).flag("--shard")?,
         None => 0..samples,

@@ -52,11 +52,13 @@ macro_rules! errln {
 pub mod args;
 pub mod bench;
 pub mod budget;
+pub mod budget_allocate;
 pub mod budget_report;
 pub mod build;
 pub mod compensate;
 pub mod completions;
 pub mod envelope;
+pub mod estimate;
 pub mod export;
 pub mod failure;
 pub mod features;

@@ -4,6 +4,7 @@
 //! so the fraction moves with the factor alone and not with fresh randomness.
 
 use super::monte_carlo::{within_spec, Study, WithinSpec};
+use super::plausible::Ceiling;
 use super::DesignError;
 use crate::engine::Engine;
 
@@ -19,6 +20,14 @@ const MOST_HALVINGS: usize = 60;
 pub struct Allocation {
     /// The largest factor found for which the fraction reaches the confidence.
     pub factor: f64,
+    /// Each tolerance's scale at that factor: the factor, where a chosen term stopped at the
+    /// widest the tolerance file may give less; 1 for the terms not chosen.
+    pub scale: Vec<f64>,
+    /// The chosen terms that stopped at the widest the tolerance file may give.
+    pub stopped: Vec<usize>,
+    /// Whether the factor stopped where the machines drawn would reach the kernels' limit on
+    /// angles ([`super::plausible`]) rather than where the fraction falls below the confidence.
+    pub at_angle_limit: bool,
     /// The fraction within the specification at that factor, with its interval.
     pub within: WithinSpec,
     /// Every factor tried and the fraction it gave, in the order tried.
@@ -43,13 +52,11 @@ pub fn allocate(
     mut on_run: impl FnMut(f64, f64),
     on_progress: impl Fn(usize) + Sync,
 ) -> Result<Allocation, DesignError> {
+    let ceiling = Ceiling::of(study, target.chosen);
+    let top = ceiling.factor();
     let mut tried = Vec::new();
     let mut run = |factor: f64| -> Result<WithinSpec, DesignError> {
-        let scale: Vec<f64> = target
-            .chosen
-            .iter()
-            .map(|&c| if c { factor } else { 1.0 })
-            .collect();
+        let scale = ceiling.scale(target.chosen, factor);
         let stats = study.sample_stats(engine, target.samples, &scale, &on_progress)?;
         let within = within_spec(&stats, target.spec_mm);
         tried.push((factor, within.fraction.fraction));
@@ -67,13 +74,18 @@ pub fn allocate(
     }
     // Bracket: `low` holds, `high` does not.
     let (mut low, mut low_within) = (0.0, at_zero);
-    let mut high = 1.0;
+    let mut high: f64 = 1.0_f64.min(top);
     loop {
         let w = run(high)?;
         if !holds(&w) {
             break;
         }
         (low, low_within) = (high, w);
+        if high >= top {
+            // Nothing grows further: every chosen term is at its widest, or the angles at their
+            // limit. The allocation stops there and says so.
+            return Ok(finish(&ceiling, target.chosen, high, low_within, tried));
+        }
         if high >= LARGEST_FACTOR {
             return Err(DesignError::Unbounded {
                 factor: high,
@@ -81,7 +93,7 @@ pub fn allocate(
                 fraction: w.fraction.fraction,
             });
         }
-        high *= 2.0;
+        high = (high * 2.0).min(top);
     }
     for _ in 0..MOST_HALVINGS {
         if high - low <= RELATIVE_WIDTH * high {
@@ -95,9 +107,22 @@ pub fn allocate(
             high = middle;
         }
     }
-    Ok(Allocation {
-        factor: low,
-        within: low_within,
+    Ok(finish(&ceiling, target.chosen, low, low_within, tried))
+}
+
+fn finish(
+    ceiling: &Ceiling,
+    chosen: &[bool],
+    factor: f64,
+    within: WithinSpec,
+    tried: Vec<(f64, f64)>,
+) -> Allocation {
+    Allocation {
+        factor,
+        scale: ceiling.scale(chosen, factor),
+        stopped: ceiling.stopped(chosen, factor),
+        at_angle_limit: factor >= ceiling.angle_factor,
+        within,
         tried,
-    })
+    }
 }

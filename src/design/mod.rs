@@ -13,11 +13,13 @@ pub mod budget;
 pub mod conformance;
 pub mod draws;
 pub mod monte_carlo;
+pub mod plausible;
 pub mod shards;
 pub mod summary;
 
 use crate::engine::EngineError;
 use crate::error::{Classify, ErrorKind};
+use crate::limits::number_words;
 use crate::part::FeatureError;
 
 /// What went wrong in a design computation.
@@ -27,18 +29,20 @@ pub enum DesignError {
     Engine(#[from] EngineError),
     #[error(transparent)]
     Feature(#[from] FeatureError),
-    #[error("a specification of {0} mm: it must be a finite length above zero")]
+    #[error("a specification of {} mm: it must be a finite length above zero", number_words(*.0))]
     Spec(f64),
-    #[error("a confidence of {0}: it must lie between 0 and 1")]
+    #[error(transparent)]
+    Angles(#[from] plausible::TooMuchAngle),
+    #[error("a confidence of {}: it must lie between 0 and 1", number_words(*.0))]
     Confidence(f64),
     #[error("no samples: Monte Carlo needs at least one")]
     NoSamples,
     #[error("{0} machines are more than the limit of {max} drawn", max = crate::limits::MAX_SAMPLES)]
     TooManySamples(u64),
     #[error(
-        "no factor reaches the confidence {confidence}: with the allocated tolerances at zero, \
-         {fraction} of the machines hold {spec_mm} mm; the other tolerances or the machine's own \
-         errors take too much of it"
+        "no factor reaches the confidence {}: with the allocated tolerances at zero, {} {} mm; \
+         the other tolerances or the machine's own errors take too much of it",
+        number_words(*confidence), machines_hold(*fraction), number_words(*spec_mm)
     )]
     Unreachable {
         confidence: f64,
@@ -46,14 +50,36 @@ pub enum DesignError {
         fraction: f64,
     },
     #[error(
-        "the allocated tolerances could grow without limit (at {factor} times their widths, \
-         {fraction} of the machines still hold {spec_mm} mm): they do not move the tool tip"
+        "the allocated tolerances could grow without limit (at {} times their widths, {} {} \
+         mm): they do not move the tool tip",
+        number_words(*factor), machines_hold(*fraction), number_words(*spec_mm)
     )]
     Unbounded {
         factor: f64,
         spec_mm: f64,
         fraction: f64,
     },
+}
+
+/// The machines that hold a specification, in words with their verb: `every machine holds`,
+/// `no machine holds`, `97.5% of the machines hold`; never a share that rounds to 100% or 0%
+/// where it is not all or none.
+pub fn machines_hold(fraction: f64) -> String {
+    let percent = 100.0 * fraction;
+    if fraction >= 1.0 {
+        "every machine holds".to_string()
+    } else if fraction <= 0.0 {
+        "no machine holds".to_string()
+    } else if percent >= 99.95 {
+        "more than 99.9% of the machines hold".to_string()
+    } else if percent < 0.05 {
+        "fewer than 0.1% of the machines hold".to_string()
+    } else {
+        format!(
+            "{} of the machines hold",
+            crate::report::numbers::percent(percent)
+        )
+    }
 }
 
 impl Classify for DesignError {

@@ -149,7 +149,11 @@ impl ToleranceFile {
             let Some(factor) = scale(t) else { continue };
             let key = tolerance.perturbation.target.key();
             let distribution = tolerance.distribution;
-            let width = distribution.scaled(factor).width();
+            // Never wider than the reader accepts, however the factor rounds.
+            let width = distribution
+                .scaled(factor)
+                .width()
+                .min(most_width(tolerance.perturbation.target).0);
             let mut item: Option<&mut Item> = None;
             for part in key.split('.') {
                 item = match item {
@@ -167,6 +171,16 @@ impl ToleranceFile {
             }
         }
         document.to_string()
+    }
+}
+
+/// The widest tolerance of `target` the file may give, and its unit: an angular error's
+/// (rad) or a translational error's (mm) most plausible value on any machine tool.
+pub fn most_width(target: ErrorTarget) -> (f64, &'static str) {
+    if target.is_angular() {
+        (MAX_PLAUSIBLE_ANGLE_RAD, "rad")
+    } else {
+        (MAX_PLAUSIBLE_LENGTH_MM, "mm")
     }
 }
 
@@ -282,11 +296,7 @@ impl Reader<'_> {
                         ));
                     }
                     let width = self.width(&at, value)?;
-                    let (most, unit) = if target.is_angular() {
-                        (MAX_PLAUSIBLE_ANGLE_RAD, "rad")
-                    } else {
-                        (MAX_PLAUSIBLE_LENGTH_MM, "mm")
-                    };
+                    let (most, unit) = most_width(target);
                     if width > most {
                         return Err(self.key_error(
                             &at,

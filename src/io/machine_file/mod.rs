@@ -24,7 +24,8 @@ mod plausible;
 mod values;
 
 pub use plausible::{
-    MAX_PLAUSIBLE_ANGLE_RAD, MAX_PLAUSIBLE_LENGTH_MM, PLAUSIBLE_TEMPERATURE_CHANGE_K,
+    check_at_inputs, ImplausibleAtInputs, MAX_PLAUSIBLE_ANGLE_RAD, MAX_PLAUSIBLE_LENGTH_MM,
+    PLAUSIBLE_TEMPERATURE_CHANGE_K,
 };
 
 use plausible::ErrorValue;

@@ -12,7 +12,9 @@ use super::values::ValueSpec;
 use super::MachineError;
 use crate::limits::number_words;
 use crate::model::errorfn::ErrorFunction;
-use crate::model::{Axis, AxisLetter, Command};
+use crate::model::inputs::Inputs;
+use crate::model::perturbation::ErrorTarget;
+use crate::model::{Axis, AxisLetter, Command, Machine};
 
 /// The largest angular error (a component, location or spindle error, its reverse form, with its
 /// thermal terms) any machine tool has, rad: real ones stay below 1e-3 rad.
@@ -105,10 +107,16 @@ pub(super) fn check_values(
     Ok(())
 }
 
-/// The largest |value| of an angular error over the travels (the value or its reverse form, plus
-/// each thermal term at ±[`PLAUSIBLE_TEMPERATURE_CHANGE_K`] in the direction that adds), and
-/// where, in words.
+/// The largest |value| of an error over the travels (the value or its reverse form, plus each
+/// thermal term at ±[`PLAUSIBLE_TEMPERATURE_CHANGE_K`] in the direction that adds), and where,
+/// in words.
 fn largest_magnitude(value: &ErrorValue, axes: &[Axis]) -> (f64, String) {
+    largest_at(value, axes, None)
+}
+
+/// [`largest_magnitude`], or with `changes_k` (each thermal input's change from `reference_C`,
+/// K) the largest |value| at those temperatures: `|form + Σ per_kelvin_s · ΔT_s|`.
+fn largest_at(value: &ErrorValue, axes: &[Axis], changes_k: Option<&[f64]>) -> (f64, String) {
     let spec = &value.spec;
     let mut forms = vec![&spec.value];
     forms.extend(spec.reverse.as_ref());
@@ -118,10 +126,19 @@ fn largest_magnitude(value: &ErrorValue, axes: &[Axis]) -> (f64, String) {
         let thermal: f64 = spec
             .per_kelvin
             .iter()
-            .map(|(_, form)| form.eval_at(own, &command).abs() * PLAUSIBLE_TEMPERATURE_CHANGE_K)
+            .map(|(input, form)| {
+                let v = form.eval_at(own, &command);
+                match changes_k {
+                    None => v.abs() * PLAUSIBLE_TEMPERATURE_CHANGE_K,
+                    Some(changes) => v * changes.get(*input).copied().unwrap_or(0.0),
+                }
+            })
             .sum();
         for form in &forms {
-            let magnitude = form.eval_at(own, &command).abs() + thermal;
+            let magnitude = match changes_k {
+                None => form.eval_at(own, &command).abs() + thermal,
+                Some(_) => (form.eval_at(own, &command) + thermal).abs(),
+            };
             // NaN compares false: a non-finite value is refused as well.
             if magnitude.is_nan() || magnitude > largest.0 {
                 largest = (magnitude, where_words(value, axes, &command));
@@ -129,6 +146,90 @@ fn largest_magnitude(value: &ErrorValue, axes: &[Axis]) -> (f64, String) {
         }
     }
     largest
+}
+
+/// A machine's error value beyond what any machine tool has at the temperatures of a run (its
+/// thermal terms are checked at ±50 K when the file is read; a run may ask for up to 200 K).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{at}: {key} of {machine} reaches {message}")]
+pub struct ImplausibleAtInputs {
+    /// The temperatures in words: `x_scale=220 °C (200 K from reference_C 20 °C)`.
+    pub at: String,
+    /// The machine's name.
+    pub machine: String,
+    pub key: String,
+    pub message: String,
+}
+
+crate::error::input_errors!(ImplausibleAtInputs);
+
+/// Refuses `machine` (as read, its thermal terms kept aside) at the temperatures of `inputs`
+/// where an error value with thermal terms exceeds [`MAX_PLAUSIBLE_ANGLE_RAD`] or
+/// [`MAX_PLAUSIBLE_LENGTH_MM`] anywhere on the travels: the same bounds as when the file is read,
+/// at the run's temperatures instead of ±50 K, so that every engine maps what it accepts.
+pub fn check_at_inputs(machine: &Machine, inputs: &Inputs) -> Result<(), ImplausibleAtInputs> {
+    let Some(thermal) = &machine.thermal else {
+        return Ok(());
+    };
+    let changes_k: Vec<f64> = thermal
+        .inputs
+        .iter()
+        .map(|i| inputs.temperature_c(i, thermal.reference_c) - thermal.reference_c)
+        .collect();
+    for dependent in machine
+        .dependent
+        .iter()
+        .filter(|d| !d.per_kelvin.is_empty())
+    {
+        let angular = dependent.target.is_angular();
+        let value = ErrorValue {
+            key: dependent.target.key(),
+            axis: match dependent.target {
+                ErrorTarget::Component { axis, .. } | ErrorTarget::Location { axis, .. } => {
+                    Some(axis)
+                }
+                ErrorTarget::Spindle { .. } => None,
+            },
+            angular,
+            spec: ValueSpec {
+                value: dependent.value.clone(),
+                reverse: dependent.reverse.clone(),
+                per_kelvin: dependent.per_kelvin.clone(),
+            },
+        };
+        let (largest, at) = largest_at(&value, &machine.axes, Some(&changes_k));
+        let (most, unit) = if angular {
+            (MAX_PLAUSIBLE_ANGLE_RAD, "rad")
+        } else {
+            (MAX_PLAUSIBLE_LENGTH_MM, "mm")
+        };
+        if largest.is_nan() || largest > most {
+            let used: Vec<String> = dependent
+                .per_kelvin
+                .iter()
+                .filter_map(|(input, _)| {
+                    let name = thermal.inputs.get(*input)?;
+                    Some(format!(
+                        "{name}={} °C ({} K from reference_C {} °C)",
+                        number_words(thermal.reference_c + changes_k[*input]),
+                        number_words(changes_k[*input]),
+                        number_words(thermal.reference_c)
+                    ))
+                })
+                .collect();
+            return Err(ImplausibleAtInputs {
+                at: format!("at {}", used.join(", ")),
+                machine: machine.name.clone(),
+                key: value.key,
+                message: format!(
+                    "{} {unit}{at}, more than any machine tool has (at most {} {unit}): its thermal terms do not hold this far from reference_C",
+                    crate::report::numbers::quantity(largest),
+                    number_words(most)
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The commanded positions a value is evaluated at: its own axis over its travel (and at the

@@ -17,6 +17,7 @@ mod flag_values;
 mod input_files;
 mod interrupt;
 mod json;
+mod limits_budget;
 mod limits_grid;
 mod limits_outputs;
 mod limits_toml;
