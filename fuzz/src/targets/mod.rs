@@ -9,6 +9,7 @@ mod machine;
 mod measured;
 mod nc;
 mod parts;
+mod toml_size;
 
 use std::path::PathBuf;
 
@@ -199,6 +200,7 @@ pub const TARGETS: &[Target] = &[
     nc::GCODE,
     nc::OFFSETS,
     field::FIELD,
+    toml_size::TOML_SIZE,
 ];
 
 /// The target called `name`.

@@ -123,6 +123,12 @@ fn field() {
     short_campaign("field", 3000);
 }
 
+/// Each execution builds and scans a file of 4 MB, five times over: fewer of them.
+#[test]
+fn toml_size() {
+    short_campaign("toml-size", 150);
+}
+
 /// Every seed of every corpus is read as it is: a corpus of files the readers refuse would
 /// test only their first error.
 #[test]
