@@ -17,6 +17,7 @@ mod flag_values;
 mod input_files;
 mod interrupt;
 mod json;
+mod limits_nc;
 mod machine_files;
 mod machine_files_tables;
 mod machine_values;
