@@ -271,7 +271,7 @@ fn process_line(
     }
     if step == Step::Pass {
         out.push_str(&line.text);
-        out.push_str(&line.ending);
+        out.push_str(line.ending);
         return Ok(1);
     }
     if state.offset != 54 && !state.work_offsets.contains_key(&state.offset) {
