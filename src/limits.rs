@@ -31,6 +31,29 @@ pub const MAX_DECIMALS: usize = 15;
 /// Samples of a traced program (`trace --step`), every move together.
 pub const MAX_TRACE_SAMPLES: u64 = 4_000_000;
 
+/// Blocks (lines) of an NC program that `trace` and `compensate` read, the program they write
+/// included: each move is traced at 4 samples at least, and [`MAX_TRACE_SAMPLES`] are the most,
+/// so a million moves are the most a program can be traced or its compensation checked at.
+/// Counted before the program is parsed.
+pub const MAX_PROGRAM_BLOCKS: u64 = 1_000_000;
+
+/// Words of an NC program's own blocks (16 a block on average at [`MAX_PROGRAM_BLOCKS`]): each
+/// word read takes 40 bytes, so the program's words stay within about 640 MB however its 256 MiB
+/// are laid out (two characters make a word: `X1`).
+pub const MAX_PROGRAM_WORDS: u64 = 16_000_000;
+
+/// Blocks one move of a compensated program becomes (`--chord-tolerance`,
+/// `--angular-tolerance`).
+pub const MAX_PIECES_PER_MOVE: u64 = 100_000;
+
+/// Blocks of a compensated program (`compensate --out`, `trace --compensate`): what volmap reads
+/// back as a program, [`MAX_PROGRAM_BLOCKS`].
+pub const MAX_COMPENSATED_BLOCKS: u64 = MAX_PROGRAM_BLOCKS;
+
+/// Bytes of a compensated program: what volmap reads back as a program (256 MiB, the limit on
+/// NC programs), held in memory until it is checked and written.
+pub const MAX_COMPENSATED_BYTES: u64 = crate::io::source::PROGRAM_LIMIT_BYTES;
+
 /// Points along the lines of a deformed-grid drawing (`plot grid`: about 34 lines each way).
 pub const MAX_DRAWN_POINTS: u64 = 1_000_000;
 

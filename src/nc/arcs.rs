@@ -10,6 +10,7 @@
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use super::block::{Block, Split, MAX_PIECES};
+use super::error::NcOption;
 use super::program::approach::{key, segments, Segment};
 use super::program::modal::{Directions, Motion, Plane};
 use super::program::toolpath::{arc_through, lerp, radius_reaches, Toolpath};
@@ -243,10 +244,7 @@ impl Block<'_> {
         let mut stack = self.edges_first(along, (t0, t1));
         while let Some((ta, tb)) = stack.pop() {
             if pieces.len() >= MAX_PIECES {
-                return Err(Split::Pieces(format!(
-                    "a move needs more than {MAX_PIECES} pieces to stay within the chord tolerance of {} mm",
-                    self.tolerance
-                )));
+                return Err(Split::Pieces(NcOption::ChordTolerance));
             }
             let piece = self
                 .piece(along, (ta, tb), &segment.directions, walk, true)

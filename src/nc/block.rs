@@ -15,7 +15,7 @@ use super::write::as_written;
 use crate::model::Command;
 
 /// The most pieces one move is split into.
-pub(super) const MAX_PIECES: usize = 100_000;
+pub(super) const MAX_PIECES: usize = crate::limits::MAX_PIECES_PER_MOVE as usize;
 
 /// One block being compensated: the line its errors name, the active work offset, the machine
 /// of the active tool, how the output writes numbers, and the largest correction made so far.
@@ -50,7 +50,8 @@ pub(super) struct Block<'a> {
 
 /// Why a move could not be split: too many pieces, or a point that does not compensate.
 pub(super) enum Split {
-    Pieces(String),
+    /// More than [`MAX_PIECES`]: the tolerance that kept splitting the move (chord or angular).
+    Pieces(super::error::NcOption),
     Point(NcError),
 }
 

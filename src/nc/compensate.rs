@@ -3,7 +3,7 @@
 //! stays within the chord tolerance of the intended path, arcs kept where they can be.
 
 use super::arcs::ArcPieces;
-use super::block::{Block, Split};
+use super::block::{Block, Split, MAX_PIECES};
 use super::error::{NcError, NcOption};
 use super::kinematics::Compensator;
 use super::options::{check_work_offsets, Options, MAX_CHORD_TOLERANCE_MM};
@@ -20,7 +20,7 @@ use super::report::{Compensated, LeftMove, PassedBlock, Report, ReportInputs};
 use super::standing::{standing, standing_feed};
 use super::walk::Walk;
 use super::write::write_setting;
-use crate::limits::MAX_DECIMALS;
+use crate::limits::{number_words, MAX_COMPENSATED_BLOCKS, MAX_COMPENSATED_BYTES, MAX_DECIMALS};
 use crate::model::Machine;
 
 /// The program's lines as the control runs them, its state before the first, the machine per
@@ -90,6 +90,24 @@ pub fn compensate_with_progress(
             message: format!("at most {MAX_DECIMALS} decimals are written"),
         });
     }
+    if let Some(decimals) = options.decimals {
+        // Every compensated point is written rounded: half a unit of the last decimal (mm; an
+        // inch program rounds 25.4 times coarser) beyond the tolerance cannot be met however the
+        // moves are split.
+        let rounding_mm = 0.5 * 10f64.powi(-(decimals as i32));
+        if rounding_mm > chord {
+            let needed = (0.5 / chord).log10().ceil().max(0.0);
+            return Err(NcError::Option {
+                option: NcOption::Decimals,
+                value: decimals.to_string(),
+                message: format!(
+                    "numbers written to {decimals} decimals are rounded by up to {} mm, more than the chord tolerance of {} mm: no split of the moves meets it; write at least {needed} decimals (or give a larger --chord-tolerance)",
+                    number_words(rounding_mm),
+                    number_words(chord)
+                ),
+            });
+        }
+    }
     check_options(machine, options)?;
     let (lines, mut state, mut compensator, holes) = begin(machine, program, path, options)?;
     let mut report = Report {
@@ -137,11 +155,53 @@ pub fn compensate_with_progress(
             report.blocks_changed += 1;
         }
         origins.extend(std::iter::repeat_n(line.number, emitted));
+        output_within_limits(&out, origins.len(), (line, lines.len()), path, options)?;
     }
     Ok(Compensated {
         text: out,
         report,
         origins,
+    })
+}
+
+/// The compensated program so far within what volmap reads back as a program
+/// ([`MAX_COMPENSATED_BLOCKS`], [`MAX_COMPENSATED_BYTES`]), checked after every block: beyond it,
+/// the tolerance that split the moves is named with its figure (the output never grows far past
+/// the bound: one block adds at most [`MAX_PIECES`] blocks).
+fn output_within_limits(
+    out: &str,
+    blocks: usize,
+    (line, lines): (&Line, usize),
+    path: &str,
+    options: &Options,
+) -> Result<(), NcError> {
+    let too_many = blocks as u64 > MAX_COMPENSATED_BLOCKS;
+    if !too_many && out.len() as u64 <= MAX_COMPENSATED_BYTES {
+        return Ok(());
+    }
+    let what = if too_many {
+        format!("more than {MAX_COMPENSATED_BLOCKS} blocks")
+    } else {
+        format!(
+            "more than {}",
+            crate::io::source::describe_bytes(MAX_COMPENSATED_BYTES)
+        )
+    };
+    let chord = number_words(options.chord_tolerance_mm);
+    let tolerance = match options.orientation_tolerance_rad {
+        Some(angle) => format!(
+            "the chord tolerance of {chord} mm (and the angular tolerance of {} rad)",
+            number_words(angle)
+        ),
+        None => format!("the chord tolerance of {chord} mm"),
+    };
+    Err(NcError::Option {
+        option: NcOption::ChordTolerance,
+        value: chord,
+        message: format!(
+            "{path}: the compensated program reaches {what} at line {} (of {lines} blocks run), the most volmap writes and reads back as a program: {tolerance} split the moves this finely; give a larger tolerance, or compensate the program in parts",
+            line.number
+        ),
     })
 }
 
@@ -211,7 +271,7 @@ fn process_line(
     }
     if step == Step::Pass {
         out.push_str(&line.text);
-        out.push_str(&line.ending);
+        out.push_str(line.ending);
         return Ok(1);
     }
     if state.offset != 54 && !state.work_offsets.contains_key(&state.offset) {
@@ -375,11 +435,35 @@ impl Block<'_> {
                 Toolpath::Line { .. } => self.walk_segment(intended, segment, walk, pieces, report),
             }
             .map_err(|e| match e {
-                Split::Pieces(message) => NcError::line(self.path, self.line, message),
+                Split::Pieces(option) => self.too_many_pieces(option),
                 Split::Point(e) => e,
             })?;
         }
         Ok(())
+    }
+
+    /// A move split into more than [`MAX_PIECES`] pieces: the tolerance that split it named,
+    /// with its figure.
+    fn too_many_pieces(&self, option: NcOption) -> NcError {
+        let value = match option {
+            NcOption::AngularTolerance => self.options.orientation_tolerance_rad.unwrap_or(0.0),
+            _ => self.tolerance,
+        };
+        let unit = if option == NcOption::AngularTolerance {
+            "rad"
+        } else {
+            "mm"
+        };
+        NcError::Option {
+            option,
+            value: number_words(value),
+            message: format!(
+                "{}: line {}: the move needs more than {MAX_PIECES} blocks to stay within the {option} of {} {unit}, the most one move may become: give a larger tolerance",
+                self.path,
+                self.line,
+                number_words(value)
+            ),
+        }
     }
 
     /// Where the output has the tool at the start of a move; an axis not written since its

@@ -73,6 +73,9 @@ pub enum NcError {
         turn: String,
         chain: String,
     },
+    /// The whole program is beyond a limit (its blocks).
+    #[error("{path}: {message}")]
+    Program { path: String, message: String },
     /// An option's value is wrong.
     #[error("{option} `{value}`: {message}")]
     Option {

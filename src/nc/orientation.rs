@@ -70,6 +70,19 @@ pub(super) fn check_options(machine: &Machine, options: &Options) -> Result<(), 
             message: "it must be positive and at most 1 rad".into(),
         });
     }
+    // Rotary words are written to 6 decimals of a degree at least (`write`): a tolerance below
+    // their rounding cannot be met however the moves are split.
+    let rotary_decimals = options.decimals.unwrap_or(0).max(6);
+    let rounding_rad = (0.5 * 10f64.powi(-(rotary_decimals as i32))).to_radians();
+    if tolerance < rounding_rad {
+        return Err(NcError::Option {
+            option: NcOption::AngularTolerance,
+            value: crate::limits::number_words(tolerance),
+            message: format!(
+                "rotary words are written to {rotary_decimals} decimals of a degree, rounded by up to {rounding_rad:.2e} rad, more than this tolerance: no split of the moves meets it; give at least {rounding_rad:.2e} rad"
+            ),
+        });
+    }
     let bound = options.max_rotary_correction_deg;
     if !(bound > 0.0 && bound <= MAX_ROTARY_CORRECTION_DEG) {
         return Err(NcError::Option {

@@ -56,6 +56,6 @@ pub(super) fn standing_feed(
         code: format!("a feed move with {axis} at the machine position of G53 on line {at}"),
     });
     out.push_str(&line.text);
-    out.push_str(&line.ending);
+    out.push_str(line.ending);
     Ok(Some(1))
 }

@@ -135,6 +135,8 @@ pub fn trace_path(
     let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
     let mut samples = Vec::new();
     let mut travelled = 0.0;
+    // The samples the moves so far take at any step: 4 a move that goes somewhere, else 1.
+    let mut fewest = 0.0;
     for (index, line) in lines.iter().enumerate() {
         let before = tcpm::switches(line).then(|| state.clone());
         let step = take_line(&lines, index, &mut state, path, options.pass_unknown)?;
@@ -165,13 +167,26 @@ pub fn trace_path(
         } else {
             1.0
         };
+        fewest += n.min(4.0);
+        if fewest > MAX_TRACE_SAMPLES as f64 {
+            // No step helps: the moves themselves are too many.
+            return Err(NcError::Program {
+                path: path.to_string(),
+                message: format!(
+                    "the moves up to line {} take at least {} samples at any step (4 a move), more than the limit of {MAX_TRACE_SAMPLES} samples: the most moves a trace follows are about {}; split the program",
+                    line.number,
+                    limits::count_words(fewest),
+                    MAX_TRACE_SAMPLES / 4
+                ),
+            });
+        }
         let n = limits::within(samples.len() as f64 + n, MAX_TRACE_SAMPLES)
             .map(|total| total as usize - samples.len())
             .map_err(|e| NcError::Option {
                 option: NcOption::TraceStep,
                 value: number_words(step_mm),
                 message: format!(
-                    "the moves up to line {} sampled at this step give {} samples, more than the limit of {}: take a longer step",
+                    "the moves up to line {} sampled at this step give {} samples, more than the limit of {}: take a longer step (every move takes 4 samples at least, at any step)",
                     line.number,
                     limits::count_words(e.count),
                     e.limit

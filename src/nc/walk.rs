@@ -13,7 +13,7 @@
 //! the new ones (the tip stays while the command crosses the reversal).
 
 use super::block::{Block, Split, MAX_PIECES};
-use super::error::NcError;
+use super::error::{NcError, NcOption};
 use super::program::approach::{key, moving, Segment, MOVES};
 use super::program::modal::Directions;
 use super::program::toolpath::{lerp, Toolpath};
@@ -162,6 +162,8 @@ impl Block<'_> {
         let (t0, t1) = segment.t;
         let finest = (t1 - t0) / f64::from(1 << 24);
         let mut stack = vec![(t0, t1)];
+        // Which tolerance split the last piece: the one a move of too many pieces is blamed on.
+        let mut splitting = NcOption::ChordTolerance;
         while let Some((ta, tb)) = stack.pop() {
             let piece = self
                 .piece(along, (ta, tb), &segment.directions, walk, true)
@@ -169,10 +171,7 @@ impl Block<'_> {
             let start = piece.take_up.unwrap_or(walk.at);
             let worst = self.chord_error(along, (ta, tb), (start, piece.end), &piece.directions);
             if pieces.len() >= MAX_PIECES {
-                return Err(Split::Pieces(format!(
-                    "a move needs more than {MAX_PIECES} pieces to stay within the chord tolerance of {} mm",
-                    self.tolerance
-                )));
+                return Err(Split::Pieces(splitting));
             }
             let angle = self.chord_angle(
                 &|t| along.at(t),
@@ -192,6 +191,11 @@ impl Block<'_> {
                     report.largest_orientation_error_after_rad.max(angle);
                 self.accept(&piece, walk, pieces);
             } else {
+                splitting = if worst > self.tolerance {
+                    NcOption::ChordTolerance
+                } else {
+                    NcOption::AngularTolerance
+                };
                 let tm = 0.5 * (ta + tb);
                 stack.push((tm, tb));
                 stack.push((ta, tm));

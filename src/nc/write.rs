@@ -204,7 +204,7 @@ pub(super) fn write_setting(
         text.replace_range(range.clone(), replacement);
     }
     out.push_str(&text);
-    out.push_str(&line.ending);
+    out.push_str(line.ending);
 }
 
 /// A replacement of bytes of the line's text.
@@ -270,7 +270,7 @@ pub(super) fn write_block(
     out.push_str(if line.ending.is_empty() && pieces.len() > 1 {
         "\n"
     } else {
-        &line.ending
+        line.ending
     });
     // An axis sent to its reference point stays unwritten until a block names it.
     let unwritten: [bool; 6] =
@@ -286,7 +286,7 @@ pub(super) fn write_block(
     let ending = if line.ending.is_empty() {
         "\n"
     } else {
-        &line.ending
+        line.ending
     };
     let centres: Vec<Option<[f64; 2]>> = (1..pieces.len()).map(centre_of).collect();
     let arc = ArcWords {
@@ -408,7 +408,11 @@ fn motion_edit(
         .find(|w| w.letter == 'G' && (w.value as u32) < 4 && w.value.fract() == 0.0);
     match motion_word {
         Some(w) if arc_becomes_lines => {
-            let digits = if w.text.starts_with('0') { "01" } else { "1" };
+            let digits = if line.text_of(w).starts_with('0') {
+                "01"
+            } else {
+                "1"
+            };
             Some((w.number.clone(), digits.into()))
         }
         None if output_motion != state.written_motion => {

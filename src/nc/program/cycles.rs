@@ -202,7 +202,7 @@ pub(super) fn expand_cycles(
                 q: value('Q').or(previous.as_ref().and_then(|c| c.q)),
                 dwell: line
                     .word('P')
-                    .map(|w| w.text.clone())
+                    .map(|w| line.text_of(w).to_string())
                     .or(previous.and_then(|c| c.dwell)),
                 initial,
             };
@@ -230,7 +230,7 @@ pub(super) fn expand_cycles(
                 cycle.q = Some(w.value);
             }
             if let Some(w) = line.word('P') {
-                cycle.dwell = Some(w.text.clone());
+                cycle.dwell = Some(line.text_of(w).to_string());
             }
             expand_hole(&line, &mut scan, path, room, &mut out)?;
             holes += 1;
@@ -328,7 +328,7 @@ fn expand_hole(
     } else {
         cycle.initial.max(cycle.r)
     };
-    let feed = line.word('F').map(|w| format!(" F{}", w.text));
+    let feed = line.word('F').map(|w| format!(" F{}", line.text_of(w)));
     let mut texts = vec![format!(
         "(G{} block expanded into its moves: {})",
         cycle.code,
@@ -352,7 +352,7 @@ fn expand_hole(
     }
     let xy: Vec<String> = ['X', 'Y']
         .iter()
-        .filter_map(|&l| line.word(l).map(|w| format!("{l}{}", w.text)))
+        .filter_map(|&l| line.word(l).map(|w| format!("{l}{}", line.text_of(w))))
         .collect();
     let mut feed_word = feed;
     let mut feed_to = |texts: &mut Vec<String>, z: f64| {
@@ -447,15 +447,11 @@ fn expand_hole(
     let between = if line.ending.is_empty() {
         "\n"
     } else {
-        line.ending.as_str()
+        line.ending
     };
     let count = texts.len();
     for (k, text) in texts.into_iter().enumerate() {
-        let ending = if k + 1 == count {
-            line.ending.as_str()
-        } else {
-            between
-        };
+        let ending = if k + 1 == count { line.ending } else { between };
         let block = parse_line(&text, ending, line.number, path)?;
         if !room.take(&block) {
             return Err(too_many());

@@ -2,15 +2,16 @@
 //! the line so the compensated program can change numbers and nothing else.
 
 use crate::error::excerpt;
+use crate::limits::{MAX_PROGRAM_BLOCKS, MAX_PROGRAM_WORDS, MAX_TRACE_SAMPLES};
 use crate::nc::error::NcError;
 
-/// A word: its letter (upper case), value, and the byte range of its number in the line.
+/// A word: its letter (upper case), value, and the byte range of its number in the line (the
+/// number as written is [`Line::text_of`]: a word holds no text of its own, so that a program
+/// of millions of blocks takes a few dozen bytes a word).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Word {
     pub letter: char,
     pub value: f64,
-    /// The number as written.
-    pub text: String,
     /// Byte range of the letter and of the number within the line.
     pub letter_at: usize,
     pub number: std::ops::Range<usize>,
@@ -26,7 +27,7 @@ pub struct Line {
     /// The line's text without its line ending.
     pub text: String,
     /// `"\n"`, `"\r\n"` or `""` (a last line without one).
-    pub ending: String,
+    pub ending: &'static str,
     pub words: Vec<Word>,
     /// Whether words are separated by spaces (new words are written the same way).
     pub spaced: bool,
@@ -42,6 +43,11 @@ impl Line {
 
     pub fn has(&self, letter: char) -> bool {
         self.words.iter().any(|w| w.letter == letter)
+    }
+
+    /// The number of `word` (one of this line's) as written.
+    pub fn text_of(&self, word: &Word) -> &str {
+        self.text.get(word.number.clone()).unwrap_or_default()
     }
 }
 
@@ -66,7 +72,17 @@ pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<
             ));
         }
     };
-    let mut lines = Vec::new();
+    let blocks = text.split_inclusive('\n').count();
+    if blocks as u64 > MAX_PROGRAM_BLOCKS {
+        return Err(NcError::Program {
+            path: path.to_string(),
+            message: format!(
+                "the program has {blocks} blocks, more than the limit of {MAX_PROGRAM_BLOCKS}: each move is traced at 4 samples at least and {MAX_TRACE_SAMPLES} samples are the most; split the program"
+            ),
+        });
+    }
+    let mut lines = Vec::with_capacity(blocks);
+    let mut words = 0u64;
     for (n, raw) in text.split_inclusive('\n').enumerate() {
         let number = n + 1;
         let (body, ending) = if let Some(b) = raw.strip_suffix("\r\n") {
@@ -87,7 +103,17 @@ pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<
             ));
         }
         match parse_line(body, ending, number, path) {
-            Ok(line) => lines.push(line),
+            Ok(line) => {
+                words += line.words.len() as u64;
+                if words > MAX_PROGRAM_WORDS {
+                    return Err(NcError::line(
+                        path,
+                        number,
+                        format!("the program's words up to this line are more than the limit of {MAX_PROGRAM_WORDS}"),
+                    ));
+                }
+                lines.push(line)
+            }
             // Passed as it is: macro words leave the axes they name unknown, anything else every
             // axis (`unknown`).
             Err(NcError::Line { .. }) if pass_unread => lines.push(
@@ -96,7 +122,7 @@ pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<
                     None => Line {
                         number,
                         text: body.into(),
-                        ending: ending.into(),
+                        ending,
                         words: Vec::new(),
                         spaced: false,
                         unknown: Some(excerpt(body.trim()).into_owned()),
@@ -111,7 +137,7 @@ pub fn parse_program(bytes: &[u8], path: &str, pass_unread: bool) -> Result<Vec<
 
 pub(super) fn parse_line(
     body: &str,
-    ending: &str,
+    ending: &'static str,
     number: usize,
     path: &str,
 ) -> Result<Line, NcError> {
@@ -124,7 +150,7 @@ pub(super) fn parse_line(
         return Ok(Line {
             number,
             text: body.into(),
-            ending: ending.into(),
+            ending,
             words,
             spaced: false,
             unknown: None,
@@ -190,7 +216,6 @@ pub(super) fn parse_line(
                 words.push(Word {
                     letter: c.to_ascii_uppercase(),
                     value,
-                    text: text.into(),
                     letter_at,
                     number: start..i,
                     lower: c.is_ascii_lowercase(),
@@ -217,10 +242,11 @@ pub(super) fn parse_line(
             }
         }
     }
+    words.shrink_to_fit();
     Ok(Line {
         number,
         text: body.into(),
-        ending: ending.into(),
+        ending,
         spaced: spaced_words(body, &words),
         words,
         unknown: None,

@@ -197,7 +197,7 @@ fn cutter_compensation(line: &Line) -> Option<&str> {
     line.words
         .iter()
         .find(|w| w.letter == 'G' && (41.0..43.0).contains(&w.value))
-        .map(|w| w.text.as_str())
+        .map(|w| line.text_of(w))
 }
 
 /// The length the tool-length offset adds to Z with `tool` and G43 `on` (0 without G43 or a
@@ -305,13 +305,17 @@ pub(in crate::nc) fn unknown_code(line: &Line) -> Option<String> {
                     || g == 92.2
                     || tcpm::mode_of(g).is_some();
                 if !known {
-                    return Some(format!("G{}", w.text));
+                    return Some(format!("G{}", line.text_of(w)));
                 }
             }
             'L' if setting => {}
-            'U' | 'V' | 'W' | 'Q' | 'L' | 'E' => return Some(format!("{}{}", w.letter, w.text)),
+            'U' | 'V' | 'W' | 'Q' | 'L' | 'E' => {
+                return Some(format!("{}{}", w.letter, line.text_of(w)))
+            }
             // Subprogram calls and returns: their moves are elsewhere.
-            'M' if w.value == 98.0 || w.value == 99.0 => return Some(format!("M{}", w.text)),
+            'M' if w.value == 98.0 || w.value == 99.0 => {
+                return Some(format!("M{}", line.text_of(w)))
+            }
             _ => {}
         }
     }

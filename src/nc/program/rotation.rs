@@ -220,7 +220,7 @@ pub(super) fn apply_rotations(
             words.join(" "),
             line.text.trim().replace('(', "[").replace(')', "]")
         );
-        let rotated = parse_line(text.trim(), &line.ending, line.number, path)?;
+        let rotated = parse_line(text.trim(), line.ending, line.number, path)?;
         rewritten += 1;
         if rewritten > own_blocks && !room.take(&rotated) {
             return Err(NcError::line(
@@ -255,7 +255,8 @@ fn kept_words(line: &Line, code: f64, path: &str) -> Result<Option<Line>, NcErro
             line.number,
             format!(
                 "G{} in a G{} block: give the motion on a block of its own",
-                w.text, code as u32
+                line.text_of(w),
+                code as u32
             ),
         ));
     }
@@ -268,7 +269,7 @@ fn kept_words(line: &Line, code: f64, path: &str) -> Result<Option<Line>, NcErro
     if kept.is_empty() {
         return Ok(None);
     }
-    let mut kept = parse_line(&kept.join(" "), &line.ending, line.number, path)?;
+    let mut kept = parse_line(&kept.join(" "), line.ending, line.number, path)?;
     kept.spaced = line.spaced;
     Ok(Some(kept))
 }
@@ -279,5 +280,5 @@ fn comment(line: &Line, path: &str, what: &str) -> Result<Line, NcError> {
         "({}: {what})",
         line.text.trim().replace('(', "[").replace(')', "]")
     );
-    parse_line(&text, &line.ending, line.number, path)
+    parse_line(&text, line.ending, line.number, path)
 }

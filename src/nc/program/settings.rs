@@ -48,7 +48,7 @@ pub(in crate::nc) fn unknown_setting(line: &Line) -> Option<String> {
     if g(line, 10.0) && definite_g10(line).is_none() {
         let l = line
             .word('L')
-            .map_or(String::new(), |w| format!(" L{}", w.text));
+            .map_or(String::new(), |w| format!(" L{}", line.text_of(w)));
         return Some(format!("G10{l}"));
     }
     None

@@ -170,7 +170,7 @@ fn expand_line(
     if p.value.fract() != 0.0 || p.value < 0.0 {
         return Err(error(format!(
             "`P{}`: not a program number",
-            crate::error::excerpt(&p.text)
+            crate::error::excerpt(line.text_of(p))
         )));
     }
     let mut number = p.value as u64;
@@ -200,7 +200,7 @@ fn expand_line(
     let ending = if line.ending.is_empty() {
         "\n"
     } else {
-        line.ending.as_str()
+        line.ending
     };
     let comment = parse_line(&comment, ending, line.number, path)?;
     // A call inside a body is a block the calls add, as its body's blocks are.

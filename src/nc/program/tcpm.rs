@@ -119,22 +119,26 @@ pub(super) fn check_program(lines: &[Line], path: &str) -> Result<(), NcError> {
             let g = w.value;
             match w.letter {
                 'G' if is(g, 28.0) || is(g, 53.0) || is(g, 30.0) => {
-                    return refuse(format!("G{}, a move to a machine position,", w.text))
+                    return refuse(format!(
+                        "G{}, a move to a machine position,",
+                        line.text_of(w)
+                    ))
                 }
                 'G' if g.fract() == 0.0 && matches!(g as u32, 73 | 74 | 76 | 81..=89) => {
-                    return refuse(format!("G{}, a canned cycle,", w.text))
+                    return refuse(format!("G{}, a canned cycle,", line.text_of(w)))
                 }
                 'G' if is(g, 68.0) || is(g, 68.2) || is(g, 68.4) => {
-                    return refuse(format!("G{}, a coordinate rotation,", w.text))
+                    return refuse(format!("G{}, a coordinate rotation,", line.text_of(w)))
                 }
                 'G' if (41.0..43.0).contains(&g) => {
-                    return refuse(format!("G{}, cutter compensation,", w.text))
+                    return refuse(format!("G{}, cutter compensation,", line.text_of(w)))
                 }
                 'M' if is(g, 6.0) => return refuse("a tool change (M6)".into()),
                 'A' | 'B' | 'C' if mode == Tcpm::Vector => {
                     return refuse(format!(
                         "{}{}, a rotary word (the tool vector I J K gives the orientation),",
-                        w.letter, w.text
+                        w.letter,
+                        line.text_of(w)
                     ))
                 }
                 _ => {}

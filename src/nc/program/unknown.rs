@@ -129,7 +129,7 @@ fn strip_comments(body: &str) -> String {
 /// volmap cannot read: it passes wordless, and may move any axis).
 pub(super) fn unread_line(
     body: &str,
-    ending: &str,
+    ending: &'static str,
     number: usize,
     path: &str,
 ) -> Result<Option<Line>, NcError> {
@@ -161,10 +161,10 @@ pub(super) fn unread_line(
                 "G{text} beside a macro expression: volmap follows only modes (G0–G3, G17–G21, G40, G49, G54–G59, G80, G90, G91) on such a block"
             ));
         }
+        // Its place in the line is not kept (the line passes as it is): no message quotes it.
         words.push(Word {
             letter: 'G',
             value,
-            text: text.clone(),
             letter_at: 0,
             number: 0..0,
             lower: false,
@@ -173,7 +173,7 @@ pub(super) fn unread_line(
     Ok(Some(Line {
         number,
         text: body.into(),
-        ending: ending.into(),
+        ending,
         words,
         spaced: false,
         unknown: Some(excerpt(body.trim()).into_owned()),

@@ -19,6 +19,7 @@ mod interrupt;
 mod json;
 mod limits_budget;
 mod limits_grid;
+mod limits_nc;
 mod limits_outputs;
 mod limits_toml;
 mod machine_files;
