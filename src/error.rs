@@ -184,11 +184,9 @@ pub fn toml_beyond_limits(text: &str) -> Option<String> {
                 }
                 continue;
             }
-            b'\n' => {
-                if !open.iter().any(|&b| b == b'[') {
-                    in_key = true;
-                    key_parts = 1;
-                }
+            b'\n' if !open.contains(&b'[') => {
+                in_key = true;
+                key_parts = 1;
             }
             quote @ (b'"' | b'\'') => {
                 let triple = bytes[n..].starts_with(&[quote; 3]);
@@ -385,7 +383,7 @@ mod toml_tests {
     fn elements_and_dotted_keys_beyond_the_limits_are_found_before_parsing() {
         // One array a value more than the bound (its bracket is one): refused at its last
         // comma; one key more than the bound, as separate lines, at its `=`.
-        let values = "0,".repeat(MAX_TOML_VALUES - 2);
+        let values = "0,".repeat(MAX_TOML_VALUES - 1);
         let at_limit = format!("a = [{values}0]\n");
         assert_eq!(toml_beyond_limits(&at_limit), None);
         let over = format!("a = [{values}0,0]\n");
@@ -413,7 +411,7 @@ mod toml_tests {
             format!("{} = 1\n", parts(MAX_TOML_KEY_PARTS)),
             format!("[{}]\n", parts(MAX_TOML_KEY_PARTS)),
             format!("t = {{ {} = 1.5 }}\n", parts(MAX_TOML_KEY_PARTS)),
-            format!("x = 1.5\ny = [1.5, 2.5, {{ a.b = 3.5 }}]\n"),
+            "x = 1.5\ny = [1.5, 2.5, { a.b = 3.5 }]\n".to_string(),
         ] {
             assert_eq!(toml_beyond_limits(&text), None, "{text}");
             assert!(toml::from_str::<toml::Table>(&text).is_ok(), "{text}");

@@ -206,7 +206,8 @@ fn flag_of(error: ExportError, size_flag: &str) -> Failure {
         | ExportError::TooManyPoints { .. }
         | ExportError::TooFewPoints { .. }
         | ExportError::SpacingTooSmall { .. }
-        | ExportError::BadSpacing(_) => Some(size_flag),
+        | ExportError::BadSpacing(_)
+        | ExportError::SpacingTooLarge { .. } => Some(size_flag),
         ExportError::NothingHeld { .. }
         | ExportError::BeyondFormat { .. }
         | ExportError::Unrepresentable { .. } => Some("--format"),

@@ -47,7 +47,8 @@ pub enum ExportError {
     TooManyPoints {
         format: &'static str,
         axis: String,
-        points: usize,
+        /// The count in words (`count_words`: it may be beyond any integer).
+        points: String,
         max: usize,
         limits_from: &'static str,
     },
@@ -74,6 +75,8 @@ pub enum ExportError {
     },
     #[error("a spacing of {0} mm: it must be a positive number of mm")]
     BadSpacing(f64),
+    #[error("a spacing of {} mm is wider than every travel of the machine (the longest is {} mm): its tables would hold two nodes an axis, the last up to a spacing beyond the travel", crate::limits::number_words(*spacing_mm), crate::limits::number_words(*longest_mm))]
+    SpacingTooLarge { spacing_mm: f64, longest_mm: f64 },
     #[error("{points} points per axis for the residual: at least 2 and at most {max}")]
     BadEvaluationGrid { points: usize, max: usize },
     #[error("{format} can hold none of this machine's errors: {holds}; the table as written corrects nothing")]

@@ -266,7 +266,7 @@ pub fn table_points(
                 return Err(ExportError::TooManyPoints {
                     format: name,
                     axis: String::new(),
-                    points: n,
+                    points: n.to_string(),
                     max: limits.max_points,
                     limits_from: limits.source,
                 });
@@ -292,19 +292,35 @@ pub fn table_points(
                     limits_from: limits.source,
                 });
             }
+            // Nodes lie up to a spacing beyond a travel's end: one wider than every travel
+            // makes tables of two nodes, the last that far out, where no machine was measured.
+            let longest_mm = (0..3).map(length).fold(0.0, f64::max);
+            if s > longest_mm {
+                return Err(ExportError::SpacingTooLarge {
+                    spacing_mm: s,
+                    longest_mm,
+                });
+            }
             let mut points = [0; 3];
             for (d, count) in points.iter_mut().enumerate() {
-                // The nodes cover the travel: the last at or beyond its end.
-                let n = (length(d) / s - 1e-9).ceil().max(1.0) as usize + 1;
-                if n > limits.max_points {
+                // The nodes cover the travel: the last at or beyond its end. Counted in f64: a
+                // spacing of 1e-310 mm makes more nodes than any integer holds.
+                let n = (length(d) / s - 1e-9).ceil().max(1.0) + 1.0;
+                if n.is_nan() || n > limits.max_points as f64 {
                     return Err(ExportError::TooManyPoints {
                         format: name,
-                        axis: format!(" along {} ({} mm at {s} mm)", fitting::LINEAR[d], length(d)),
-                        points: n,
+                        axis: format!(
+                            " along {} ({} mm at {} mm)",
+                            fitting::LINEAR[d],
+                            length(d),
+                            crate::limits::number_words(s)
+                        ),
+                        points: crate::limits::count_words(n),
                         max: limits.max_points,
                         limits_from: limits.source,
                     });
                 }
+                let n = n as usize;
                 *count = n.max(limits.min_points);
             }
             Ok((Some(points), Some(s)))

@@ -335,3 +335,111 @@ fn the_readme_is_short() {
         "README.md has {lines} lines, at most {README_MOST_LINES}: move the details into docs/"
     );
 }
+
+/// The README's limits table, as its rows' text.
+fn readme_limits_table() -> String {
+    let readme = fs::read_to_string(repository().join("README.md")).unwrap();
+    let start = readme
+        .find("## Limits")
+        .expect("a limits section in the README");
+    let section = &readme[start..];
+    let end = section[3..].find("\n## ").map_or(section.len(), |n| n + 3);
+    section[..end]
+        .lines()
+        .filter(|l| l.starts_with('|'))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// `n` with commas between thousands, as the README writes counts.
+fn with_commas(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (k, c) in digits.chars().enumerate() {
+        if k > 0 && (digits.len() - k).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+#[test]
+fn the_readme_states_every_bound_the_code_checks() {
+    use volmap::{error, io::source, limits};
+    let table = readme_limits_table();
+    let counts: Vec<(&str, u64)> = vec![
+        ("MAX_FEATURE_POINTS", limits::MAX_FEATURE_POINTS),
+        ("MAX_PART_POINTS", limits::MAX_PART_POINTS),
+        ("MAX_TEST_POINTS", limits::MAX_TEST_POINTS),
+        ("MAX_RUNS", limits::MAX_RUNS),
+        ("MAX_SAMPLES", limits::MAX_SAMPLES),
+        ("MAX_DECIMALS", limits::MAX_DECIMALS as u64),
+        ("MAX_TRACE_SAMPLES", limits::MAX_TRACE_SAMPLES),
+        ("MAX_PROGRAM_BLOCKS", limits::MAX_PROGRAM_BLOCKS),
+        ("MAX_PROGRAM_WORDS", limits::MAX_PROGRAM_WORDS),
+        ("MAX_PIECES_PER_MOVE", limits::MAX_PIECES_PER_MOVE),
+        ("MAX_COMPENSATED_BLOCKS", limits::MAX_COMPENSATED_BLOCKS),
+        ("MAX_DRAWN_POINTS", limits::MAX_DRAWN_POINTS),
+        ("MAX_TOML_VALUES", error::MAX_TOML_VALUES as u64),
+        ("MAX_TOML_KEYS", error::MAX_TOML_KEYS as u64),
+        ("MAX_TOML_KEY_PARTS", error::MAX_TOML_KEY_PARTS as u64),
+        ("MAX_TOML_DEPTH", error::MAX_TOML_DEPTH as u64),
+        (
+            "MAX_AXIS_POINTS",
+            volmap::model::grid::MAX_AXIS_POINTS as u64,
+        ),
+        ("MAX_POSES", volmap::model::poses::MAX_POSES as u64),
+        (
+            "MAX_RESIDUAL_GRID_POINTS",
+            volmap::export::residual::MAX_RESIDUAL_GRID_POINTS as u64,
+        ),
+        ("MAX_EXPANDED_WORDS", volmap::nc::MAX_EXPANDED_WORDS as u64),
+        ("MAX_PECKS", volmap::nc::MAX_PECKS as u64),
+    ];
+    let mut missing: Vec<String> = counts
+        .iter()
+        .filter(|(_, n)| !has_word(&table, &with_commas(*n)))
+        .map(|(name, n)| format!("{name} = {}", with_commas(*n)))
+        .collect();
+    let others = [
+        (
+            "MAX_MACHINE_POINTS",
+            format!("{:e}", limits::MAX_MACHINE_POINTS as f64),
+        ),
+        (
+            "MAX_MEASURED_MAGNITUDE",
+            format!("{:e}", limits::MAX_MEASURED_MAGNITUDE),
+        ),
+        (
+            "TEXT_LIMIT_BYTES",
+            source::describe_bytes(source::TEXT_LIMIT_BYTES),
+        ),
+        (
+            "PROGRAM_LIMIT_BYTES",
+            source::describe_bytes(source::PROGRAM_LIMIT_BYTES),
+        ),
+        (
+            "MESH_LIMIT_BYTES",
+            source::describe_bytes(source::MESH_LIMIT_BYTES),
+        ),
+        (
+            "LINE_LIMIT_BYTES",
+            source::describe_bytes(source::LINE_LIMIT_BYTES as u64),
+        ),
+        (
+            "MAX_COMPENSATED_BYTES",
+            source::describe_bytes(limits::MAX_COMPENSATED_BYTES),
+        ),
+    ];
+    missing.extend(
+        others
+            .iter()
+            .filter(|(_, text)| !table.contains(text.as_str()))
+            .map(|(name, text)| format!("{name} = {text}")),
+    );
+    assert!(
+        missing.is_empty(),
+        "bounds the README's limits table does not state: {missing:?}"
+    );
+}

@@ -43,7 +43,9 @@ fn toml_size(cx: &mut Context, input: &[u8]) -> Verdict {
     let refusals: Vec<(&str, Option<String>)> = vec![
         (
             "machine",
-            Machine::from_toml(&text, "big.toml", None).err().map(|e| e.to_string()),
+            Machine::from_toml(&text, "big.toml", None)
+                .err()
+                .map(|e| e.to_string()),
         ),
         (
             "tolerance",
@@ -55,7 +57,9 @@ fn toml_size(cx: &mut Context, input: &[u8]) -> Verdict {
         ("fit", FitFile::read(path).err().map(|e| e.to_string())),
         (
             "work offset",
-            volmap::nc::read_work_offsets(path).err().map(|e| e.to_string()),
+            volmap::nc::read_work_offsets(path)
+                .err()
+                .map(|e| e.to_string()),
         ),
     ];
     for (reader, refusal) in refusals {
@@ -74,5 +78,5 @@ fn toml_size(cx: &mut Context, input: &[u8]) -> Verdict {
             Some(_) => {}
         }
     }
-    Ok(Outcome::Accepted)
+    Ok(Outcome::Refused(said))
 }

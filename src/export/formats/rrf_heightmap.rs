@@ -109,7 +109,7 @@ impl Format for RrfHeightMap {
             return Err(ExportError::TooManyPoints {
                 format: SPEC.name,
                 axis: format!(" over X and Y together ({nx} x {ny})"),
-                points: nx * ny,
+                points: (nx * ny).to_string(),
                 max: MAX_GRID_POINTS,
                 limits_from: SPEC.limits.source,
             });

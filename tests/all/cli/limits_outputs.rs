@@ -12,8 +12,11 @@ use super::{s, volmap};
 /// A program of a few moves.
 const PROGRAM: &str = "G21 G90 G17\nG0 X100 Y100 Z100\nG1 X200 F500\nG1 Y150\nM30\n";
 
-/// Each command with several outputs: its arguments, and its output flags with a file name each.
-fn runs(dir: &Path) -> Vec<(Vec<String>, Vec<(&'static str, &'static str)>)> {
+/// A command's arguments, and its output flags with a file name each.
+type Run = (Vec<String>, Vec<(&'static str, &'static str)>);
+
+/// Each command with several outputs.
+fn runs(dir: &Path) -> Vec<Run> {
     std::fs::write(dir.join("p.nc"), PROGRAM).unwrap();
     let tolerances = format!(
         "{}/examples/tolerances/vmc-li2015.toml",
@@ -424,4 +427,151 @@ fn control_characters_from_inputs_never_reach_the_terminal() {
         stdout.contains("hole\\u{1b}[2K\\u{d}A fit\\u{1b}[8m"),
         "{stdout}"
     );
+}
+
+#[test]
+fn export_spacings_beyond_any_use_name_the_spacing() {
+    // vmc-li2015's longest travel is X's 1000 mm: a spacing wider than that, or so small that its
+    // nodes outnumber any integer, is the spacing's fault, exit 2 naming --spacing.
+    let dir = tempfile::tempdir().unwrap();
+    for (format, spacing, says) in [
+        (
+            "grid-csv",
+            "1e9",
+            "a spacing of 1000000000 mm is wider than every travel",
+        ),
+        (
+            "linuxcnc",
+            "1001",
+            "a spacing of 1001 mm is wider than every travel",
+        ),
+        (
+            "linuxcnc",
+            "1e-310",
+            "points along X (1000 mm at 1e-310 mm) is more than",
+        ),
+        (
+            "linuxcnc",
+            "5e-324",
+            "points along X (1000 mm at 5e-324 mm) is more than",
+        ),
+    ] {
+        let output = volmap()
+            .args(["export", "--machine", "vmc-li2015", "--format", format])
+            .args(["--spacing", spacing, "--out", "out"])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(
+            output.status.code(),
+            Some(2),
+            "{format} {spacing}: {stderr}"
+        );
+        assert!(
+            stderr.starts_with("error: --spacing: ")
+                && stderr.contains(says)
+                && !stderr.contains("NaN"),
+            "{format} {spacing}: {stderr}"
+        );
+    }
+}
+
+#[test]
+fn messages_name_the_flag_or_line_at_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A negative number is a value, refused by its flag's own check (not taken for a flag).
+    for (args, says) in [
+        (
+            vec![
+                "export",
+                "--machine",
+                "vmc-li2015",
+                "--format",
+                "linuxcnc",
+                "--spacing",
+                "-5",
+                "--out",
+                "o",
+            ],
+            "error: --spacing: ",
+        ),
+        (
+            vec![
+                "export",
+                "--machine",
+                "vmc-li2015",
+                "--format",
+                "grid-csv",
+                "--spacing",
+                "-0",
+                "--out",
+                "o.csv",
+            ],
+            "error: --spacing: ",
+        ),
+    ] {
+        let output = volmap().args(&args).current_dir(d).output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.starts_with(says) && !stderr.contains("unexpected argument"),
+            "{args:?}: {stderr}"
+        );
+    }
+    // Text that is not UTF-8: the line it is on.
+    std::fs::write(d.join("p.csv"), b"X,Y,Z\n1,2,3\n4,\xff,6\n").unwrap();
+    std::fs::write(d.join("t.toml"), b"[axes.X]\nEXX = 0.001\n# \xfe\n").unwrap();
+    for (args, says) in [
+        (
+            vec![
+                "sample",
+                "--exact",
+                "--machine",
+                "vmc-li2015",
+                "--points",
+                "p.csv",
+            ],
+            "p.csv: line 3: not UTF-8 text",
+        ),
+        (
+            vec![
+                "budget",
+                "--machine",
+                "vmc-li2015",
+                "--tolerances",
+                "t.toml",
+            ],
+            "line 3, column 3: not UTF-8 text",
+        ),
+    ] {
+        let output = volmap().args(&args).current_dir(d).output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+    }
+    // A plot that cannot be written names --plot (a link to /dev/full: written directly, and
+    // the write fails after the work).
+    #[cfg(target_os = "linux")]
+    {
+        std::fs::write(d.join("p.nc"), PROGRAM).unwrap();
+        std::os::unix::fs::symlink("/dev/full", d.join("full.svg")).unwrap();
+        let output = volmap()
+            .args([
+                "trace",
+                "--machine",
+                "vmc-li2015",
+                "--program",
+                "p.nc",
+                "--plot",
+                "full.svg",
+            ])
+            .current_dir(d)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{stderr}");
+        assert!(stderr.starts_with("error: --plot: "), "{stderr}");
+    }
 }

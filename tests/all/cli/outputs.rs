@@ -133,8 +133,9 @@ fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
         ])
         .assert()
         .code(2)
+        // The output is declared before the measurements are read: reading them is refused.
         .stderr(predicate::str::contains(
-            "--out: x.csv is an input of this run",
+            "--axis: x.csv is an input of this run and one of its outputs",
         ));
     assert_eq!(std::fs::read_to_string(d.join("x.csv")).unwrap(), measured);
     // `sample --out` on its points, `map --out` on its machine file, `--json` on a measured

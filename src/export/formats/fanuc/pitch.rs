@@ -172,7 +172,7 @@ fn fit_table(
                 real(interval as f64 * DETECTION_UNIT_MM),
                 real(reference as f64 * DETECTION_UNIT_MM)
             ),
-            points: count as usize,
+            points: count.to_string(),
             max: per_table as usize,
             limits_from: limits.source,
         });
