@@ -122,7 +122,8 @@ pub fn load_machine_flag(
 /// `--grid`.
 #[derive(clap::Args)]
 pub struct GridArg {
-    /// Grid points along X, Y and Z, spanning each linear axis's full travel, `NXxNYxNZ`.
+    /// Grid points along X, Y and Z, spanning each linear axis's full travel, `NXxNYxNZ` (at
+    /// most 262144 along each, and NY·NZ below 2^31).
     #[arg(long, default_value = "64x64x64", value_parser = grid::parse_dims)]
     pub grid: [usize; 3],
 }

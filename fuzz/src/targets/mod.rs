@@ -8,6 +8,7 @@ mod field;
 mod machine;
 mod measured;
 mod nc;
+mod nc_size;
 mod parts;
 mod toml_size;
 
@@ -201,6 +202,7 @@ pub const TARGETS: &[Target] = &[
     nc::OFFSETS,
     field::FIELD,
     toml_size::TOML_SIZE,
+    nc_size::NC_SIZE,
 ];
 
 /// The target called `name`.

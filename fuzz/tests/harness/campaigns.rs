@@ -129,6 +129,12 @@ fn toml_size() {
     short_campaign("toml-size", 150);
 }
 
+/// Each execution builds and counts a program of 5 MB: fewer of them.
+#[test]
+fn nc_size() {
+    short_campaign("nc-size", 150);
+}
+
 /// Every seed of every corpus is read as it is: a corpus of files the readers refuse would
 /// test only their first error.
 #[test]
