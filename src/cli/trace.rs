@@ -120,6 +120,10 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
         pass_unknown: args.pass_unknown,
         ..args.setup.options(&machine, inputs)?
     };
+    if args.compensate {
+        // What the compensation would write is checked before the program is traced.
+        nc::check_written_options(&options).map_err(option_failure)?;
+    }
     let program =
         volmap::io::read_bytes(&args.program, volmap::io::SourceKind::Program).flag("--program")?;
     let name = args.program.display().to_string();

@@ -57,24 +57,9 @@ pub(super) fn begin<'a>(
     ))
 }
 
-/// Compensates `program` (its bytes; `path` names it in errors) for `machine`.
-pub fn compensate(
-    machine: &Machine,
-    program: &[u8],
-    path: &str,
-    options: &Options,
-) -> Result<Compensated, NcError> {
-    compensate_with_progress(machine, program, path, options, |_, _| {})
-}
-
-/// [`compensate`], telling `on_progress(lines done, lines)` as it goes.
-pub fn compensate_with_progress(
-    machine: &Machine,
-    program: &[u8],
-    path: &str,
-    options: &Options,
-    mut on_progress: impl FnMut(usize, usize),
-) -> Result<Compensated, NcError> {
+/// Checks the options of what a compensation writes (the chord tolerance, the decimals) before
+/// any work: `trace --compensate` asks it before it traces the program as programmed.
+pub fn check_written_options(options: &Options) -> Result<(), NcError> {
     let chord = options.chord_tolerance_mm;
     if !(chord > 0.0 && chord <= MAX_CHORD_TOLERANCE_MM) {
         return Err(NcError::Option {
@@ -101,13 +86,35 @@ pub fn compensate_with_progress(
                 option: NcOption::Decimals,
                 value: decimals.to_string(),
                 message: format!(
-                    "numbers written to {decimals} decimals are rounded by up to {} mm, more than the chord tolerance of {} mm: no split of the moves meets it; write at least {needed} decimals (or give a larger --chord-tolerance)",
+                    "numbers written to {decimals} decimals are rounded by up to {} mm, more than the chord tolerance of {} mm: no split of the moves meets it; write at least {needed} decimals (or a larger chord tolerance)",
                     number_words(rounding_mm),
                     number_words(chord)
                 ),
             });
         }
     }
+    Ok(())
+}
+
+/// Compensates `program` (its bytes; `path` names it in errors) for `machine`.
+pub fn compensate(
+    machine: &Machine,
+    program: &[u8],
+    path: &str,
+    options: &Options,
+) -> Result<Compensated, NcError> {
+    compensate_with_progress(machine, program, path, options, |_, _| {})
+}
+
+/// [`compensate`], telling `on_progress(lines done, lines)` as it goes.
+pub fn compensate_with_progress(
+    machine: &Machine,
+    program: &[u8],
+    path: &str,
+    options: &Options,
+    mut on_progress: impl FnMut(usize, usize),
+) -> Result<Compensated, NcError> {
+    check_written_options(options)?;
     check_options(machine, options)?;
     let (lines, mut state, mut compensator, holes) = begin(machine, program, path, options)?;
     let mut report = Report {

@@ -67,7 +67,7 @@ mod walk;
 mod write;
 
 pub use check::{check_written, CheckBounds, CheckError};
-pub use compensate::{compensate, compensate_with_progress};
+pub use compensate::{check_written_options, compensate, compensate_with_progress};
 pub use error::{NcError, NcOption};
 pub use options::{
     check_work_offsets, parse_work_offset, read_work_offsets, Options, ToolLengths,

@@ -149,6 +149,23 @@ fn decimals_whose_rounding_exceeds_the_chord_tolerance_are_refused_naming_decima
         dir.path(),
         &["--decimals", "0.5 mm", "at least 3 decimals"],
     );
+    // Before the program is read or traced: a program trace would refuse at its second line is
+    // not looked at.
+    std::fs::write(dir.path().join("bad.nc"), "G0 X0 Y0 Z10\nG1 X F100\n").unwrap();
+    refused(
+        &[
+            "trace",
+            "--machine",
+            "m.toml",
+            "--program",
+            "bad.nc",
+            "--compensate",
+            "--decimals",
+            "0",
+        ],
+        dir.path(),
+        &["error: --decimals", "at least 3 decimals"],
+    );
     // 2 decimals round by 0.005 mm, within 0.01 mm: accepted.
     volmap()
         .current_dir(dir.path())
