@@ -173,6 +173,13 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
     if let Some(note) = note {
         errln!("volmap: {note}");
     }
+    if let volmap::engine::Engine::Gpu(mapper) = &engine {
+        // Tables beyond one buffer are refused before the field file is begun.
+        let first = grids.as_ref().and_then(|g| g.first()).unwrap_or(&grid);
+        mapper
+            .check_grid_tables(&machine, first)
+            .map_err(|e| map_failure(e.into(), &machine, &args.out))?;
+    }
     let options = MapOptions {
         chunk_points: args.chunk_points,
         check_points: args.check,

@@ -91,6 +91,32 @@ impl ChunkDispatch {
 }
 
 impl GpuMapper {
+    /// Refuses, before any work (a field file created, a kernel compiled), a grid whose error
+    /// tables for `machine` (of errors that read other axes' positions) exceed one buffer of
+    /// this adapter.
+    pub fn check_grid_tables(&self, machine: &Machine, grid: &Grid) -> Result<(), GpuError> {
+        self.check_tables(machine, grid, &FoldedLayout::new(machine, grid))
+    }
+
+    fn check_tables(
+        &self,
+        machine: &Machine,
+        grid: &Grid,
+        layout: &FoldedLayout,
+    ) -> Result<(), GpuError> {
+        let binding = self.gpu.max_storage_binding_bytes();
+        if layout.bytes() > binding {
+            return Err(GpuError::GridTables {
+                machine: machine.name.clone(),
+                grid: crate::model::grid::dims_text(grid.dims),
+                adapter: self.adapter_name().to_string(),
+                bytes: layout.bytes(),
+                limit: binding,
+            });
+        }
+        Ok(())
+    }
+
     /// Uploads `machine` with its tables' `layout` over `grid`, compiles the kernels and sizes
     /// the buffers for batches of up to `samples` machines whose chunks' results take
     /// `result_bytes(batch)`: the field of one chunk, or with `reduce` the partials of a batch
@@ -104,16 +130,7 @@ impl GpuMapper {
         result_bytes: impl Fn(u64) -> u64,
     ) -> Result<Folded, GpuError> {
         let base = Base::new(machine, perturbations, grid);
-        let binding = self.gpu.max_storage_binding_bytes();
-        if layout.bytes() > binding {
-            return Err(GpuError::GridTables {
-                machine: machine.name.clone(),
-                grid: crate::model::grid::dims_text(grid.dims),
-                adapter: self.adapter_name().to_string(),
-                bytes: layout.bytes(),
-                limit: binding,
-            });
-        }
+        self.check_tables(machine, grid, &layout)?;
         let terms = perturbations.len().max(1) as u64;
         let order = base.order.len() as u64;
         let per_sample = layout.bytes()

@@ -212,9 +212,13 @@ fn a_gpu_refuses_tables_larger_than_its_buffers_with_exit_2_naming_grid() {
     let out = dir.path().join("f.exr");
     // gantry-2m's cross-rail sag is a table2d of Y and Z: over a 1x4096x4096 grid its table has
     // 4096² = 16.8 million entries of 32 bytes, 537 MB, beyond the 128 MiB buffers of lavapipe
-    // (and of the adapters that offer the least). Refused before any line is computed, nothing
-    // left behind.
-    volmap()
+    // (and of the adapters that offer the least). Refused before the field file is begun (its
+    // offset table alone, 4096² lines of 8 bytes, is 134 MB: under a 20 MB file-size limit a
+    // run that began it would fail writing, exit 1), nothing left behind.
+    assert_cmd::Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -f 20000 && exec \"$0\" \"$@\"")
+        .arg(assert_cmd::cargo::cargo_bin("volmap"))
         .args(["map", "--machine", "gantry-2m", "--device", "gpu"])
         .args([
             "--grid",
