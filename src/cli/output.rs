@@ -73,10 +73,7 @@ pub fn progress(len: Option<u64>, verb: &str, unit: &str) -> ProgressBar {
 
 /// The folder a file written at `path` lies in (`.` for a bare file name).
 pub fn out_folder(path: &std::path::Path) -> std::path::PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    }
+    volmap::io::outputs::folder_of(path).to_path_buf()
 }
 
 /// The first line of the header of a machine file a command writes: volmap's version, the date

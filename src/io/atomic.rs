@@ -32,9 +32,8 @@ impl AtomicFile {
     /// Starts writing `path` (through a buffer of `buffer_bytes`).
     pub fn create(path: &Path, buffer_bytes: usize) -> Result<AtomicFile, FileError> {
         super::source::check_not_source(path)?;
-        super::outputs::check_writable(path)?;
         // A link is written through: the file it leads to is replaced, the link stays.
-        let target = super::outputs::target_of(path)?;
+        let target = super::outputs::check_writable(path)?;
         let path = target.as_path();
         if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
             // A device or a pipe (`/dev/null`, `/dev/stdout`): renaming over it would
@@ -255,11 +254,7 @@ pub fn remove_live_temporaries_and_exit(code: i32) -> ! {
 
 /// Removes the temporary files of `name` (beside `path`) whose writing process is gone.
 fn remove_stale_temporaries(path: &Path, name: &str) {
-    let folder = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let Ok(entries) = std::fs::read_dir(folder) else {
+    let Ok(entries) = std::fs::read_dir(super::outputs::folder_of(path)) else {
         return;
     };
     for entry in entries.flatten() {

@@ -28,6 +28,14 @@ fn refused(path: &Path, why: String) -> FileError {
     )
 }
 
+/// The folder a file at `path` lies in (`.` for a bare file name).
+pub fn folder_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
 /// The file a write to `path` replaces: `path` itself, or where the symbolic link `path` leads
 /// (links of links followed). A link to nothing is refused.
 pub fn target_of(path: &Path) -> Result<PathBuf, FileError> {
@@ -47,8 +55,9 @@ pub fn target_of(path: &Path) -> Result<PathBuf, FileError> {
 }
 
 /// Checks, before any work, that `path` can be written as an output: its folder exists, it is not
-/// a folder, a link to nothing, or a file the user could not write.
-pub fn check_writable(path: &Path) -> Result<(), FileError> {
+/// a folder, a link to nothing, or a file the user could not write. The file a write replaces
+/// ([`target_of`]).
+pub fn check_writable(path: &Path) -> Result<PathBuf, FileError> {
     let target = target_of(path)?;
     if let Ok(metadata) = std::fs::metadata(&target) {
         if metadata.is_dir() {
@@ -65,20 +74,17 @@ pub fn check_writable(path: &Path) -> Result<(), FileError> {
             ));
         }
         if !metadata.is_file() {
-            return Ok(());
+            return Ok(target);
         }
     }
-    let folder = match target.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
+    let folder = folder_of(&target);
     if !folder.is_dir() {
         return Err(refused(
             path,
             format!("its folder `{}` does not exist", super::shown_path(folder)),
         ));
     }
-    Ok(())
+    Ok(target)
 }
 
 /// Whether the user could write the existing file `path`: it has a write permission for
@@ -201,7 +207,7 @@ mod tests {
             assert!(check_writable(&dangling).is_err());
         }
         assert_eq!(target_of(&file).unwrap(), file);
-        assert!(check_writable(&file).is_ok());
+        assert_eq!(check_writable(&file).unwrap(), file);
         let message = check_writable(&dir.path().join("no/x.csv"))
             .unwrap_err()
             .to_string();

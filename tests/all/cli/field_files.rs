@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use predicates::prelude::*;
 
-use super::{refused, volmap};
+use super::{refused, volmap, volmap_under};
 
 fn map(dir: &Path, name: &str, grid: &str, extra: &[&str]) -> PathBuf {
     let out = dir.join(name);
@@ -324,17 +324,6 @@ fn header_numbers_that_are_not_numbers_are_refused_naming_the_attribute() {
         .stderr(predicate::str::contains("VE.X UINT").and(predicate::str::contains("OE.X FLOAT")));
 }
 
-/// Runs volmap with its address space limited to 4 GB: an allocation the size of a huge grid
-/// fails (and aborts) instead of succeeding.
-fn volmap_in_4gb() -> assert_cmd::Command {
-    let mut command = assert_cmd::Command::new("sh");
-    command
-        .arg("-c")
-        .arg("ulimit -v 4000000 && exec \"$0\" \"$@\"")
-        .arg(assert_cmd::cargo::cargo_bin("volmap"));
-    command
-}
-
 #[test]
 fn readers_of_a_1x46340x46340_header_stay_in_bounded_memory() {
     let dir = tempfile::tempdir().unwrap();
@@ -361,13 +350,13 @@ fn readers_of_a_1x46340x46340_header_stay_in_bounded_memory() {
     let file = std::fs::OpenOptions::new().write(true).open(&big).unwrap();
     file.set_len(header + lines * (8 + 8 + 24)).unwrap();
     drop(file);
-    volmap_in_4gb()
+    volmap_under("-v 4000000")
         .arg("info")
         .arg(&big)
         .assert()
         .code(2)
         .stderr(predicate::str::contains("outside the file's blocks"));
-    volmap_in_4gb()
+    volmap_under("-v 4000000")
         .args(["plot", "slice", "--normal", "x", "--out"])
         .arg(dir.path().join("s.svg"))
         .arg("--field")
@@ -377,7 +366,7 @@ fn readers_of_a_1x46340x46340_header_stay_in_bounded_memory() {
         .stderr(predicate::str::contains("a slice of 46340x46340 points"));
     let points = dir.path().join("p.csv");
     std::fs::write(&points, "X,Y,Z\n0,10,10\n").unwrap();
-    volmap_in_4gb()
+    volmap_under("-v 4000000")
         .args(["sample", "--device", "cpu", "--field"])
         .arg(&big)
         .arg("--points")
@@ -389,7 +378,7 @@ fn readers_of_a_1x46340x46340_header_stay_in_bounded_memory() {
     let file = std::fs::OpenOptions::new().write(true).open(&big).unwrap();
     file.set_len(header + lines * 8).unwrap();
     drop(file);
-    volmap_in_4gb()
+    volmap_under("-v 4000000")
         .arg("info")
         .arg(&big)
         .assert()

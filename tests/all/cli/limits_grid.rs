@@ -11,20 +11,10 @@ use std::path::Path;
 
 use predicates::prelude::*;
 
-use super::{s, temporaries, volmap};
+use super::{s, temporaries, volmap, volmap_under};
 
 /// The most points along one axis (`MAX_AXIS_POINTS`, 2^18).
 const AXIS_LIMIT: usize = 1 << 18;
-
-/// volmap with its address space limited to `kb` kilobytes.
-fn volmap_within(kb: u64) -> assert_cmd::Command {
-    let mut command = assert_cmd::Command::new("sh");
-    command
-        .arg("-c")
-        .arg(format!("ulimit -v {kb} && exec \"$0\" \"$@\""))
-        .arg(assert_cmd::cargo::cargo_bin("volmap"));
-    command
-}
 
 /// The devices to map on: the CPU, and the GPU where an adapter exists (lavapipe in CI).
 fn devices() -> Vec<&'static str> {
@@ -98,7 +88,7 @@ fn long_thin_grids_at_the_axis_limit_map_on_every_engine_in_bounded_memory() {
             let grid = thin(d, AXIS_LIMIT);
             let out = dir.path().join(format!("{device}-{d}.exr"));
             let json = dir.path().join(format!("{device}-{d}.json"));
-            volmap_within(3_000_000)
+            volmap_under("-v 3000000")
                 .args(["map", "--device", device, "--grid", &grid])
                 .args(["--compression", "zip", "--check", "3", "--json"])
                 .arg(&json)
@@ -120,7 +110,7 @@ fn long_thin_grids_at_the_axis_limit_map_on_every_engine_in_bounded_memory() {
             if d != 0 {
                 continue;
             }
-            volmap_within(3_000_000)
+            volmap_under("-v 3000000")
                 .args(["budget", "--device", device, "--grid", &grid])
                 .args(["--samples", "2", "--machine", "vmc-li2015", "--tolerances"])
                 .arg(tolerances())
@@ -169,7 +159,7 @@ fn a_sweep_of_many_poses_writes_its_headers_in_memory_independent_of_the_poses()
     // which the old writer built in memory twice (the parts' headers and their bytes) before
     // writing the first; in 700 MB of address space only a bounded writer runs. Written to
     // /dev/null: the test measures memory, not the disk.
-    volmap_within(700_000)
+    volmap_under("-v 700000")
         .args(["map", "--device", "cpu", "--grid", "2x2x2"])
         .args(["--poses", "C=0:359.7:0.3", "--machine"])
         .arg(&machine)
@@ -215,10 +205,7 @@ fn a_gpu_refuses_tables_larger_than_its_buffers_with_exit_2_naming_grid() {
     // (and of the adapters that offer the least). Refused before the field file is begun (its
     // offset table alone, 4096² lines of 8 bytes, is 134 MB: under a 20 MB file-size limit a
     // run that began it would fail writing, exit 1), nothing left behind.
-    assert_cmd::Command::new("sh")
-        .arg("-c")
-        .arg("ulimit -f 20000 && exec \"$0\" \"$@\"")
-        .arg(assert_cmd::cargo::cargo_bin("volmap"))
+    volmap_under("-f 20000")
         .args(["map", "--machine", "gantry-2m", "--device", "gpu"])
         .args([
             "--grid",

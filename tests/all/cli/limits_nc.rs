@@ -1,20 +1,8 @@
 //! The limits of `trace` and `compensate` (issue 33): a program's blocks counted before it is
 //! read, memory bounded by the moves, and refusals that name the flag that is their cause.
 
-use super::{refused, volmap};
-
-/// A machine whose X scale error (1e-4·x) gives every move a correction.
-const SCALE: &str = r#"
-name = "scale"
-chain = "FFXYZ"
-[axes.X]
-range = [0.0, 200.0]
-EXX = { poly = [0.0, 1.0e-4] }
-[axes.Y]
-range = [0.0, 200.0]
-[axes.Z]
-range = [0.0, 200.0]
-"#;
+use super::trace::SCALE;
+use super::{refused, volmap, volmap_under};
 
 /// A program of `moves` short feed moves (0.01 mm apart, rows of 700).
 fn short_moves(moves: usize) -> String {
@@ -60,17 +48,6 @@ fn a_program_of_more_blocks_than_the_limit_is_refused_before_it_is_read() {
     }
 }
 
-/// Runs volmap with its address space limited to `kib` KiB: beyond it an allocation fails and
-/// the run aborts (exit 134) instead of succeeding.
-fn volmap_within(kib: u64) -> assert_cmd::Command {
-    let mut command = assert_cmd::Command::new("sh");
-    command
-        .arg("-c")
-        .arg(format!("ulimit -v {kib} && exec \"$0\" \"$@\""))
-        .arg(assert_cmd::cargo::cargo_bin("volmap"));
-    command
-}
-
 #[test]
 fn trace_and_compensate_run_short_moves_in_memory_bounded_by_the_moves() {
     // 24,000 moves of 0.01 mm. The bound: 150 MiB for the binary and its threads (a program of
@@ -80,12 +57,12 @@ fn trace_and_compensate_run_short_moves_in_memory_bounded_by_the_moves() {
     let moves = 24_000;
     let dir = setup(&short_moves(moves));
     let kib = 150 * 1024 + 5 * moves as u64;
-    volmap_within(kib)
+    volmap_under(&format!("-v {kib}"))
         .current_dir(dir.path())
         .args(["trace", "--machine", "m.toml", "--program", "p.nc"])
         .assert()
         .code(0);
-    volmap_within(kib)
+    volmap_under(&format!("-v {kib}"))
         .current_dir(dir.path())
         .args([
             "compensate",

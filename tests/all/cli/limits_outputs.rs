@@ -88,6 +88,28 @@ fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
     all
 }
 
+/// `args` with every output flag of `outputs`, each over an old file in `d`, but output `bad`
+/// named `bad_name(name)`.
+fn with_outputs(
+    d: &Path,
+    args: &[String],
+    outputs: &[(&str, &str)],
+    bad: usize,
+    bad_name: impl Fn(&str) -> String,
+) -> Vec<String> {
+    let mut all = args.to_vec();
+    for (k, (flag, name)) in outputs.iter().enumerate() {
+        std::fs::write(d.join(name), "old").unwrap();
+        all.push(flag.to_string());
+        all.push(if k == bad {
+            bad_name(name)
+        } else {
+            name.to_string()
+        });
+    }
+    all
+}
+
 #[test]
 fn a_missing_folder_of_any_output_is_refused_before_the_work_and_nothing_is_replaced() {
     let dir = tempfile::tempdir().unwrap();
@@ -95,16 +117,9 @@ fn a_missing_folder_of_any_output_is_refused_before_the_work_and_nothing_is_repl
     for (args, outputs) in runs(d) {
         // Each output in turn in a folder that is not there, the others over old files.
         for bad in 0..outputs.len() {
-            let mut all = args.clone();
-            for (k, (flag, name)) in outputs.iter().enumerate() {
-                std::fs::write(d.join(name), "old").unwrap();
-                all.push(flag.to_string());
-                all.push(if k == bad {
-                    format!("no-such-folder/{name}")
-                } else {
-                    name.to_string()
-                });
-            }
+            let all = with_outputs(d, &args, &outputs, bad, |name| {
+                format!("no-such-folder/{name}")
+            });
             let before = contents(d);
             let started = Instant::now();
             let output = volmap().args(&all).current_dir(d).output().unwrap();
@@ -132,16 +147,7 @@ fn an_output_that_fails_while_written_leaves_every_other_output_as_it_was() {
     let d = dir.path();
     for (args, outputs) in runs(d) {
         for bad in 0..outputs.len() {
-            let mut all = args.clone();
-            for (k, (flag, name)) in outputs.iter().enumerate() {
-                std::fs::write(d.join(name), "old").unwrap();
-                all.push(flag.to_string());
-                all.push(if k == bad {
-                    "/dev/full".to_string()
-                } else {
-                    name.to_string()
-                });
-            }
+            let all = with_outputs(d, &args, &outputs, bad, |_| "/dev/full".to_string());
             // A plot's format is its extension: /dev/full has none, so plots stay files here.
             if outputs[bad].0 == "--plot" {
                 continue;

@@ -3,21 +3,11 @@
 //! parsing it, exit code 2 naming the file and its line, within a bounded address space, whatever
 //! shape the elements take (one long array, many keys, many inline tables, many table headers).
 
-use super::volmap;
+use super::{volmap, volmap_under};
 
 /// The most values and keys a TOML file may hold (`volmap::error`).
 const MAX_VALUES: usize = volmap::error::MAX_TOML_VALUES;
 const MAX_KEYS: usize = volmap::error::MAX_TOML_KEYS;
-
-/// Runs volmap with its address space limited to `kb` KiB through the shell's `ulimit -v`.
-fn volmap_within_kb(kb: u64) -> assert_cmd::Command {
-    let mut command = assert_cmd::Command::new("sh");
-    command
-        .arg("-c")
-        .arg(format!("ulimit -v {kb} && exec \"$0\" \"$@\""))
-        .arg(assert_cmd::cargo::cargo_bin("volmap"));
-    command
-}
 
 /// Texts one value or key beyond a bound, each a shape of its own, with what the message says:
 /// the bound is passed on the last line.
@@ -110,7 +100,7 @@ fn toml_files_beyond_the_element_bound_are_refused_by_every_reader_in_bounded_me
         let file = format!("{}.toml", shape.replace(' ', "-"));
         std::fs::write(dir.path().join(&file), &text).unwrap();
         for (reader, args) in readers(dir.path(), &file) {
-            let output = volmap_within_kb(1_000_000)
+            let output = volmap_under("-v 1000000")
                 .args(&args)
                 .current_dir(dir.path())
                 .output()
@@ -139,7 +129,7 @@ fn a_file_at_the_element_bound_is_parsed_and_refused_for_what_it_says() {
     );
     std::fs::write(dir.path().join("m.toml"), text).unwrap();
     for (reader, args) in readers(dir.path(), "m.toml").into_iter().take(1) {
-        let output = volmap_within_kb(2_000_000)
+        let output = volmap_under("-v 2000000")
             .args(&args)
             .current_dir(dir.path())
             .output()

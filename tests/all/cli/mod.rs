@@ -50,6 +50,18 @@ pub fn volmap() -> Command {
     Command::cargo_bin("volmap").unwrap()
 }
 
+/// volmap run under the shell's `ulimit LIMIT` (`-v KIB`: its address space, where an allocation
+/// beyond it fails and the run aborts instead of succeeding; `-f BLOCKS`: the size of a file it
+/// writes).
+pub fn volmap_under(limit: &str) -> Command {
+    let mut command = Command::new("sh");
+    command
+        .arg("-c")
+        .arg(format!("ulimit {limit} && exec \"$0\" \"$@\""))
+        .arg(assert_cmd::cargo::cargo_bin("volmap"));
+    command
+}
+
 /// Runs volmap with `args` in `dir`: exit code 2 with every one of `says` on stderr, which it
 /// returns.
 pub fn refused(args: &[&str], dir: &std::path::Path, says: &[&str]) -> String {

@@ -4,8 +4,9 @@ use predicates::prelude::*;
 
 use super::volmap;
 
-/// A machine whose only error is a scale error of X: the real tip is 1e-4·x ahead in X.
-const SCALE: &str = r#"
+/// A machine whose only error is a scale error of X: the real tip is 1e-4·x ahead in X (every
+/// move gets a correction).
+pub(super) const SCALE: &str = r#"
 name = "scale"
 chain = "FFXYZ"
 [axes.X]
