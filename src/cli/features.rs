@@ -15,6 +15,7 @@ use volmap::io::tolerance_file::ToleranceFile;
 
 use super::args::{load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg};
 use super::envelope::Envelope;
+use super::estimate::Estimate;
 use super::failure::{Failure, FlagContext};
 use super::numbers;
 use super::output::{check_distinct_outputs, progress, write_file};
@@ -320,7 +321,17 @@ fn run_conformance(
         None => 0..samples,
     };
     let bar = progress(Some(range.len() as u64), "evaluating", "machines");
+    // The points each machine is evaluated at, for the rate the estimate states (a part that
+    // cannot be evaluated fails in the evaluation itself, with its message).
+    let points_each =
+        part::cutter_positions(part, part_name).map_or(0.0, |t| t.positions.len() as f64);
+    let estimate = Estimate::new(
+        range.len(),
+        points_each,
+        format!("evaluating {} machines", range.len()),
+    );
     let result = feature_errors(&engine, &study, part, part_name, range.clone(), |n| {
+        estimate.progress(n, |line| bar.suspend(|| errln!("{line}")));
         bar.set_position(n as u64)
     });
     bar.finish_and_clear();

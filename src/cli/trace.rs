@@ -2,6 +2,7 @@
 //! without rewriting it; with `--compensate`, also along the program compensation would write,
 //! measured from the intended path, so a shop sees before and after.
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -13,7 +14,7 @@ use super::compensate::{corrupted_for_tests, option_failure, SetupArgs};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
 use super::numbers;
-use super::output::{check_distinct_outputs, check_plot_paths, write_file, write_plot};
+use super::output::{check_distinct_outputs, check_plot_paths, write_plot};
 
 #[derive(clap::Args)]
 pub struct TraceArgs {
@@ -72,22 +73,126 @@ struct Summary {
     per_block: Vec<(usize, f64)>,
 }
 
-fn summary(program: &'static str, samples: &[TraceSample]) -> Summary {
-    let worst = samples
-        .iter()
-        .filter(|s| s.motion != 0)
-        .max_by(|a, b| a.deviation_mm.total_cmp(&b.deviation_mm));
-    Summary {
-        program,
-        covers: "feed moves (G1 G2 G3)",
-        largest_mm: worst.map_or(0.0, |s| s.deviation_mm),
-        largest_line: worst.map_or(0, |s| s.line),
-        largest_rapid_mm: samples
+/// A trace summed up as its samples arrive (nothing per sample is held but the plot's points,
+/// where one is asked for).
+struct Tally {
+    program: &'static str,
+    /// The largest feed deviation and its line (the last of equal ones).
+    worst: Option<(f64, usize)>,
+    largest_rapid_mm: f64,
+    /// The largest deviation of each run of samples of one line, in order.
+    blocks: Vec<(usize, f64)>,
+    /// Distance along the path (mm) and deviation (µm) of every sample, for the plot.
+    plotted: Option<Vec<(f32, f32)>>,
+}
+
+impl Tally {
+    fn new(program: &'static str, plotted: bool) -> Tally {
+        Tally {
+            program,
+            worst: None,
+            largest_rapid_mm: 0.0,
+            blocks: Vec::new(),
+            plotted: plotted.then(Vec::new),
+        }
+    }
+
+    fn add(&mut self, s: &TraceSample) {
+        if s.motion == 0 {
+            self.largest_rapid_mm = self.largest_rapid_mm.max(s.deviation_mm);
+        } else if self.worst.is_none_or(|(mm, _)| s.deviation_mm >= mm) {
+            self.worst = Some((s.deviation_mm, s.line));
+        }
+        match self.blocks.last_mut() {
+            Some((line, worst)) if *line == s.line => *worst = worst.max(s.deviation_mm),
+            _ => self.blocks.push((s.line, s.deviation_mm)),
+        }
+        if let Some(points) = &mut self.plotted {
+            points.push((s.distance_mm as f32, (s.deviation_mm * 1000.0) as f32));
+        }
+    }
+
+    /// The summary, and the plot's points.
+    fn summary(mut self) -> (Summary, Vec<(f32, f32)>) {
+        // A line run more than once (a subprogram, a compensated move split in pieces) counts
+        // once, at its largest.
+        self.blocks.sort_by_key(|b| b.0);
+        self.blocks.dedup_by(|b, a| {
+            if a.0 == b.0 {
+                a.1 = a.1.max(b.1);
+                true
+            } else {
+                false
+            }
+        });
+        let summary = Summary {
+            program: self.program,
+            covers: "feed moves (G1 G2 G3)",
+            largest_mm: self.worst.map_or(0.0, |w| w.0),
+            largest_line: self.worst.map_or(0, |w| w.1),
+            largest_rapid_mm: self.largest_rapid_mm,
+            per_block: self.blocks,
+        };
+        (summary, self.plotted.unwrap_or_default())
+    }
+}
+
+/// The most points a plotted series keeps: beyond it, each run of consecutive samples keeps its
+/// lowest and highest point, so the drawn envelope is the samples' (a figure 900 points wide
+/// shows no more).
+const MAX_PLOTTED_POINTS: usize = 8192;
+
+/// `points` thinned to at most [`MAX_PLOTTED_POINTS`], every run's extremes kept in order.
+fn thinned(points: &[(f32, f32)]) -> (Vec<f64>, Vec<f64>) {
+    let runs = MAX_PLOTTED_POINTS / 2;
+    if points.len() <= MAX_PLOTTED_POINTS {
+        return points.iter().map(|&(x, y)| (x as f64, y as f64)).unzip();
+    }
+    let mut kept = Vec::with_capacity(MAX_PLOTTED_POINTS);
+    for run in points.chunks(points.len().div_ceil(runs)) {
+        let low = run
             .iter()
-            .filter(|s| s.motion == 0)
-            .map(|s| s.deviation_mm)
-            .fold(0.0, f64::max),
-        per_block: nc::per_block(samples),
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("a run");
+        let high = run
+            .iter()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("a run");
+        let (first, second) = if low.0 <= high.0 {
+            (low, high)
+        } else {
+            (high, low)
+        };
+        kept.push(*first);
+        kept.push(*second);
+    }
+    kept.iter().map(|&(x, y)| (x as f64, y as f64)).unzip()
+}
+
+/// The CSV of `--out`, written as the samples arrive; the first write error is kept.
+struct Rows {
+    file: volmap::io::atomic::AtomicFile,
+    error: Option<std::io::Error>,
+}
+
+impl Rows {
+    fn add(&mut self, program: &str, s: &TraceSample) {
+        if self.error.is_some() {
+            return;
+        }
+        if let Err(e) = writeln!(
+            self.file,
+            "{program},{},G{},{:.6},{:.6},{:.6},{:.6},{:.9}",
+            s.line,
+            s.motion,
+            s.distance_mm,
+            s.program[0],
+            s.program[1],
+            s.program[2],
+            s.deviation_mm
+        ) {
+            self.error = Some(e);
+        }
     }
 }
 
@@ -127,10 +232,28 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
     let program =
         volmap::io::read_bytes(&args.program, volmap::io::SourceKind::Program).flag("--program")?;
     let name = args.program.display().to_string();
-    let mut traces = vec![(
-        "as-programmed",
-        nc::trace_path(&machine, &program, &name, &options, args.step).map_err(option_failure)?,
-    )];
+    let mut rows = match &args.out {
+        Some(path) => {
+            let mut file = volmap::io::atomic::AtomicFile::create(path, 1 << 20).flag("--out")?;
+            let header = writeln!(
+                file,
+                "program,line,motion,distance_mm,x_mm,y_mm,z_mm,deviation_mm"
+            );
+            let error = header.err();
+            Some(Rows { file, error })
+        }
+        None => None,
+    };
+    let plotted = args.plot.is_some();
+    let mut before = Tally::new("as-programmed", plotted);
+    nc::trace_each(&machine, &program, &name, &options, args.step, |s| {
+        before.add(&s);
+        if let Some(rows) = &mut rows {
+            rows.add("as-programmed", &s);
+        }
+    })
+    .map_err(option_failure)?;
+    let mut tallies = vec![before];
     if args.compensate {
         let mut compensated =
             nc::compensate(&machine, &program, &name, &options).map_err(option_failure)?;
@@ -145,17 +268,31 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
             &options,
             bounds,
         )?;
-        let after = nc::trace_compensated(
+        let mut after = Tally::new("compensated", plotted);
+        nc::trace_compensated_each(
             &machine,
             (&program, &compensated),
             &name,
             &options,
             args.step,
+            |s| {
+                after.add(&s);
+                if let Some(rows) = &mut rows {
+                    rows.add("compensated", &s);
+                }
+            },
         )
         .map_err(option_failure)?;
-        traces.push(("compensated", after));
+        tallies.push(after);
     }
-    let summaries: Vec<Summary> = traces.iter().map(|(p, s)| summary(p, s)).collect();
+    if let Some(rows) = rows {
+        match rows.error {
+            Some(e) => return Err(Failure::from(rows.file.error(e)).context("--out")),
+            None => rows.file.commit().flag("--out")?,
+        }
+    }
+    let (summaries, plotted): (Vec<Summary>, Vec<Vec<(f32, f32)>>) =
+        tallies.into_iter().map(Tally::summary).unzip();
     outln!("{name}: tool-tip deviation on {}", machine.name);
     for s in &summaries {
         outln!(
@@ -188,44 +325,23 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
             });
         outln!("    {line:>6}: {}{after}", numbers::error(*mm));
     }
-    if let Some(path) = &args.out {
-        write_file(path, |out| {
-            writeln!(
-                out,
-                "program,line,motion,distance_mm,x_mm,y_mm,z_mm,deviation_mm"
-            )?;
-            for (program, samples) in &traces {
-                for s in samples {
-                    writeln!(
-                        out,
-                        "{program},{},G{},{:.6},{:.6},{:.6},{:.6},{:.9}",
-                        s.line,
-                        s.motion,
-                        s.distance_mm,
-                        s.program[0],
-                        s.program[1],
-                        s.program[2],
-                        s.deviation_mm
-                    )?;
-                }
-            }
-            Ok(())
-        })
-        .flag("--out")?;
-    }
     if let Some(path) = &args.plot {
         let colours = [Color::RED, Color::BLUE];
-        let series: Vec<Series> = traces
+        let series: Vec<Series> = summaries
             .iter()
+            .zip(&plotted)
             .zip(colours)
-            .map(|((program, samples), color)| Series {
-                name: program.replace('-', " "),
-                x: samples.iter().map(|s| s.distance_mm).collect(),
-                y: samples.iter().map(|s| s.deviation_mm * 1000.0).collect(),
-                color,
-                dashed: false,
-                marker: Marker::None,
-                band: None,
+            .map(|((summary, points), color)| {
+                let (x, y) = thinned(points);
+                Series {
+                    name: summary.program.replace('-', " "),
+                    x,
+                    y,
+                    color,
+                    dashed: false,
+                    marker: Marker::None,
+                    band: None,
+                }
             })
             .collect();
         let title = format!("Tool-tip deviation along {name} on {}", machine.name);
@@ -241,4 +357,27 @@ pub fn run(args: TraceArgs) -> Result<ExitCode, Failure> {
         envelope.write(path, "--json", &summaries)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_thinned_series_keeps_every_runs_extremes_in_order() {
+        // A ramp with one spike up and one down: both survive thinning, the x stay in order.
+        let mut points: Vec<(f32, f32)> = (0..100_000).map(|k| (k as f32, 1.0)).collect();
+        points[31_337].1 = 50.0;
+        points[77_001].1 = -3.0;
+        let (x, y) = thinned(&points);
+        assert_eq!(x.len(), y.len());
+        assert!(x.len() <= MAX_PLOTTED_POINTS && x.len() > MAX_PLOTTED_POINTS / 2);
+        assert!(x.windows(2).all(|w| w[0] <= w[1]));
+        assert_eq!(y.iter().copied().fold(f64::MIN, f64::max), 50.0);
+        assert_eq!(y.iter().copied().fold(f64::MAX, f64::min), -3.0);
+        assert_eq!(x[y.iter().position(|&v| v == 50.0).unwrap()], 31_337.0);
+        // Few points pass as they are.
+        let few = &points[..100];
+        assert_eq!(thinned(few).0.len(), 100);
+    }
 }

@@ -120,7 +120,8 @@ fn moves(
     options: &Options,
 ) -> Result<(Vec<Move>, Passed, AsTheyAre), NcError> {
     let (lines, mut state, compensator, _) = begin(machine, text, path, options)?;
-    let mut moves = Vec::new();
+    // At most a move a line: held exactly, not at twice its size by doubling.
+    let mut moves = Vec::with_capacity(lines.len());
     let mut passed = Vec::new();
     let mut as_they_are = Vec::new();
     for (index, line) in lines.iter().enumerate() {

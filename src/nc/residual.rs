@@ -5,7 +5,7 @@
 use super::error::{NcError, NcOption};
 use super::options::Options;
 use super::report::Compensated;
-use super::trace::trace_compensated;
+use super::trace::trace_compensated_each;
 use crate::model::Machine;
 
 /// The model run along the written program (as `trace --compensate` does): the largest distance
@@ -27,23 +27,37 @@ pub fn residual(
     options: &Options,
 ) -> Result<Residual, NcError> {
     let mut step_mm = 0.5;
-    let samples = loop {
-        match trace_compensated(machine, (program, compensated), path, options, step_mm) {
-            Ok(samples) => break samples,
+    loop {
+        let mut largest_mm: f64 = 0.0;
+        let mut lines: Vec<usize> = Vec::new();
+        // Only feed moves count; nothing per sample is held.
+        let traced = trace_compensated_each(
+            machine,
+            (program, compensated),
+            path,
+            options,
+            step_mm,
+            |s| {
+                if s.motion == 0 {
+                    return;
+                }
+                largest_mm = largest_mm.max(s.deviation_mm);
+                if s.deviation_mm > options.chord_tolerance_mm && lines.last() != Some(&s.line) {
+                    lines.push(s.line);
+                }
+            },
+        );
+        match traced {
+            Ok(()) => {
+                lines.sort_unstable();
+                lines.dedup();
+                return Ok(Residual { largest_mm, lines });
+            }
             Err(NcError::Option {
                 option: NcOption::TraceStep,
                 ..
             }) if step_mm < 1e3 => step_mm *= 4.0,
             Err(e) => return Err(e),
         }
-    };
-    let feeds = samples.iter().filter(|s| s.motion != 0);
-    let largest_mm = feeds.clone().map(|s| s.deviation_mm).fold(0.0, f64::max);
-    let mut lines: Vec<usize> = feeds
-        .filter(|s| s.deviation_mm > options.chord_tolerance_mm)
-        .map(|s| s.line)
-        .collect();
-    lines.sort_unstable();
-    lines.dedup();
-    Ok(Residual { largest_mm, lines })
+    }
 }

@@ -125,6 +125,23 @@ pub fn trace_path(
     options: &Options,
     step_mm: f64,
 ) -> Result<Vec<TraceSample>, NcError> {
+    let mut samples = Vec::new();
+    trace_each(machine, program, path, options, step_mm, |s| {
+        samples.push(s)
+    })?;
+    Ok(samples)
+}
+
+/// [`trace_path`], handing every sample to `each` in order and holding none: a trace's memory
+/// is the program's blocks, whatever the number of samples.
+pub fn trace_each(
+    machine: &Machine,
+    program: &[u8],
+    path: &str,
+    options: &Options,
+    step_mm: f64,
+    mut each: impl FnMut(TraceSample),
+) -> Result<(), NcError> {
     if !(step_mm > 0.0 && step_mm.is_finite()) {
         return Err(NcError::Option {
             option: NcOption::TraceStep,
@@ -133,7 +150,7 @@ pub fn trace_path(
         });
     }
     let (lines, mut state, mut compensator, _) = begin(machine, program, path, options)?;
-    let mut samples = Vec::new();
+    let mut count = 0usize;
     let mut travelled = 0.0;
     // The samples the moves so far take at any step: 4 a move that goes somewhere, else 1.
     let mut fewest = 0.0;
@@ -180,8 +197,8 @@ pub fn trace_path(
                 ),
             });
         }
-        let n = limits::within(samples.len() as f64 + n, MAX_TRACE_SAMPLES)
-            .map(|total| total as usize - samples.len())
+        let n = limits::within(count as f64 + n, MAX_TRACE_SAMPLES)
+            .map(|total| total as usize - count)
             .map_err(|e| NcError::Option {
                 option: NcOption::TraceStep,
                 value: number_words(step_mm),
@@ -228,7 +245,8 @@ pub fn trace_path(
                     ),
                 });
             }
-            samples.push(TraceSample {
+            count += 1;
+            each(TraceSample {
                 line: line.number,
                 motion: state.motion.code(),
                 distance_mm: travelled + t * length,
@@ -242,7 +260,7 @@ pub fn trace_path(
         state.position = end;
         state.approach = segments.last().expect("a move has a segment").directions;
     }
-    Ok(samples)
+    Ok(())
 }
 
 /// A straight move whose real tool tip ends within this of where it started (mm) is a take-up.
@@ -302,77 +320,160 @@ pub fn trace_compensated(
     options: &Options,
     step_mm: f64,
 ) -> Result<Vec<TraceSample>, NcError> {
-    let intended =
-        trace_path(machine, original, path, options, step_mm / 8.0).map_err(|e| match e {
-            // The step as given: the intended path is sampled eight times as densely.
-            NcError::Option {
-                option: NcOption::TraceStep,
-                message,
-                ..
-            } => NcError::Option {
-                option: NcOption::TraceStep,
-                value: number_words(step_mm),
-                message: format!("{message} (the intended path is sampled at an eighth of it)"),
-            },
-            other => other,
-        })?;
-    let samples = trace_path(machine, compensated.text.as_bytes(), path, options, step_mm)?;
+    let mut samples = Vec::new();
+    trace_compensated_each(
+        machine,
+        (original, compensated),
+        path,
+        options,
+        step_mm,
+        |s| samples.push(s),
+    )?;
+    Ok(samples)
+}
+
+/// [`trace_compensated`], handing every sample to `each` in order: what is held is the intended
+/// path's ideal points (24 bytes a point) and one written block's samples.
+pub fn trace_compensated_each(
+    machine: &Machine,
+    (original, compensated): (&[u8], &Compensated),
+    path: &str,
+    options: &Options,
+    step_mm: f64,
+    mut each: impl FnMut(TraceSample),
+) -> Result<(), NcError> {
     // The runs of samples of each line of the original (a line run more than once has more),
     // each from the last ideal point before it: the move's start.
     let mut runs: HashMap<usize, Vec<std::ops::Range<usize>>> = HashMap::new();
-    let mut start = 0;
-    for run in intended.chunk_by(|a, b| a.line == b.line) {
-        let end = start + run.len();
-        runs.entry(run[0].line)
+    let mut ideal: Vec<Vector3<f64>> = Vec::new();
+    let mut run: Option<(usize, usize)> = None;
+    trace_each(machine, original, path, options, step_mm / 8.0, |s| {
+        match run {
+            Some((line, _)) if line == s.line => {}
+            _ => {
+                if let Some((line, start)) = run {
+                    runs.entry(line)
+                        .or_default()
+                        .push(start.saturating_sub(1)..ideal.len());
+                }
+                run = Some((s.line, ideal.len()));
+            }
+        }
+        ideal.push(s.ideal);
+    })
+    .map_err(|e| match e {
+        // The step as given: the intended path is sampled eight times as densely.
+        NcError::Option {
+            option: NcOption::TraceStep,
+            message,
+            ..
+        } => NcError::Option {
+            option: NcOption::TraceStep,
+            value: number_words(step_mm),
+            message: format!("{message} (the intended path is sampled at an eighth of it)"),
+        },
+        other => other,
+    })?;
+    if let Some((line, start)) = run {
+        runs.entry(line)
             .or_default()
-            .push(start.saturating_sub(1)..end);
-        start = end;
+            .push(start.saturating_sub(1)..ideal.len());
     }
-    let ideal: Vec<Vector3<f64>> = intended.iter().map(|i| i.ideal).collect();
-    // A take-up (the command crossing a reversal while the tip stands) is left out: the model's
-    // step in the reversal error would put the tip off along it, where the real axis takes up
-    // its play with the tip at rest.
-    let mut kept = Vec::with_capacity(samples.len());
-    let mut previous_end: Option<Vector3<f64>> = None;
-    // The original line of the last piece, and where it ended along its move.
-    let mut last: Option<(usize, f64)> = None;
-    let groups: Vec<&[TraceSample]> = samples.chunk_by(|a, b| a.line == b.line).collect();
-    let origin = |g: Option<&&[TraceSample]>| g.map(|g| compensated.origins[g[0].line - 1]);
-    for (i, group) in groups.iter().enumerate() {
-        let end = group.last().expect("a chunk is not empty").real;
-        let stands = previous_end.is_some_and(|p| (end - p).norm() < TIP_STANDS_MM);
-        let here = origin(Some(group));
+    let mut measure = Measure {
+        compensated,
+        runs: &runs,
+        ideal: &ideal,
+        previous_end: None,
+        last: None,
+        first: true,
+    };
+    // A written block's samples are measured once the next block's are known (whether it
+    // continues the same original move).
+    let mut group: Vec<TraceSample> = Vec::new();
+    trace_each(
+        machine,
+        compensated.text.as_bytes(),
+        path,
+        options,
+        step_mm,
+        |s| {
+            if group.last().is_some_and(|g| g.line != s.line) {
+                measure.group(&group, Some(s.line), &mut each);
+                group.clear();
+            }
+            group.push(s);
+        },
+    )?;
+    if !group.is_empty() {
+        measure.group(&group, None, &mut each);
+    }
+    Ok(())
+}
+
+/// Measures a compensated program's samples from the intended path, one written block at a
+/// time, in order.
+struct Measure<'a> {
+    compensated: &'a Compensated,
+    runs: &'a HashMap<usize, Vec<std::ops::Range<usize>>>,
+    ideal: &'a [Vector3<f64>],
+    /// Where the real tip was at the end of the last block.
+    previous_end: Option<Vector3<f64>>,
+    /// The original line of the last piece, and where it ended along its move.
+    last: Option<(usize, f64)>,
+    first: bool,
+}
+
+impl Measure<'_> {
+    /// The samples of one written block (`group`, its lines those of the compensated program),
+    /// `next` the compensated line of the next block that moves, handed to `each` with the
+    /// original's lines. A take-up (the command crossing a reversal while the tip stands) is
+    /// left out: the model's step in the reversal error would put the tip off along it, where
+    /// the real axis takes up its play with the tip at rest.
+    fn group(
+        &mut self,
+        group: &[TraceSample],
+        next: Option<usize>,
+        each: &mut impl FnMut(TraceSample),
+    ) {
+        let origin = |line: usize| self.compensated.origins[line - 1];
+        let end = group.last().expect("a block's samples are not empty").real;
+        let stands = self
+            .previous_end
+            .is_some_and(|p| (end - p).norm() < TIP_STANDS_MM);
+        let here = origin(group[0].line);
+        let mut emit = |mut s: TraceSample| {
+            s.line = origin(s.line);
+            each(s);
+        };
         if stands && group[0].motion == 1 {
             // A take-up that starts a move: its first piece starts at the move's start.
-            if last.map(|(o, _)| Some(o)) != Some(here) {
-                last = here.map(|o| (o, 0.0));
+            if self.last.map(|(o, _)| o) != Some(here) {
+                self.last = Some((here, 0.0));
             }
         } else {
             // The first piece of a move starts at its start, the next where the last ended, and
             // the last ends at the move's end.
-            let ua = last
-                .filter(|&(o, _)| Some(o) == here && i > 0)
+            let ua = self
+                .last
+                .filter(|&(o, _)| o == here && !self.first)
                 .map_or(0.0, |(_, u)| u);
-            let to = if origin(groups.get(i + 1)) == here {
+            let to = if next.map(origin) == Some(here) {
                 Fraction::At(end)
             } else {
                 Fraction::End
             };
-            match here.and_then(|o| runs.get(&o)) {
+            match self.runs.get(&here) {
                 Some(runs) => {
-                    let (measured, ub) = at_same_fraction(group, (ua, to), runs, &ideal);
-                    kept.extend(measured);
-                    last = here.map(|o| (o, ub));
+                    let (measured, ub) = at_same_fraction(group, (ua, to), runs, self.ideal);
+                    measured.into_iter().for_each(&mut emit);
+                    self.last = Some((here, ub));
                 }
-                None => kept.extend_from_slice(group),
+                None => group.iter().cloned().for_each(&mut emit),
             }
         }
-        previous_end = Some(end);
+        self.previous_end = Some(end);
+        self.first = false;
     }
-    for s in &mut kept {
-        s.line = compensated.origins[s.line - 1];
-    }
-    Ok(kept)
 }
 
 /// Where a written piece ends along the intended move: at its end, or where the real tip (a

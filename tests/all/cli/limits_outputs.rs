@@ -5,7 +5,7 @@
 //! nothing read from an input reaches the terminal as a control character.
 
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use super::{s, volmap};
 
@@ -115,13 +115,25 @@ fn a_missing_folder_of_any_output_is_refused_before_the_work_and_nothing_is_repl
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for (args, outputs) in runs(d) {
+        // The machine is a file that is not there: the folder's error, not the machine's, says
+        // the outputs were checked before anything was read, let alone worked on.
+        let args: Vec<String> = args
+            .into_iter()
+            .map(|a| {
+                if a == "vmc-li2015" {
+                    "no-such-machine.toml".into()
+                } else {
+                    a
+                }
+            })
+            .collect();
+        assert!(args.iter().any(|a| a == "no-such-machine.toml"), "{args:?}");
         // Each output in turn in a folder that is not there, the others over old files.
         for bad in 0..outputs.len() {
             let all = with_outputs(d, &args, &outputs, bad, |name| {
                 format!("no-such-folder/{name}")
             });
             let before = contents(d);
-            let started = Instant::now();
             let output = volmap().args(&all).current_dir(d).output().unwrap();
             let stderr = String::from_utf8_lossy(&output.stderr);
             assert_eq!(output.status.code(), Some(2), "{all:?}: {stderr}");
@@ -133,7 +145,6 @@ fn a_missing_folder_of_any_output_is_refused_before_the_work_and_nothing_is_repl
             // Refused before any work: no progress shown, no file touched.
             assert!(!stderr.contains('%'), "{all:?}: {stderr}");
             assert_eq!(contents(d), before, "{all:?}");
-            assert!(started.elapsed() < Duration::from_secs(60));
         }
     }
 }
