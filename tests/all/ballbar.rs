@@ -59,6 +59,7 @@ fn a_backlash_is_a_step_where_its_axis_turns() {
         let d = diagnostics(&machine, direction);
         assert!((d.backlash_um[0] - 4.0).abs() < 0.01, "{direction}: {d:?}");
         assert!(d.backlash_um[1].abs() < 0.01, "{d:?}");
+        assert!(!d.reversals.is_empty(), "{d:?}");
         for r in &d.reversals {
             let expected = if r.axis == 'X' { -4.0 } else { 0.0 };
             assert!(
@@ -132,6 +133,7 @@ fn a_model_without_reversal_or_cyclic_errors_shows_none() {
     let d = &result.ballbar.as_ref().unwrap().predicted;
     assert!(d.residual_um > 0.1, "{d:?}");
     assert!((d.detection_um - 3.0 * d.residual_um).abs() < 1e-12);
+    assert!(!d.reversals.is_empty(), "{d:?}");
     for r in &d.reversals {
         assert!(!r.step_detected && !r.spike_detected, "{r:?}");
         assert!(r.spike_um.abs() <= d.detection_um);
