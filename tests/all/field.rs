@@ -177,7 +177,9 @@ pub(crate) fn tool_available(check: &mut std::process::Command, what: &str) -> b
     let ok = check.output().is_ok_and(|o| o.status.success());
     if !ok {
         if crate::skips::readers_required() {
-            panic!("VOLMAP_REQUIRE_READERS is set but {what} is missing");
+            panic!(
+                "VOLMAP_REQUIRE_READERS (or VOLMAP_REQUIRE_EXR_TOOLS) is set but {what} is missing"
+            );
         }
         crate::skips::skipped(&format!("{what} is not installed"));
     }
