@@ -185,6 +185,7 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
         check_points: args.check,
         vtk_image: args.vti.clone(),
         storage: args.storage.storage(),
+        corrupt_point_for_tests: corrupt_point_for_tests(),
     };
     if let Some(grids) = &grids {
         let summary = sweep::map_sweep(&machine, grids, &engine, &args.out, &options)
@@ -227,7 +228,8 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
                 .pose(serde_json::Value::Array(poses))
                 .write(path, "--json", &result)?;
         }
-        return Ok(print_check(summary.check.as_ref()));
+        let names: Vec<String> = summary.poses.iter().map(|p| p.name.clone()).collect();
+        return Ok(print_check(summary.check.as_ref(), &names));
     }
     let bar = progress(Some(grid.points()), "mapping", "points");
     let summary = map::map_to_file(&machine, &grid, &engine, &args.out, &options, |done| {
@@ -256,7 +258,15 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
             .at_pose(&machine, &grid.pose)
             .write(path, "--json", &result)?;
     }
-    Ok(print_check(summary.check.as_ref()))
+    Ok(print_check(summary.check.as_ref(), &[]))
+}
+
+/// Tests corrupt the field on purpose (`VOLMAP_TEST_CORRUPT_OUTPUT=N`: grid point N of every pose
+/// moved by 2 µm) to see the spot check fail; a correct engine never fails it.
+fn corrupt_point_for_tests() -> Option<u64> {
+    std::env::var("VOLMAP_TEST_CORRUPT_OUTPUT")
+        .ok()
+        .and_then(|v| v.parse().ok())
 }
 
 /// Fields larger than this say their size when they start, bytes.
@@ -356,8 +366,9 @@ fn print_stored(storage: &Storage, bytes: u64) {
     );
 }
 
-/// Prints the spot check, if there was one: exit code 4 when it failed.
-fn print_check(check: Option<&CheckResult>) -> ExitCode {
+/// Prints the spot check, if there was one: exit code 4 when it failed, naming the point it
+/// failed worst at (and its pose's name, from `pose_names`, in a sweep).
+fn print_check(check: Option<&CheckResult>, pose_names: &[String]) -> ExitCode {
     if let Some(check) = check {
         outln!(
             "  check       {} points against the f64 reference: max ΔVE {}, max ΔOE {} (tolerance {}, {}): {}",
@@ -370,6 +381,23 @@ fn print_check(check: Option<&CheckResult>) -> ExitCode {
             if check.passed() { "ok" } else { "FAILED" }
         );
         if !check.passed() {
+            if let Some(w) = &check.worst {
+                let at: Vec<String> = (0..3)
+                    .map(|d| format!("{}={}", ["X", "Y", "Z"][d], numbers::length(w.at_mm[d])))
+                    .collect();
+                let pose = pose_names
+                    .get(w.pose)
+                    .map_or(String::new(), |name| format!(" of pose {name}"));
+                errln!(
+                    "volmap: the spot check failed at point ({}, {}, {}){pose}, {} mm: ΔVE {}, ΔOE {} from the f64 reference",
+                    w.indices[0],
+                    w.indices[1],
+                    w.indices[2],
+                    at.join(" "),
+                    format!("{} µm", numbers::quantity(w.ve_diff_mm * 1e3)),
+                    format!("{} µrad", numbers::quantity(w.oe_diff_rad * 1e6)),
+                );
+            }
             return ExitCode::from(4);
         }
     }

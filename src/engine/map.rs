@@ -23,6 +23,30 @@ pub struct CheckResult {
     pub points: usize,
     pub max_ve_diff_mm: f64,
     pub max_oe_diff_rad: f64,
+    /// The point farthest beyond (or nearest to) the tolerances, relative to each: what a failed
+    /// check names. `None` where no point was checked.
+    pub worst: Option<CheckedPoint>,
+}
+
+/// One checked point and its differences from the reference.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckedPoint {
+    /// The pose's number in a sweep (0 for a single map).
+    pub pose: usize,
+    /// The grid's point number and its indices `(i, j, k)`.
+    pub point: u64,
+    pub indices: [usize; 3],
+    /// The commanded position, mm.
+    pub at_mm: [f64; 3],
+    pub ve_diff_mm: f64,
+    pub oe_diff_rad: f64,
+}
+
+impl CheckedPoint {
+    /// How far beyond the tolerances the point lies: above 1 fails.
+    pub fn excess(&self) -> f64 {
+        (self.ve_diff_mm / VE_TOLERANCE_MM).max(self.oe_diff_rad / OE_TOLERANCE_RAD)
+    }
 }
 
 /// The accuracy docs/model.md (section 7) asks of the f32 field against the f64 reference.
@@ -32,6 +56,22 @@ pub const OE_TOLERANCE_RAD: f64 = 1e-9;
 impl CheckResult {
     pub fn passed(&self) -> bool {
         self.max_ve_diff_mm <= VE_TOLERANCE_MM && self.max_oe_diff_rad <= OE_TOLERANCE_RAD
+    }
+
+    /// Adds the check of another pose of a sweep.
+    pub fn merge(&mut self, other: &CheckResult) {
+        self.points += other.points;
+        self.max_ve_diff_mm = self.max_ve_diff_mm.max(other.max_ve_diff_mm);
+        self.max_oe_diff_rad = self.max_oe_diff_rad.max(other.max_oe_diff_rad);
+        if let Some(theirs) = &other.worst {
+            if self
+                .worst
+                .as_ref()
+                .is_none_or(|w| theirs.excess() > w.excess())
+            {
+                self.worst = Some(theirs.clone());
+            }
+        }
     }
 }
 
@@ -84,6 +124,37 @@ pub struct MapOptions {
     pub vtk_image: Option<PathBuf>,
     /// How the field file stores its values (compression, HALF channels).
     pub storage: Storage,
+    /// Tests only: this point of every pose is moved by [`CORRUPTION_MM`] in VE's x between the
+    /// engine and everything after it, so that the spot check must fail (a correct engine never
+    /// fails it).
+    #[doc(hidden)]
+    pub corrupt_point_for_tests: Option<u64>,
+}
+
+/// What [`MapOptions::corrupt_point_for_tests`] adds to VE's x, mm: 2 µm, far beyond the
+/// tolerance and any f32 rounding.
+#[doc(hidden)]
+pub const CORRUPTION_MM: f32 = 2e-3;
+
+/// The chunk with [`MapOptions::corrupt_point_for_tests`] applied, where it holds that point.
+pub(super) fn corrupted_for_tests(
+    point: Option<u64>,
+    first_line: u64,
+    lines: u64,
+    nx: usize,
+    data: &[f32],
+) -> Option<Vec<f32>> {
+    let point = point?;
+    let first_point = first_line * nx as u64;
+    if !(first_point..first_point + lines * nx as u64).contains(&point) {
+        return None;
+    }
+    let local = (point - first_point) as usize;
+    let (line, i) = (local / nx, local % nx);
+    let mut data = data.to_vec();
+    // VE's x: channel 3 (the channel order is OE's three, then VE's three).
+    data[line * CHANNELS.len() * nx + 3 * nx + i] += CORRUPTION_MM;
+    Some(data)
 }
 
 /// `n` distinct pseudo-random point numbers below `total`, sorted (SplitMix64, a seed fixed by
@@ -152,6 +223,9 @@ pub fn map_to_file(
         options.chunk_points,
         |first_line, lines, data| -> Result<(), EngineError> {
             let handing = Instant::now();
+            let corrupted =
+                corrupted_for_tests(options.corrupt_point_for_tests, first_line, lines, nx, data);
+            let data = corrupted.as_deref().unwrap_or(data);
             check_finite(machine, grid, first_line, lines, data)?;
             writer.write_lines(first_line, lines, data)?;
             if let Some(image) = &mut image {
@@ -243,29 +317,48 @@ pub(super) fn capture(
     end_point
 }
 
-/// Recomputes `points` with the f64 reference and compares with `values` (channel order).
+/// Recomputes `points` with the f64 reference and compares with `values` (channel order), one
+/// value per point.
 pub fn check_against_reference(
     machine: &Machine,
     grid: &Grid,
     points: &[u64],
     values: &[[f32; 6]],
 ) -> CheckResult {
+    // A value missing would leave its point unchecked and the check passing on less.
+    assert_eq!(points.len(), values.len(), "a value per checked point");
     let twin = Twin::of(machine);
     let mut result = CheckResult {
         points: points.len(),
         max_ve_diff_mm: 0.0,
         max_oe_diff_rad: 0.0,
+        worst: None,
     };
     for (&p, got) in points.iter().zip(values) {
-        let want = reference::point_values(&twin, grid, grid.indices(p));
+        let indices = grid.indices(p);
+        let want = reference::point_values(&twin, grid, indices);
         let diff = |range: std::ops::Range<usize>| {
             range
                 .map(|c| (got[c] as f64 - want[c]).powi(2))
                 .sum::<f64>()
                 .sqrt()
         };
-        result.max_oe_diff_rad = result.max_oe_diff_rad.max(diff(0..3));
-        result.max_ve_diff_mm = result.max_ve_diff_mm.max(diff(3..6));
+        let checked = CheckedPoint {
+            pose: 0,
+            point: p,
+            indices,
+            at_mm: grid.command(indices)[..3]
+                .try_into()
+                .expect("three linear axes"),
+            ve_diff_mm: diff(3..6),
+            oe_diff_rad: diff(0..3),
+        };
+        result.merge(&CheckResult {
+            points: 0,
+            max_ve_diff_mm: checked.ve_diff_mm,
+            max_oe_diff_rad: checked.oe_diff_rad,
+            worst: Some(checked),
+        });
     }
     result
 }

@@ -9,7 +9,9 @@
 use std::path::Path;
 use std::time::Instant;
 
-use super::map::{capture, check_against_reference, check_finite, field_info, sample_points};
+use super::map::{
+    capture, check_against_reference, check_finite, corrupted_for_tests, field_info, sample_points,
+};
 use super::map::{CheckResult, MapOptions, MapTimes};
 use super::{Engine, EngineError};
 use crate::io::field::PartsWriter;
@@ -82,6 +84,14 @@ pub fn map_sweep_to_file(
             options.chunk_points,
             |first_line, lines, data| -> Result<(), EngineError> {
                 let handing = Instant::now();
+                let corrupted = corrupted_for_tests(
+                    options.corrupt_point_for_tests,
+                    first_line,
+                    lines,
+                    nx,
+                    data,
+                );
+                let data = corrupted.as_deref().unwrap_or(data);
                 check_finite(machine, grid, first_line, lines, data)?;
                 writer.write_lines(p, first_line, lines, data)?;
                 stats.add_chunk(first_line, lines, nx, data);
@@ -94,15 +104,14 @@ pub fn map_sweep_to_file(
         points_before += grid.points();
         if !checked.is_empty() {
             let checking = Instant::now();
-            let pose_check = check_against_reference(machine, grid, &checked, &captured);
-            let merged = check.get_or_insert(CheckResult {
-                points: 0,
-                max_ve_diff_mm: 0.0,
-                max_oe_diff_rad: 0.0,
-            });
-            merged.points += pose_check.points;
-            merged.max_ve_diff_mm = merged.max_ve_diff_mm.max(pose_check.max_ve_diff_mm);
-            merged.max_oe_diff_rad = merged.max_oe_diff_rad.max(pose_check.max_oe_diff_rad);
+            let mut pose_check = check_against_reference(machine, grid, &checked, &captured);
+            if let Some(worst) = &mut pose_check.worst {
+                worst.pose = p;
+            }
+            match &mut check {
+                Some(merged) => merged.merge(&pose_check),
+                None => check = Some(pose_check),
+            }
             // The time of the map, as for one pose, leaves the spot check out.
             check_seconds += checking.elapsed().as_secs_f64();
         }

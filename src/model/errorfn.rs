@@ -475,7 +475,7 @@ mod tests {
 
     #[test]
     fn pieces_match_direct_evaluation() {
-        let nodes = [
+        let all = [
             (-20.0, 0.001),
             (35.0, -0.004),
             (90.0, 0.002),
@@ -484,9 +484,15 @@ mod tests {
         ];
         for interp in [Interp::Linear, Interp::Quadratic, Interp::Cubic] {
             for periodic in [false, true] {
-                let Ok(t) = Table::new(nodes.to_vec(), interp, periodic) else {
-                    continue;
+                // A periodic table closes with a node at the first plus 360°, and quadratic
+                // pieces need an odd count of nodes: that case leaves the last node out.
+                let nodes = if interp == Interp::Quadratic && periodic {
+                    &all[..4]
+                } else {
+                    &all[..]
                 };
+                let t = Table::new(nodes.to_vec(), interp, periodic)
+                    .unwrap_or_else(|e| panic!("{interp:?} {periodic}: {e}"));
                 let f = ErrorFunction::Table(t);
                 let p = f.pieces().expect("a table has pieces");
                 for k in 0..1000 {

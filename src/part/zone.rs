@@ -468,6 +468,7 @@ mod tests {
             let (x, w) = chebyshev("flatness", &rows, 3).unwrap();
             let (x_all, w_all) = chebyshev_all("flatness", &rows, 3).unwrap();
             assert!((w - w_all).abs() < 1e-9, "{count} rows: {w} vs {w_all}");
+            assert_eq!((x.len(), x_all.len()), (3, 3), "{count} rows");
             for (a, b) in x.iter().zip(&x_all) {
                 assert!((a - b).abs() < 1e-6, "{count} rows: {x:?} vs {x_all:?}");
             }

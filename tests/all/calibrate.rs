@@ -106,6 +106,12 @@ fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
     let file = volmap::calibrate::fit::FitFile::read(&fit_path).unwrap();
     let report = volmap::calibrate::fit::fit(&given, &file).unwrap();
     assert_eq!(report.points, 3 * 72 + 4 * 21);
+    assert_eq!(
+        report.estimates.len(),
+        truth.len(),
+        "{:?}",
+        report.estimates
+    );
     for (estimate, &(name, _, _, value)) in report.estimates.iter().zip(&truth) {
         assert_eq!(estimate.name, name);
         assert_eq!(estimate.initial, 0.0);
@@ -193,6 +199,12 @@ fn fit_recovers_a_rotary_axis_line_from_r_tests() {
     }
     let file = volmap::calibrate::fit::FitFile::read(&write(&dir, "fit.toml", &fit_toml)).unwrap();
     let report = volmap::calibrate::fit::fit(&given, &file).unwrap();
+    assert_eq!(
+        report.estimates.len(),
+        truth.len(),
+        "{:?}",
+        report.estimates
+    );
     for (estimate, &(name, _, value)) in report.estimates.iter().zip(&truth) {
         assert_eq!(estimate.name, name);
         assert!(

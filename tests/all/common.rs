@@ -7,20 +7,26 @@ use volmap::gpu::{GpuMapper, GpuSampler};
 use volmap::model::random::SplitMix64;
 use volmap::model::{AxisLetter, ErrorFunction, Interp, Machine, Table};
 
-/// The GPU engine, opened once. `None` (test skipped, with a line on stderr) only where no
-/// adapter exists; a panic instead when `VOLMAP_REQUIRE_GPU` is set.
+/// The GPU engine, opened once. `None` (the test, or its GPU part, skipped and recorded by
+/// [`crate::skips`]) only where no adapter exists; a panic instead when `VOLMAP_REQUIRE_GPU` is
+/// set.
 pub fn gpu() -> Option<&'static GpuMapper> {
     static GPU: OnceLock<Option<GpuMapper>> = OnceLock::new();
     let gpu = GPU
         .get_or_init(|| GpuMapper::open().expect("an adapter exists but the device failed to open"))
         .as_ref();
     if gpu.is_none() {
-        if std::env::var_os("VOLMAP_REQUIRE_GPU").is_some() {
-            panic!("VOLMAP_REQUIRE_GPU is set but no GPU adapter exists (install mesa-vulkan-drivers for lavapipe)");
-        }
-        eprintln!("SKIPPED: no GPU adapter on this machine");
+        no_adapter();
     }
     gpu
+}
+
+/// A failure under `VOLMAP_REQUIRE_GPU`, else a skip recorded ([`crate::skips`]).
+fn no_adapter() {
+    if crate::skips::gpu_required() {
+        panic!("VOLMAP_REQUIRE_GPU is set but no GPU adapter exists (install mesa-vulkan-drivers for lavapipe)");
+    }
+    crate::skips::skipped("no GPU adapter (the test or its GPU part)");
 }
 
 /// The GPU sampler, opened once; skipped and required like [`gpu`].
@@ -32,10 +38,7 @@ pub fn sampler() -> Option<&'static GpuSampler> {
         })
         .as_ref();
     if sampler.is_none() {
-        if std::env::var_os("VOLMAP_REQUIRE_GPU").is_some() {
-            panic!("VOLMAP_REQUIRE_GPU is set but no GPU adapter exists (install mesa-vulkan-drivers for lavapipe)");
-        }
-        eprintln!("SKIPPED: no GPU adapter on this machine");
+        no_adapter();
     }
     sampler
 }

@@ -261,6 +261,7 @@ fn a_uniform_squareness_alone_gives_max_ve_uniform_from_zero_to_a_times_the_trav
         let stats = study.sample_stats(&engine, n, &[1.0], |_| {}).unwrap();
         // Sample by sample: a rotation s about z of Y's motion moves the tip by 2 sin(|s|/2)·y.
         let draws = study.amplitudes(0, n, &[1.0]);
+        assert_eq!((stats.len(), draws.len()), (n, n));
         for (s, row) in stats.iter().zip(&draws) {
             let want = 2.0 * (row[0].abs() / 2.0).sin() * length;
             assert!(
@@ -321,6 +322,7 @@ fn the_same_seed_gives_the_same_machines_on_every_engine_and_another_seed_others
         .unwrap();
     for engine in engines() {
         let got = study(5).sample_stats(&engine, 30, &ones, |_| {}).unwrap();
+        assert_eq!((got.len(), cpu.len()), (30, 30));
         for (s, (g, c)) in got.iter().zip(&cpu).enumerate() {
             assert_stats_close(g, c, &format!("sample {s} on {}", engine.name()));
             assert_eq!(g.max_ve_pose, c.max_ve_pose);
@@ -435,6 +437,7 @@ fn sampled_machines_with_errors_of_other_axes_give_the_same_statistics_on_every_
         let got = engine
             .variant_stats(&variants, &rows, &grids, |_| {})
             .unwrap();
+        assert_eq!((got.len(), rows.len()), (12, 12));
         for (s, (g, row)) in got.iter().zip(&rows).enumerate() {
             let want = reference_stats(&variants.machine(row), &grids);
             assert_stats_close(g, &want, &format!("sample {s} on {}", engine.name()));

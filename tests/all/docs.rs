@@ -1,7 +1,8 @@
 //! The documentation holds together: `docs/cli.md` is what the binary generates from its own
 //! command-line definitions (`VOLMAP_BLESS=1 cargo test docs` writes it again), every relative link
 //! of the README and the book resolves to a file and a heading, every command and every export
-//! format is in the README's command table and in the reference, and the README stays short.
+//! format is in the README's command table and in the reference, the README stays short, and the
+//! number of tests docs/testing.md states is the number there are.
 
 use std::collections::HashMap;
 use std::fs;
@@ -333,6 +334,92 @@ fn the_readme_is_short() {
     assert!(
         lines <= README_MOST_LINES,
         "README.md has {lines} lines, at most {README_MOST_LINES}: move the details into docs/"
+    );
+}
+
+/// The `#[test]` functions in the Rust files under `folder` (each test of a `proptest!` block
+/// counts once), build output and hidden folders left out.
+fn tests_in(folder: &Path) -> usize {
+    let mut count = 0;
+    for entry in fs::read_dir(folder).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy();
+        if path.is_dir() {
+            if name != "target" && !name.starts_with('.') {
+                count += tests_in(&path);
+            }
+        } else if name.ends_with(".rs") {
+            let text = fs::read_to_string(&path).unwrap();
+            count += text.lines().filter(|l| l.trim() == "#[test]").count();
+        }
+    }
+    count
+}
+
+/// The tests of this binary (`tests/all/`) as the harness lists them: a table macro's rows (the
+/// refusals) are a test each, under one `#[test]`.
+fn tests_of_this_binary() -> usize {
+    let output = std::process::Command::new(std::env::current_exe().unwrap())
+        .arg("--list")
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let list = String::from_utf8(output.stdout).unwrap();
+    list.lines().filter(|l| l.ends_with(": test")).count()
+}
+
+/// The sentence of docs/testing.md that states the suite's size, for these counts of `src/`,
+/// `tests/` and `fuzz/`.
+fn stated_counts(counts: [usize; 3]) -> String {
+    format!(
+        "It holds {} tests: {} in `src/`, {} in `tests/` and {} in `fuzz/`.",
+        counts.iter().sum::<usize>(),
+        counts[0],
+        counts[1],
+        counts[2]
+    )
+}
+
+#[test]
+fn the_book_states_the_number_of_tests_there_are() {
+    let root = repository();
+    let listed = tests_of_this_binary();
+    // Every `#[test]` of tests/ is in this binary, and the table macro adds its rows.
+    assert!(listed >= tests_in(&root.join("tests")), "{listed}");
+    let counts = [
+        tests_in(&root.join("src")),
+        listed,
+        tests_in(&root.join("fuzz")),
+    ];
+    // Every folder holds tests: a count of zero would be the counting gone wrong.
+    assert!(counts.iter().all(|&c| c > 0), "{counts:?}");
+    let text = fs::read_to_string(root.join("docs/testing.md")).unwrap();
+    // Wrapped lines read as one: whitespace runs become one space.
+    let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    let stated = stated_counts(counts);
+    assert!(text.contains(&stated), "docs/testing.md must say: {stated}");
+}
+
+#[test]
+fn the_test_count_finds_planted_tests_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let inner = dir.path().join("inner");
+    fs::create_dir_all(&inner).unwrap();
+    fs::create_dir_all(dir.path().join("target")).unwrap();
+    let file = "#[test]\nfn a() {}\n    #[test]\n    fn b() {}\nconst S: &str = \"#[test]\";\n";
+    fs::write(dir.path().join("a.rs"), file).unwrap();
+    fs::write(
+        inner.join("b.rs"),
+        "proptest! {\n    #[test]\n    fn c(x in 0..1) {}\n}\n",
+    )
+    .unwrap();
+    // Not Rust, and build output: not counted.
+    fs::write(dir.path().join("notes.md"), "#[test]\n").unwrap();
+    fs::write(dir.path().join("target/gen.rs"), "#[test]\n").unwrap();
+    assert_eq!(tests_in(dir.path()), 3);
+    assert_eq!(
+        stated_counts([1, 2, 3]),
+        "It holds 6 tests: 1 in `src/`, 2 in `tests/` and 3 in `fuzz/`."
     );
 }
 

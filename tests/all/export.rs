@@ -199,6 +199,8 @@ fn grid_csv_holds_a_scale_error_to_rounding_with_the_hand_derived_correction() {
     .unwrap();
     let (axes, values) = read_grid(&exported.files[0].text);
     assert_eq!(axes[0], [0.0, 100.0, 200.0, 300.0, 400.0]);
+    // A value per node of the lattice.
+    assert_eq!(values.len(), axes.iter().map(Vec::len).product::<usize>());
     for (n, v) in values.iter().enumerate() {
         let x = axes[0][n % 5];
         let hand = -1e-4 * x / (1.0 + 1e-4);

@@ -169,6 +169,7 @@ fn fanuc_points_span_the_travel() {
     let inputs = Inputs::default();
     let exported = export::export(fanuc(), &request(&m, &inputs, TableSize::Points(11))).unwrap();
     let t = pitch_tables(&exported.files);
+    assert_eq!(t.len(), 3);
     for (axis, (table, length)) in t.iter().zip([400.0, 600.0, 200.0]).enumerate() {
         let last_mm =
             table.reference_mm + (table.last - table.reference) as f64 * table.interval_mm;
@@ -481,6 +482,8 @@ fn fanuc_3d_holds_a_scale_error_in_whole_microns() {
     .unwrap();
     let (axes, values) = lattice(&exported.files[0].text);
     assert_eq!(axes[0], [0.0, 100.0, 200.0, 300.0, 400.0]);
+    // A value per node of the lattice.
+    assert_eq!(values.len(), axes.iter().map(Vec::len).product::<usize>());
     for (n, v) in values.iter().enumerate() {
         let x = axes[0][n % 5];
         assert_eq!(v[0], (-1e-4 * x / 1.0001 / UM).round() * UM, "CX at {x}");

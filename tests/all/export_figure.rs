@@ -119,6 +119,11 @@ fn chart(rows: &[Row], format: &str, title: &str, x_label: &str) -> plot::Drawin
         Color::RED,
         Color::PURPLE,
     ];
+    assert_eq!(
+        EMBEDDED.len(),
+        colours.len(),
+        "a colour per embedded machine"
+    );
     let series: Vec<Series> = EMBEDDED
         .iter()
         .zip(colours)

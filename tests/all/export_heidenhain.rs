@@ -161,6 +161,8 @@ fn heidenhain_round_trip_gives_the_reported_residual_with_backlash() {
     }
     // The BACKLASH column is Y's own column plus the reversal, +6 µm (the error grows).
     let y = &read[1];
+    assert_eq!(y.backlash.as_ref().unwrap().len(), y.columns[1].len());
+    assert!(!y.columns[1].is_empty());
     for (b, v) in y.backlash.as_ref().unwrap().iter().zip(&y.columns[1]) {
         assert!((b - v - 0.006).abs() <= 1.5e-4, "{b} vs {v}");
     }

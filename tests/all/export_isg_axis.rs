@@ -177,6 +177,7 @@ fn isg_axis_holds_a_scale_error_and_a_squareness_with_their_signs() {
     assert!(steps_near(&x.pos, 10), "{:?}", x.pos);
     assert!((x.pos[4] - x.pos[0] - 40.0 * UNIT).abs() <= 1.01 * UNIT);
     assert_eq!(x.masters, [1, 2]);
+    assert!(!x.plane.is_empty());
     for row in &x.plane {
         assert!(steps_near(row, 20), "{row:?}");
         assert!((row[3] - row[0] - 60.0 * UNIT).abs() <= 1.01 * UNIT);

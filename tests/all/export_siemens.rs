@@ -107,6 +107,7 @@ fn tables(files: &[WrittenFile]) -> Vec<Table> {
         }
     }
     let all: Vec<Table> = msec.into_values().chain(cec.into_values()).collect();
+    assert!(!all.is_empty());
     for t in &all {
         let k = (t.max - t.min) / t.step;
         assert!((k - k.round()).abs() < 1e-9, "{t:?}");
@@ -274,6 +275,7 @@ fn siemens_holds_a_pure_squareness_in_one_cross_table_with_hand_derived_values()
     assert_eq!((cec.input, cec.output, cec.direction), (1, 0, 0));
     assert_eq!((cec.min, cec.step, cec.max), (0.0, 75.0, 300.0));
     let gamma: f64 = 2.0e-5;
+    assert_eq!(cec.values.len(), 5);
     for (n, v) in cec.values.iter().enumerate() {
         let hand = -(75.0 * n as f64) * gamma.tan();
         assert!((v - hand).abs() <= 5e-7, "point {n}: {v} vs {hand}");
@@ -363,6 +365,7 @@ fn siemens_programs_have_the_documented_form_line_by_line() {
     // Every table covers the travel of its input axis from its start, at the spacing asked,
     // with a whole number of steps.
     let ranges = [3000.0, 2000.0, 1000.0];
+    assert!(!tables(files).is_empty());
     for t in tables(files) {
         assert_eq!((t.min, t.step), (0.0, 250.0), "{t:?}");
         assert_eq!(t.max, ranges[t.input], "{t:?}");

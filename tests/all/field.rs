@@ -170,15 +170,18 @@ fn files_that_are_not_fields_are_rejected() {
     assert!(message.contains("truncated"), "{message}");
 }
 
-/// `VOLMAP_REQUIRE_EXR_TOOLS` (set by CI, which installs them) turns a missing tool into a
-/// failure; elsewhere the test skips with a line on stderr.
+/// Whether the reader `what` is there (`check` succeeds). `VOLMAP_REQUIRE_READERS` (set by CI,
+/// which installs them; `VOLMAP_REQUIRE_EXR_TOOLS` is its older name) turns a missing reader into
+/// a failure; elsewhere the test skips, recorded by [`crate::skips`].
 pub(crate) fn tool_available(check: &mut std::process::Command, what: &str) -> bool {
     let ok = check.output().is_ok_and(|o| o.status.success());
     if !ok {
-        if std::env::var_os("VOLMAP_REQUIRE_EXR_TOOLS").is_some() {
-            panic!("VOLMAP_REQUIRE_EXR_TOOLS is set but {what} is missing");
+        if crate::skips::readers_required() {
+            panic!(
+                "VOLMAP_REQUIRE_READERS (or VOLMAP_REQUIRE_EXR_TOOLS) is set but {what} is missing"
+            );
         }
-        eprintln!("SKIPPED: {what} is not installed");
+        crate::skips::skipped(&format!("{what} is not installed"));
     }
     ok
 }

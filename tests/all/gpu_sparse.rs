@@ -156,6 +156,7 @@ fn sampled_machines_with_few_errors_match_the_cpu_engine_on_the_gpu() {
                 let on_cpu = Engine::Cpu
                     .variant_stats(&variants, &rows, &grids, |_| {})
                     .unwrap();
+                assert_eq!((on_gpu.len(), on_cpu.len()), (rows.len(), rows.len()));
                 for (s, (g, c)) in on_gpu.iter().zip(&on_cpu).enumerate() {
                     let close = |a: f64, b: f64, tol: f64, which: &str| {
                         assert!(
@@ -225,6 +226,10 @@ fn values_at_positions_of_machines_with_few_errors_match_the_reference_on_the_gp
             let on_cpu = Engine::Cpu
                 .variant_values(&variants, &rows, &commands, |_| {})
                 .unwrap();
+            assert_eq!(
+                (on_gpu[1].len(), on_cpu[1].len()),
+                (commands.len(), commands.len())
+            );
             for (p, (g, c)) in on_gpu[1].iter().zip(&on_cpu[1]).enumerate() {
                 for k in 0..6 {
                     let tol = if k < 3 { 1e-6 } else { 1e-9 };

@@ -17,6 +17,10 @@ fn measured_circle(dir: &tempfile::TempDir, machine: &Machine, plane: &str, name
     };
     let result = standards::circular(&setup, &spec).unwrap();
     let mut text = String::from("angle_deg,deviation_um\n");
+    assert_eq!(
+        (result.positions.len(), result.predicted[0].len()),
+        (72, 72)
+    );
     for (a, r) in result.positions.iter().zip(&result.predicted[0]) {
         text += &format!("{a},{}\n", r * 1000.0);
     }
@@ -40,15 +44,19 @@ fn a_squareness_from_one_circle_has_the_hand_derived_figures() {
     let table = measured_circle(&dir, &with_squareness(alpha, 0.0), "XY", "xy.csv");
     let path = write(&dir, "fit.toml", &format!("estimate = [\"EC0Y\"]\n{table}"));
     let report = fit(&three_axis(), &FitFile::read(&path).unwrap()).unwrap();
-    // The estimate is the squareness (sign: the model's EC0Y as the circle sees it).
+    // The estimate is the squareness, sign and all: the base machine has none, so the fit
+    // recovers the EC0Y the circle was measured with.
+    assert_eq!(report.estimates.len(), 1);
+    assert_eq!(report.estimates[0].name, "EC0Y");
     assert!(
-        (report.estimates[0].value.abs() - alpha).abs() < 1e-9,
+        (report.estimates[0].value - alpha).abs() < 1e-9,
         "{:?}",
         report.estimates
     );
     let figures = &report.identifiability;
     let r = 100.0;
     let sensitivity = r / (2.0 * 2f64.sqrt());
+    // To first order in α: the terms left out are α = 3e-5 of it (measured: 1.7e-10).
     assert!(
         (figures.sensitivity[0] - sensitivity).abs() < 1e-4 * sensitivity,
         "{figures:?}"
@@ -83,8 +91,15 @@ fn two_squarenesses_from_two_planes_are_independent() {
     // Each circle sees one of them only.
     assert!(c[0][1].abs() < 1e-3, "{c:?}");
     assert!(report.identifiability.condition_number < 1.01);
-    for (e, v) in report.estimates.iter().zip([2.0e-5, 1.5e-5]) {
-        assert!((e.value.abs() - v).abs() < 1e-9, "{e:?}");
+    assert_eq!(report.estimates.len(), 2);
+    // Signed as measured: EC0Y = 2e-5, EB0Z = −1.5e-5.
+    for (e, (name, v)) in report
+        .estimates
+        .iter()
+        .zip([("EC0Y", 2.0e-5), ("EB0Z", -1.5e-5)])
+    {
+        assert_eq!(e.name, name);
+        assert!((e.value - v).abs() < 1e-9, "{e:?}");
     }
 }
 

@@ -1,5 +1,7 @@
-//! volmap's integration tests, one binary. GPU tests skip only where no adapter exists; with
-//! `VOLMAP_REQUIRE_GPU=1` (set by CI) a missing adapter is a failure.
+//! volmap's integration tests, one binary. GPU tests skip only where no adapter exists, and the
+//! tests of other readers where the reader is missing, each skip said on stderr as
+//! `volmap-skip:` ([`skips`]); with `VOLMAP_REQUIRE_GPU=1` and `VOLMAP_REQUIRE_READERS=1` (set by
+//! CI) either is a failure.
 
 mod ballbar;
 mod calibrate;
@@ -59,6 +61,7 @@ mod profile_datums;
 mod query;
 mod reference;
 mod shaders;
+mod skips;
 mod standards;
 mod standards_frames;
 mod standards_inputs;

@@ -323,6 +323,8 @@ fn sampled_machines_with_every_form_at_positions_match_the_reference() {
         .variant_values(&machine, &[], &[vec![]], &commands, |_| {})
         .unwrap();
     let twin = Twin::of(&machine);
+    assert_eq!(values.len(), 1);
+    assert_eq!(values[0].len(), commands.len());
     for (c, v) in commands.iter().zip(&values[0]) {
         let d = twin.deviation(c);
         for k in 0..3 {

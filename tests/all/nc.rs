@@ -26,6 +26,7 @@ fn largest_landing_error(
     let meant = nc::trace(machine, input.as_bytes(), "in.nc", options).unwrap();
     let landed = nc::trace(machine, output.text.as_bytes(), "out.nc", options).unwrap();
     let mut worst: f64 = 0.0;
+    assert!(!meant.is_empty());
     for m in &meant {
         // The last output line that comes from this input line.
         let last = output

@@ -58,6 +58,7 @@ fn arcs_on_the_embedded_machines_become_a_few_compensated_arcs() {
         let options = options(4);
         let out = nc::compensate(&machine, ARCS.as_bytes(), "arcs.nc", &options).unwrap();
         let lines: Vec<&str> = out.text.lines().collect();
+        assert_eq!(lines.len(), out.origins.len());
         for (line, quarters) in ARC_LINES {
             let written: Vec<&str> = lines
                 .iter()

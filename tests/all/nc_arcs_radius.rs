@@ -50,6 +50,7 @@ fn written_arcs(out: &nc::Compensated, line: usize) -> Vec<Written> {
     let mut at = [0.0f64; 2];
     let mut motion = 0;
     let mut arcs = Vec::new();
+    assert_eq!(out.text.lines().count(), out.origins.len());
     for (text, &origin) in out.text.lines().zip(&out.origins) {
         let mut to = at;
         let (mut r, mut ij) = (None, [None, None]);

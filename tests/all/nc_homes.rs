@@ -138,6 +138,7 @@ fn rs274_puts_the_moves_after_g53_where_volmap_does() {
         // own traverse is the second. rs274 prints 4 decimals.
         assert_eq!(traverses.len(), 4, "{name}: {canon}");
         let without_home = [traverses[0], traverses[2], traverses[3]];
+        assert_eq!(rapids.len(), 3, "{name}: {rapids:?}");
         for (v, r) in rapids.iter().zip(without_home) {
             for k in 0..3 {
                 assert!((v[k] - r[k]).abs() < 0.5e-4, "{name}: {v:?} against {r:?}");

@@ -60,6 +60,7 @@ fn word(line: &str, letter: char) -> Option<f64> {
 
 /// The output lines that come from input line `origin`.
 fn lines_of(out: &nc::Compensated, origin: usize) -> Vec<&str> {
+    assert_eq!(out.text.lines().count(), out.origins.len());
     out.text
         .lines()
         .zip(&out.origins)
@@ -274,6 +275,7 @@ fn a_full_circle_with_reversal_errors_that_vary_along_the_travel_lands_on_its_ci
         .iter()
         .filter(|p| out.origins[p.line - 1] == 3)
         .collect();
+    assert!(!circle.is_empty());
     for p in &circle {
         let r = (p.real.x - 80.0).hypot(p.real.y - 50.0);
         assert!((r - 20.0).abs() < 1e-6, "line {}: radius {r}", p.line);

@@ -106,6 +106,7 @@ fn landing(
         })
     };
     let [mut tip, mut after, mut before] = [0.0f64; 3];
+    assert!(!meant.is_empty());
     for m in &meant {
         let last = output.origins.iter().rposition(|&o| o == m.line).unwrap() + 1;
         let l = landed.iter().find(|p| p.line == last).unwrap();

@@ -134,6 +134,7 @@ fn largest_miss(
     let landed = nc::trace(machine, output.as_bytes(), "out.nc", options).unwrap();
     let mut from = 0;
     let mut worst: f64 = 0.0;
+    assert!(!meant.is_empty());
     for m in &meant {
         let counted = if xy_only.contains(&m.line) { 2 } else { 3 };
         let (k, miss) = landed[from..]

@@ -76,6 +76,7 @@ fn g92_and_g10_l20_agree_with_rs274() {
     assert_eq!(original.len(), compensated.len());
     assert!(original.len() >= 4, "{original:?}");
     for (o, c) in original.iter().zip(&compensated) {
+        assert_eq!(o.len(), c.len());
         for (a, b) in o.iter().zip(c) {
             assert!((a - b).abs() < 1.5e-4, "{original:?}\n{compensated:?}");
         }

@@ -221,6 +221,7 @@ fn check_through(
             "{name}, bound {bound}: tip {miss} at {point:?}"
         );
     }
+    assert!(!written.is_empty(), "{name}");
     for point in &written {
         let turn = turn_about(point, &from, &to, rotary);
         assert!(

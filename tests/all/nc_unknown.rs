@@ -128,6 +128,7 @@ fn the_reproducer_writes_no_invented_move() {
         // No point of the compensated program strays from the original's path by more than the
         // largest correction: every one lies within 0.13 mm of a point of the original's moves
         // (sampled every 0.01 mm).
+        assert!(!compensated.is_empty());
         for p in &compensated {
             let near = original.windows(2).any(|w| {
                 (0..=10_000).any(|k| {

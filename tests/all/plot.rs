@@ -205,7 +205,9 @@ fn the_deformed_grid_is_the_nominal_grid_plus_the_magnified_error() {
     assert_eq!(deformed.nominal.len(), 6 + 6 + 9);
     let twin = volmap::reference::Twin::of(&machine);
     let mut largest: f64 = 0.0;
+    assert_eq!(deformed.deformed.len(), deformed.nominal.len());
     for (line, moved) in deformed.nominal.iter().zip(&deformed.deformed) {
+        assert_eq!(line.len(), moved.len());
         for (p, q) in line.iter().zip(moved) {
             let mut command = pose;
             command[..3].copy_from_slice(p);

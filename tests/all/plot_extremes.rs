@@ -22,6 +22,7 @@ fn extremes() -> Vec<Vec<f64>> {
 fn assert_drawable(d: &Drawing, what: &str) {
     d.check_finite().unwrap_or_else(|e| panic!("{what}: {e}"));
     let inside = |x: f64, y: f64| x.abs() <= 10.0 * d.width && y.abs() <= 10.0 * d.height;
+    assert!(!d.shapes.is_empty(), "{what}");
     for shape in &d.shapes {
         match shape {
             Shape::Polyline { points, .. } => {

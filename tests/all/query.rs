@@ -73,6 +73,7 @@ fn trilinear_sampling_is_exact_where_the_field_is_trilinear() {
     let points = parse_points(&points_csv(&positions), "p.csv").unwrap();
     let sampled = query::sample_field(&field, &points, "p.csv").unwrap();
     let exact = query::sample_exact(&machine, &points);
+    assert_eq!((sampled.len(), exact.len()), (points.len(), points.len()));
     for ((p, s), e) in points.iter().zip(&sampled).zip(&exact) {
         for c in 0..6 {
             // The field stores f32: equal up to its rounding.
@@ -218,6 +219,8 @@ fn column_differences(
 ) -> ([f64; 6], [f64; 6]) {
     let mut difference = [0.0f64; 6];
     let mut largest = [0.0f64; 6];
+    assert_eq!(a.len(), b.len());
+    assert!(!a.is_empty());
     for (x, y) in a.iter().zip(b) {
         for c in 0..6 {
             difference[c] = difference[c].max((x[c] - y[c]).abs());

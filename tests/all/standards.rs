@@ -51,6 +51,8 @@ fn a_squareness_alone_draws_the_known_ellipse() {
     let result = standards::circular(&setup, &circular_spec("XY", r)).unwrap();
     let (_, residuals) =
         standards::least_squares_circle(&result.positions, &result.predicted[0]).unwrap();
+    assert_eq!(residuals.len(), result.positions.len());
+    assert!(!residuals.is_empty());
     for (t, e) in result.positions.iter().zip(&residuals) {
         let expected = -(s * r / 2.0) * (2.0 * t.to_radians()).sin();
         assert!(
@@ -68,6 +70,7 @@ fn a_squareness_alone_draws_the_known_ellipse() {
     };
     let clockwise = standards::circular(&setup, &cw).unwrap();
     assert_eq!(clockwise.positions[..3], [90.0, 85.0, 80.0]);
+    assert_eq!(clockwise.predicted[0].len(), clockwise.positions.len());
     for (t, dr) in clockwise.positions.iter().zip(&clockwise.predicted[0]) {
         let k = result
             .positions
@@ -119,6 +122,10 @@ fn a_scale_error_shows_in_the_diagonal_as_a_straight_line() {
         let (from, to) = standards::diagonal_ends(name, lo, hi).unwrap();
         let direction = (to - from).normalize();
         // e(s) = k·X(s)·d_x − k·X(0)·d_x with X(s) = from_x + s·d_x: a straight line in s.
+        assert_eq!(
+            (result.positions.len(), result.predicted[0].len()),
+            (11, 11)
+        );
         for (s, e) in result.positions.iter().zip(&result.predicted[0]) {
             let expected = k * s * direction.x * direction.x;
             assert!(
@@ -148,6 +155,7 @@ fn positioning_reads_the_axis_own_scale_error() {
     };
     let result = standards::positioning(&setup, &spec).unwrap();
     assert_eq!(result.positions.len(), 6);
+    assert_eq!(result.predicted[0].len(), 6);
     for (t, x) in result.positions.iter().zip(&result.predicted[0]) {
         // Zeroed at the first target, the bottom of the travel.
         assert!((x - k * (t + 250.0)).abs() < 1e-12, "{t}: {x}");
@@ -220,6 +228,7 @@ fn iso230_2_figures_of_a_worked_example() {
         ("R↑", 4.0 * r2),
         ("R↓", 4.0 * r2),
     ];
+    assert_eq!(f.named().len(), expected.len());
     for ((name, value), (expected_name, expected_um)) in f.named().into_iter().zip(expected) {
         assert_eq!(name, expected_name);
         assert!(

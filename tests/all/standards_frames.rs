@@ -98,6 +98,7 @@ fn positioning_at_a_turned_table_reads_the_axis_own_scale_error() {
                 let setup = Setup::new(&m, pose).unwrap();
                 let result = standards::positioning(&setup, &positioning_spec(axis, pose)).unwrap();
                 let t0 = result.positions[0];
+                assert_eq!(result.predicted[0].len(), result.positions.len());
                 for (t, x) in result.positions.iter().zip(&result.predicted[0]) {
                     let expected = k * (t - t0);
                     assert!(
@@ -175,6 +176,8 @@ fn diagonals_and_circles_at_poses_are_the_ideal_tip_plus_ve() {
                 .deviation(&setup.command(from + s * direction), &moving)
                 .volumetric_mm
         };
+        assert_eq!(result.predicted[0].len(), result.positions.len());
+        assert!(!result.positions.is_empty());
         for (s, e) in result.positions.iter().zip(&result.predicted[0]) {
             let expected = (ve(*s) - ve(0.0)).dot(&laser);
             assert!(
@@ -203,6 +206,8 @@ fn diagonals_and_circles_at_poses_are_the_ideal_tip_plus_ve() {
             + setup
                 .deviation(&setup.command(centre), &[None; 6])
                 .volumetric_mm;
+        assert_eq!(result.predicted[0].len(), result.positions.len());
+        assert!(!result.positions.is_empty());
         for (t, dr) in result.positions.iter().zip(&result.predicted[0]) {
             let (s, c) = t.to_radians().sin_cos();
             let p = centre + r * Vector3::new(c, s, 0.0);
@@ -256,6 +261,7 @@ fn a_constant_offset_moves_both_balls_alike() {
             .volumetric_mm;
         assert!(ve.norm() > 0.02, "{pose}: {ve}");
         let result = standards::circular(&setup, &xy_circle(centre.into(), 150.0, pose)).unwrap();
+        assert!(!result.figures.is_empty(), "{pose}");
         for f in &result.figures {
             assert!(f.predicted.abs() < 1e-11, "{pose}: {f:?}");
         }

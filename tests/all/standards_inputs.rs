@@ -126,6 +126,7 @@ fn the_temperatures_hold_for_every_run() {
         &positioning_of_x(),
     )
     .unwrap();
+    assert_eq!(result.positions.len(), 5);
     for (n, t) in result.positions.iter().enumerate() {
         let expected = alpha * 10.0 * (t + 400.0);
         for curve in &result.predicted {
@@ -156,6 +157,8 @@ fn a_ballbar_steps_where_a_backlashed_axis_reverses() {
     let m = machine("EXX = { value = 0.0, reverse = 0.003 }", "");
     let setup = Setup::new(&m, "").unwrap();
     let ccw = standards::circular(&setup, &circular_spec("XY", r)).unwrap();
+    assert_eq!(ccw.predicted[0].len(), ccw.positions.len());
+    assert!(!ccw.positions.is_empty());
     for (t, dr) in ccw.positions.iter().zip(&ccw.predicted[0]) {
         let minus = *t > 0.0 && *t <= 180.0;
         let expected = if minus { shifted(r, w, *t) } else { 0.0 };
@@ -173,6 +176,8 @@ fn a_ballbar_steps_where_a_backlashed_axis_reverses() {
         ..circular_spec("XY", r)
     };
     let cw = standards::circular(&setup, &cw).unwrap();
+    assert_eq!(cw.predicted[0].len(), cw.positions.len());
+    assert!(!cw.positions.is_empty());
     for (t, dr) in cw.positions.iter().zip(&cw.predicted[0]) {
         let t = t.rem_euclid(360.0);
         let minus = (180.0 - 1e-9..360.0 - 1e-9).contains(&t);
@@ -204,6 +209,8 @@ fn an_axis_the_circle_does_not_move_approaches_as_the_inputs_say() {
         &circular_spec("XY", r),
     )
     .unwrap();
+    assert_eq!(result.predicted[0].len(), result.positions.len());
+    assert!(!result.positions.is_empty());
     for (t, dr) in result.positions.iter().zip(&result.predicted[0]) {
         let (s, c) = t.to_radians().sin_cos();
         let expected = (r * (1.0 + k) * c).hypot(r * s) - r;
@@ -247,6 +254,10 @@ fn a_diagonal_moves_each_axis_one_way() {
         let result = standards::diagonal(&setup, &spec).unwrap();
         let (from, to) = standards::diagonal_ends(name, lo, hi).unwrap();
         let d = (to - from).normalize();
+        assert_eq!(
+            (result.positions.len(), result.predicted[0].len()),
+            (11, 11)
+        );
         for (s, e) in result.positions.iter().zip(&result.predicted[0]) {
             let expected = k * s * d.x * d.x;
             assert!(

@@ -100,6 +100,7 @@ ECB = 2.0e-5
         let setup = Setup::new(&machine, pose).unwrap();
         let result = standards::positioning(&setup, &spec("B", Some(7))).unwrap();
         let first = result.positions[0];
+        assert_eq!(result.positions.len(), 7);
         for (n, &theta) in result.positions.iter().enumerate() {
             // Zeroed at the first target, −90°.
             let expected = 1.5e-7 * (theta - first) * ARCSEC;

@@ -89,6 +89,7 @@ fn gpu_statistics_of_sampled_machines_match_the_cpu_engine_sample_by_sample() {
         let on_cpu = Engine::Cpu
             .variant_stats(&variants, &rows, &grids, |_| {})
             .unwrap();
+        assert_eq!((on_gpu.len(), on_cpu.len()), (rows.len(), rows.len()));
         for (s, (g, c)) in on_gpu.iter().zip(&on_cpu).enumerate() {
             let close = |a: f64, b: f64, tol: f64, what: &str| {
                 assert!((a - b).abs() <= tol, "{name} sample {s} {what}: {a} vs {b}");
@@ -147,8 +148,10 @@ fn gpu_values_of_sampled_machines_at_positions_match_the_reference_sample_by_sam
             .variant_values(&variants, &rows, &commands, |_| {})
             .unwrap();
         assert_eq!(on_gpu.len(), rows.len());
+        assert_eq!(on_cpu.len(), rows.len());
         for (s, (g, c)) in on_gpu.iter().zip(&on_cpu).enumerate() {
             assert_eq!(g.len(), commands.len());
+            assert_eq!(c.len(), commands.len());
             for (p, (gv, cv)) in g.iter().zip(c).enumerate() {
                 for k in 0..6 {
                     let tol = if k < 3 { 1e-6 } else { 1e-9 };

@@ -14,7 +14,7 @@ use volmap::model::grid::Grid;
 use volmap::model::poses::parse_pose;
 
 /// Runs `tests/python/SCRIPT FILE` and parses what it prints; `None` (the test skips) where the
-/// Python package `package` (`vtk` or `plyfile`) is missing, unless `VOLMAP_REQUIRE_EXR_TOOLS`
+/// Python package `package` (`vtk` or `plyfile`) is missing, unless `VOLMAP_REQUIRE_READERS`
 /// makes that a failure.
 pub(crate) fn python_read(package: &str, script: &str, file: &Path) -> Option<serde_json::Value> {
     // VTK's readers only: the whole `vtk` module would want a display library for rendering.

@@ -177,6 +177,7 @@ fn the_gpu_and_the_cpu_draw_the_same_machines_for_the_same_seed() {
     };
     let (cpu, gpu) = (rows(&per_sample[0]), rows(&per_sample[1]));
     assert_eq!(cpu.len(), 25);
+    assert_eq!(gpu.len(), cpu.len());
     for (c, g) in cpu.iter().zip(&gpu) {
         // Statistics to the stated tolerances; the draws identical.
         for k in [1, 2, 4, 5, 6] {
@@ -504,6 +505,7 @@ fn features_on_sampled_machines_give_each_features_conforming_fraction() {
         );
     }
     if let [cpu, gpu] = &outputs[..] {
+        assert_eq!(cpu.as_array().unwrap().len(), gpu.as_array().unwrap().len());
         for (c, g) in cpu.as_array().unwrap().iter().zip(gpu.as_array().unwrap()) {
             assert_eq!(c["conforming_fraction"], g["conforming_fraction"]);
             let (a, b) = (

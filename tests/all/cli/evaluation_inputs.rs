@@ -175,6 +175,7 @@ fn sample_exact_takes_the_inputs_and_a_field_must_hold_them() {
         "Y=-",
     ]);
     let twin = Twin::of(&machine.at(&Inputs::parse("x_scale=25", "Y=-", &machine).unwrap()));
+    assert!(!exact.is_empty());
     for row in &exact {
         let d = twin.deviation(&[row[0], row[1], row[2], 0.0, 0.0, 0.0]);
         let want: Vec<f64> = d
@@ -200,7 +201,10 @@ fn sample_exact_takes_the_inputs_and_a_field_must_hold_them() {
         "--approach",
         "Y=-",
     ]);
+    assert_eq!(exact.len(), from_field.len());
+    assert!(!exact.is_empty());
     for (a, b) in exact.iter().zip(&from_field) {
+        assert_eq!(a.len(), b.len());
         for (x, y) in a.iter().zip(b) {
             assert!((x - y).abs() < 1e-7 * x.abs().max(1.0), "{a:?} vs {b:?}");
         }

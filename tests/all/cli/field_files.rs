@@ -108,7 +108,10 @@ fn info_sample_features_and_plot_read_every_compression_and_half() {
             ))),
         );
         // A trilinear sample blends eight stored values, each within the bound of its own.
-        for (got, want) in sample(&field).iter().zip(&plain_samples) {
+        let samples = sample(&field);
+        assert_eq!(samples.len(), plain_samples.len());
+        for (got, want) in samples.iter().zip(&plain_samples) {
+            assert_eq!(got.len(), want.len());
             for (g, w) in got[3..].iter().zip(&want[3..]) {
                 let bound = relative * largest + if half { 2f64.powi(-25) } else { 0.0 };
                 assert!((g - w).abs() <= bound + 1e-12, "{name}: {g} for {w}");
@@ -116,7 +119,9 @@ fn info_sample_features_and_plot_read_every_compression_and_half() {
         }
         // A feature's error is made of differences of values: twice the bound of each, over
         // the three components.
-        for (got, want) in features(&field).iter().zip(&plain_features) {
+        let found = features(&field);
+        assert_eq!(found.len(), plain_features.len());
+        for (got, want) in found.iter().zip(&plain_features) {
             let bound = 6.0 * relative * field_largest + 1e-9;
             assert!((got - want).abs() <= bound, "{name}: {got} for {want}");
         }

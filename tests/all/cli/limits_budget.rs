@@ -318,6 +318,7 @@ fn allocations_stop_at_the_widest_tolerance_a_file_may_give_and_write_what_reads
             assert!(text.contains(line), "{text}");
         }
         // Every width written is within what the reader takes, and volmap reads it back.
+        assert!(!a["widths"].as_array().unwrap().is_empty(), "{a}");
         for w in a["widths"].as_array().unwrap() {
             let key = w["term"].as_str().unwrap();
             let angular = key.rsplit('.').next().unwrap()[1..2]

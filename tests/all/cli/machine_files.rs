@@ -133,6 +133,10 @@ fn fit_edits_only_the_fitted_values_of_the_machine_file() {
         .success();
     let report: serde_json::Value = super::json_result(&json);
     let mut csv = String::from("angle_deg,deviation_mm\n");
+    assert_eq!(
+        report["positions"].as_array().unwrap().len(),
+        report["predicted"][0].as_array().unwrap().len()
+    );
     for (a, r) in report["positions"]
         .as_array()
         .unwrap()

@@ -141,6 +141,10 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
         .success();
     let report: serde_json::Value = super::json_result(dir.path().join("xy.json"));
     let mut text = String::from("angle_deg,deviation_mm\n");
+    assert_eq!(
+        report["positions"].as_array().unwrap().len(),
+        report["predicted"][0].as_array().unwrap().len()
+    );
     for (a, r) in report["positions"]
         .as_array()
         .unwrap()

@@ -27,6 +27,7 @@ mod machine_files_tables;
 mod machine_values;
 mod machines;
 mod map;
+mod map_check;
 mod messages;
 mod outputs;
 mod plot;

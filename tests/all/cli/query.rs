@@ -163,6 +163,7 @@ fn features_rate_the_machine_from_the_model_or_a_field() {
         .assert()
         .code(0);
     let field_rows: serde_json::Value = super::json_result(&from_field);
+    assert_eq!(field_rows.as_array().unwrap().len(), rows.len());
     for (exact, sampled) in rows.iter().zip(field_rows.as_array().unwrap()) {
         let (e, s) = (
             exact["error_mm"].as_f64().unwrap(),
@@ -251,7 +252,9 @@ fn sample_on_the_gpu_agrees_with_the_cpu_and_needs_an_adapter() {
         let (a, b) = (rows(&on_cpu), rows(&on_gpu));
         assert_eq!(a.len(), 3);
         assert_eq!(on_cpu.lines().next(), on_gpu.lines().next());
+        assert_eq!(b.len(), a.len());
         for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x.len(), y.len());
             for (u, v) in x.iter().zip(y) {
                 assert!(
                     (u - v).abs() <= 1e-6 * u.abs().max(1e-6),

@@ -123,7 +123,11 @@ fn values_are_the_shortest_decimals_that_read_back_to_the_same_value() {
         .unwrap();
     assert!(output.status.success());
     let text = String::from_utf8(output.stdout).unwrap();
+    // A header and a row per point, each row the position's 3 columns and 6 values.
+    assert_eq!(sampled.len(), 3);
+    assert_eq!(text.lines().count(), sampled.len() + 1, "{text}");
     for (line, expected) in text.lines().skip(1).zip(&sampled) {
+        assert_eq!(line.split(',').count(), 3 + expected.len(), "{line}");
         for (value, &expected) in line.split(',').skip(3).zip(expected) {
             let expected = expected as f32;
             assert_eq!(value.parse::<f32>().unwrap(), expected, "{line}");
@@ -144,16 +148,22 @@ fn values_are_the_shortest_decimals_that_read_back_to_the_same_value() {
             }
         }
     }
-    assert_eq!(text.lines().count(), 4);
     // Exact values keep f64's shortest round trip.
     let exact = volmap()
         .args(["sample", "--exact", "--machine", "vmc-li2015", "--points"])
         .arg(&points)
         .output()
         .unwrap();
+    assert!(
+        exact.status.success(),
+        "{}",
+        String::from_utf8_lossy(&exact.stderr)
+    );
     let machine = volmap::io::embedded::load("vmc-li2015").unwrap();
     let expected = query::sample_exact(&machine, &parsed);
     let text = String::from_utf8(exact.stdout).unwrap();
+    assert_eq!(expected.len(), 3);
+    assert_eq!(text.lines().count(), expected.len() + 1, "{text}");
     for (line, expected) in text.lines().skip(1).zip(&expected) {
         let values: Vec<f64> = line
             .split(',')

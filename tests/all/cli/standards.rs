@@ -151,6 +151,10 @@ fn build_and_fit_write_machine_files_that_map() {
     assert!(output.status.success());
     let report: serde_json::Value = super::json_result(dir.path().join("xy.json"));
     let mut text = String::from("angle_deg,deviation_mm\n");
+    assert_eq!(
+        report["positions"].as_array().unwrap().len(),
+        report["predicted"][0].as_array().unwrap().len()
+    );
     for (a, r) in report["positions"]
         .as_array()
         .unwrap()
@@ -327,6 +331,10 @@ fn fit_estimates_a_thermal_coefficient_and_writes_it() {
             .success();
         let report: serde_json::Value = super::json_result(&json);
         let mut text = String::from("angle_deg,deviation_mm\n");
+        assert_eq!(
+            report["positions"].as_array().unwrap().len(),
+            report["predicted"][0].as_array().unwrap().len()
+        );
         for (a, r) in report["positions"]
             .as_array()
             .unwrap()

@@ -126,6 +126,7 @@ fn parts_equal_single_pose_maps(device: &str, sweep: &str, names: &[String]) {
         assert_eq!(parts[p].size, alone[0].size, "{name}");
         assert_eq!(parts[p].attributes, alone[0].attributes, "{name}");
         assert_eq!(parts[p].channels.len(), 6);
+        assert_eq!(alone[0].channels.len(), 6);
         for ((c, values), (c_alone, values_alone)) in
             parts[p].channels.iter().zip(&alone[0].channels)
         {
