@@ -208,14 +208,15 @@ impl Reader {
         let Some(table) = value.as_table() else {
             return Ok(ErrorFunction::Constant(self.number(path, value)?));
         };
-        if table.contains_key("value") && table.keys().all(|k| k == "value" || k == "u") {
+        // A constant with its uncertainty; `{ value = … }` alone says nothing a number does not.
+        if table.contains_key("u") && table.keys().all(|k| k == "value" || k == "u") {
             return self.constant_form(path, value);
         }
         for own in ["value", "reverse", "per_kelvin"] {
             if table.contains_key(own) {
                 return Err(self.key_error(
                     &format!("{path}.{own}"),
-                    "a form inside an error value carries no reverse or per_kelvin of its own (a constant with its uncertainty is { value = number, u = number })",
+                    "a form inside an error value carries no value, reverse or per_kelvin of its own (a constant with its uncertainty is { value = number, u = number })",
                 ));
             }
         }
