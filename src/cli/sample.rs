@@ -102,7 +102,8 @@ enum Source<'a> {
         pose: Command,
         path: String,
         outside: Outside,
-        uncertainty: Option<(Propagation, Uncertainty)>,
+        /// Boxed: the prepared machines are large beside a field's sampler.
+        uncertainty: Option<Box<(Propagation, Uncertainty)>>,
     },
 }
 
@@ -132,12 +133,13 @@ impl Source<'_> {
     ) -> Result<Vec<VeUncertainty>, Failure> {
         let Source::Exact {
             pose,
-            uncertainty: Some((propagation, how)),
+            uncertainty: Some(prepared),
             ..
         } = self
         else {
             return Ok(Vec::new());
         };
+        let (propagation, how) = &**prepared;
         let points = posed(points, pose);
         let inside: Vec<Command> = points
             .iter()
@@ -299,7 +301,7 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             }
             let uncertainty = uncertainty
                 .take()
-                .map(|how| (Propagation::new(&machine), how));
+                .map(|how| Box::new((Propagation::new(&machine), how)));
             let source = Source::Exact {
                 machine,
                 pose,

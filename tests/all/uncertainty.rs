@@ -112,11 +112,17 @@ fn a_covariance_entry_adds_twice_itself_to_the_variance() {
     };
     let at = [250.0, 100.0, 50.0, 0.0, 0.0, 0.0];
     let independent = u_at(&with(""), at)[0];
-    assert!(close(independent, (2.0 * u * u).sqrt(), 1e-9), "{independent}");
+    assert!(
+        close(independent, (2.0 * u * u).sqrt(), 1e-9),
+        "{independent}"
+    );
     let positive = with("[covariance]\n\"axes.X.EX0X spindle.EXS\" = 1e-6\n");
     assert_eq!(positive.uncertainty.covariance.len(), 1);
     let got = u_at(&positive, at)[0];
-    assert!(close(got * got, 2.0 * independent * independent, 1e-9), "{got}");
+    assert!(
+        close(got * got, 2.0 * independent * independent, 1e-9),
+        "{got}"
+    );
     let negative = with("[covariance]\n\"spindle.EXS axes.X.EX0X\" = -1e-6\n");
     assert!(u_at(&negative, at)[0] < 1e-9, "{:?}", u_at(&negative, at));
 }
@@ -166,8 +172,8 @@ fn thermal_and_reverse_parts_carry_their_own_u() {
 fn monte_carlo_agrees_with_first_order_on_every_embedded_machine() {
     assert_eq!(EMBEDDED.len(), 5);
     for (name, text) in EMBEDDED {
-        let machine = Machine::from_toml(&with_u(text), name, None)
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let machine =
+            Machine::from_toml(&with_u(text), name, None).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(machine.uncertainty.values.len() >= 4, "{name}");
         assert_eq!(machine.uncertainty.covariance.len(), 1, "{name}");
         let points = points_of(&machine);
@@ -192,7 +198,10 @@ fn monte_carlo_agrees_with_first_order_on_every_embedded_machine() {
                     se[c]
                 );
                 let off = (mc.mean[p][c] - nominal[c]).abs();
-                assert!(off <= 4.0 * me[c], "{name} {command:?} mean VE[{c}] off by {off}");
+                assert!(
+                    off <= 4.0 * me[c],
+                    "{name} {command:?} mean VE[{c}] off by {off}"
+                );
             }
         }
     }

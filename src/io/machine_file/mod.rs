@@ -557,6 +557,10 @@ impl Reader {
     }
 }
 
+/// The `(position, value)` rows of a CSV table's value column, and the standard uncertainties of
+/// its `u_column` where one is named.
+type ColumnRows = (Vec<(f64, f64)>, Option<Vec<f64>>);
+
 /// The `(position, value)` rows of `column` in a CSV table whose first column is the position,
 /// and with `u_column` that column's standard uncertainties (each zero or positive).
 fn read_column(
@@ -564,7 +568,7 @@ fn read_column(
     path: &str,
     column: &str,
     u_column: Option<&str>,
-) -> Result<(Vec<(f64, f64)>, Option<Vec<f64>>), CsvError> {
+) -> Result<ColumnRows, CsvError> {
     let mut csv = Csv::new(text, path);
     let header = csv.header("naming the position, then the error columns")?;
     let find = |column: &str| {

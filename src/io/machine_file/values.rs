@@ -4,7 +4,7 @@
 //! location and spindle errors with their `per_kelvin` terms. The standard uncertainties forms
 //! carry (`u`, `u_column`, `u_scale`) are read in `uncertainty.rs`.
 
-use super::{read_column, MachineError, Reader};
+use super::{read_column, ColumnRows, MachineError, Reader};
 use crate::io::read_text;
 use crate::io::source::confined;
 use crate::model::errorfn::{ErrorFunction, Interp, Table};
@@ -502,7 +502,7 @@ impl Reader {
         csv: &str,
         column: &str,
         u_column: Option<&str>,
-    ) -> Result<(Vec<(f64, f64)>, Option<Vec<f64>>), MachineError> {
+    ) -> Result<ColumnRows, MachineError> {
         let Some(base) = &self.csv_base else {
             return Err(self.key_error(key, "CSV tables need a machine file on disk (embedded machines carry their tables inline)"));
         };

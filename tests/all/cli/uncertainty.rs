@@ -20,7 +20,8 @@ fn machine(dir: &Path, name: &str, x: &str, extra: &str) -> PathBuf {
     path
 }
 
-const TABLE: &str = "EXX = { table = [[0, 0.0], [200, 0.01], [400, 0.02]], u = [1e-3, 3e-3, 2e-3] }";
+const TABLE: &str =
+    "EXX = { table = [[0, 0.0], [200, 0.01], [400, 0.02]], u = [1e-3, 3e-3, 2e-3] }";
 
 /// The rows of a CSV answer: header, then values by column name.
 fn rows(text: &str) -> (Vec<String>, Vec<Vec<String>>) {
@@ -47,7 +48,15 @@ fn first_order_columns_follow_the_chain() {
     let points = dir.path().join("p.csv");
     std::fs::write(&points, "id,X,Y,Z\na,100,300,50\nb,200,0,0\n").unwrap();
     let out = succeeds(
-        &["sample", "--exact", "--machine", s(&m), "--points", s(&points), "--uncertainty"],
+        &[
+            "sample",
+            "--exact",
+            "--machine",
+            s(&m),
+            "--points",
+            s(&points),
+            "--uncertainty",
+        ],
         dir.path(),
     );
     let (header, rows) = rows(&out);
@@ -79,7 +88,14 @@ fn monte_carlo_columns_agree_with_first_order() {
     );
     let points = dir.path().join("p.csv");
     std::fs::write(&points, "X,Y,Z\n100,300,50\n350,120,280\n").unwrap();
-    let base = ["sample", "--exact", "--machine", s(&m), "--points", s(&points)];
+    let base = [
+        "sample",
+        "--exact",
+        "--machine",
+        s(&m),
+        "--points",
+        s(&points),
+    ];
     let first = succeeds(&super::with(&base, &["--uncertainty"]), dir.path());
     let output = super::volmap()
         .args(base)
@@ -98,7 +114,10 @@ fn monte_carlo_columns_agree_with_first_order() {
         for column in ["u(VE.X)", "u(VE.Y)"] {
             let (want, got) = (value(&header, f, column), value(&header, m, column));
             let se = got / (2.0f64 * 3999.0).sqrt();
-            assert!(want > 0.0 && (got - want).abs() <= 4.0 * se, "{column}: {got} vs {want}");
+            assert!(
+                want > 0.0 && (got - want).abs() <= 4.0 * se,
+                "{column}: {got} vs {want}"
+            );
         }
     }
 }
@@ -109,13 +128,27 @@ fn uncertainty_is_refused_on_the_gpu_and_without_exact() {
     let m = machine(dir.path(), "m.toml", TABLE, "");
     let points = dir.path().join("p.csv");
     std::fs::write(&points, "X,Y,Z\n100,300,50\n").unwrap();
-    let base = ["sample", "--exact", "--machine", s(&m), "--points", s(&points)];
+    let base = [
+        "sample",
+        "--exact",
+        "--machine",
+        s(&m),
+        "--points",
+        s(&points),
+    ];
     for flags in [&["--uncertainty"][..], &["--uncertainty-samples", "100"]] {
         let args = super::with(&super::with(&base, flags), &["--device", "gpu"]);
         refused(&args, dir.path(), &[flags[0], "CPU only"]);
     }
     refused(
-        &["sample", "--field", "f.exr", "--points", s(&points), "--uncertainty"],
+        &[
+            "sample",
+            "--field",
+            "f.exr",
+            "--points",
+            s(&points),
+            "--uncertainty",
+        ],
         dir.path(),
         &["--exact"],
     );
@@ -130,7 +163,11 @@ fn uncertainty_is_refused_on_the_gpu_and_without_exact() {
 #[test]
 fn bad_uncertainties_are_refused_naming_the_key() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("t.csv"), "x,EXX,uEXX\n0,0.0,1e-3\n200,0.01,-2e-3\n").unwrap();
+    std::fs::write(
+        dir.path().join("t.csv"),
+        "x,EXX,uEXX\n0,0.0,1e-3\n200,0.01,-2e-3\n",
+    )
+    .unwrap();
     let points = dir.path().join("p.csv");
     std::fs::write(&points, "X,Y,Z\n100,300,50\n").unwrap();
     let cases: [(&str, &str, &[&str]); 10] = [
@@ -188,7 +225,15 @@ fn bad_uncertainties_are_refused_naming_the_key() {
     for (n, (x, extra, says)) in cases.iter().enumerate() {
         let m = machine(dir.path(), &format!("m{n}.toml"), x, extra);
         refused(
-            &["sample", "--exact", "--machine", s(&m), "--points", s(&points), "--uncertainty"],
+            &[
+                "sample",
+                "--exact",
+                "--machine",
+                s(&m),
+                "--points",
+                s(&points),
+                "--uncertainty",
+            ],
             dir.path(),
             says,
         );
