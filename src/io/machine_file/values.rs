@@ -4,7 +4,9 @@
 //! location and spindle errors with their `per_kelvin` terms. The standard uncertainties forms
 //! carry (`u`, `u_column`, `u_scale`) are read in `uncertainty.rs`.
 
-use super::{read_column, ColumnRows, MachineError, Reader};
+use super::{MachineError, Reader};
+use crate::error::excerpt;
+use crate::io::csv::{Csv, CsvError};
 use crate::io::read_text;
 use crate::io::source::confined;
 use crate::model::errorfn::{ErrorFunction, Interp, Table};
@@ -526,4 +528,67 @@ impl Reader {
         }
         Ok(rows)
     }
+}
+
+/// The `(position, value)` rows of a CSV table's value column, and the standard uncertainties of
+/// its `u_column` where one is named.
+type ColumnRows = (Vec<(f64, f64)>, Option<Vec<f64>>);
+
+/// The `(position, value)` rows of `column` in a CSV table whose first column is the position,
+/// and with `u_column` that column's standard uncertainties (each zero or positive).
+fn read_column(
+    text: &str,
+    path: &str,
+    column: &str,
+    u_column: Option<&str>,
+) -> Result<ColumnRows, CsvError> {
+    let mut csv = Csv::new(text, path);
+    let header = csv.header("naming the position, then the error columns")?;
+    let find = |column: &str| {
+        let index = header
+            .names
+            .iter()
+            .position(|n| n == column)
+            .ok_or_else(|| {
+                csv.error(
+                    header.line,
+                    format!(
+                        "has no column `{}` (its columns: {})",
+                        excerpt(column),
+                        excerpt(&header.names.join(", "))
+                    ),
+                )
+            })?;
+        if index == 0 {
+            return Err(csv.error(
+                header.line,
+                format!(
+                    "column `{}` is the position column; name a value column",
+                    excerpt(column)
+                ),
+            ));
+        }
+        Ok(index)
+    };
+    let index = find(column)?;
+    let u_index = u_column.map(find).transpose()?;
+    let position = format!("`{}`", header.names[0]);
+    let value = format!("`{column}`");
+    let u_name = format!("`{}`", u_column.unwrap_or(""));
+    let mut rows = Vec::new();
+    let mut u = u_index.map(|_| Vec::new());
+    for row in csv.rows() {
+        rows.push((row.number(0, &position)?, row.number(index, &value)?));
+        if let (Some(u_index), Some(u)) = (u_index, u.as_mut()) {
+            let x = row.number(u_index, &u_name)?;
+            if x < 0.0 {
+                return Err(row.error(format!(
+                    "{} in column {u_name} is negative: a standard uncertainty is zero or positive",
+                    crate::error::shown(x)
+                )));
+            }
+            u.push(x);
+        }
+    }
+    Ok((rows, u))
 }
