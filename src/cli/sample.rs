@@ -5,17 +5,21 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use rayon::prelude::*;
 use volmap::io::atomic::AtomicFile;
 use volmap::io::field::FieldFile;
 use volmap::io::points::{
-    PointBatch, PointReader, PointsError, Precision, QueryPoint, SampleWriter,
+    PointBatch, PointReader, PointsError, Precision, QueryPoint, SampleWriter, VeUncertainty,
 };
 use volmap::io::FileError;
 use volmap::model::channels::Sample;
 use volmap::model::{Command, Machine};
 use volmap::query::{self, FieldSampler, Outside, SampledField};
+use volmap::reference::Propagation;
 
-use super::args::{load_machine, DeviceArg, InputsArg, JsonArg, OptionalMachineArg, PoseArg};
+use super::args::{
+    load_machine, Device, DeviceArg, InputsArg, JsonArg, OptionalMachineArg, PoseArg,
+};
 use super::envelope::Envelope;
 use super::failure::{Failure, FlagContext};
 
@@ -47,6 +51,19 @@ pub struct SampleArgs {
     /// have been computed for (default: every axis `+`, every input at its reference).
     #[command(flatten)]
     inputs: InputsArg,
+    /// With --exact: add the first-order standard uncertainty (GUM) of VE, columns u(VE.X),
+    /// u(VE.Y), u(VE.Z) (mm), from the u the machine file gives its error values and its
+    /// [covariance] (on the CPU).
+    #[arg(long, requires = "exact", conflicts_with = "uncertainty_samples")]
+    uncertainty: bool,
+    /// With --exact: the same columns by Monte Carlo: the standard deviation of VE over N
+    /// machines drawn from the u and [covariance] of the machine file (on the CPU).
+    #[arg(long, value_name = "N", requires = "exact", value_parser = clap::value_parser!(u32).range(2..=MAX_UNCERTAINTY_SAMPLES))]
+    uncertainty_samples: Option<u32>,
+    /// The seed of the Monte Carlo draws of --uncertainty-samples: the same seed gives the same
+    /// machines.
+    #[arg(long, default_value_t = 1, requires = "uncertainty_samples")]
+    seed: u64,
     /// Where to write the result (CSV); standard output when left out.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -68,6 +85,15 @@ enum OutsideArg {
 /// the file has.
 const BATCH_POINTS: usize = 65_536;
 
+/// The most machines `--uncertainty-samples` draws: each is a pass over every point.
+const MAX_UNCERTAINTY_SAMPLES: i64 = 1_000_000;
+
+/// How the standard uncertainty of VE is found, where it is asked for.
+enum Uncertainty {
+    FirstOrder,
+    MonteCarlo { draws: usize, seed: u64 },
+}
+
 /// Where the values come from: a field (f32 values) or the model at a pose.
 enum Source<'a> {
     Field(FieldSampler<'a>),
@@ -76,6 +102,8 @@ enum Source<'a> {
         pose: Command,
         path: String,
         outside: Outside,
+        /// Boxed: the prepared machines are large beside a field's sampler.
+        uncertainty: Option<Box<(Propagation, Uncertainty)>>,
     },
 }
 
@@ -88,29 +116,100 @@ impl Source<'_> {
                 pose,
                 path,
                 outside,
+                ..
             } => {
-                // `--pose` sets the rotary axes the CSV has no column for.
-                let points: Vec<QueryPoint> = points
-                    .iter()
-                    .map(|p| {
-                        let mut p = p.clone();
-                        for ((value, given), posed) in
-                            p.command.iter_mut().zip(p.given).zip(*pose).skip(3)
-                        {
-                            if !given {
-                                *value = posed;
-                            }
-                        }
-                        p
-                    })
-                    .collect();
+                let points = posed(points, pose);
                 query::sample_exact_within(machine, &points, path, *outside).flag("--points")
             }
         }
     }
+
+    /// The standard uncertainty of VE at each sampled point (NaN where the sample is NaN, at
+    /// a position outside the travels); none where it is not asked for.
+    fn uncertainty(
+        &self,
+        points: &[QueryPoint],
+        samples: &[Option<Sample>],
+    ) -> Result<Vec<VeUncertainty>, Failure> {
+        let Source::Exact {
+            pose,
+            uncertainty: Some(prepared),
+            ..
+        } = self
+        else {
+            return Ok(Vec::new());
+        };
+        let (propagation, how) = &**prepared;
+        let points = posed(points, pose);
+        let inside: Vec<Command> = points
+            .iter()
+            .zip(samples)
+            .filter(|(_, s)| s.is_some_and(|s| !s[0].is_nan()))
+            .map(|(p, _)| p.command)
+            .collect();
+        let values: Vec<VeUncertainty> = match how {
+            Uncertainty::FirstOrder => inside
+                .par_iter()
+                .map(|c| {
+                    let u = propagation.first_order(c);
+                    [u[0], u[1], u[2]]
+                })
+                .collect(),
+            Uncertainty::MonteCarlo { draws, seed } => {
+                let mc = propagation
+                    .monte_carlo(&inside, *draws, *seed)
+                    .map_err(|_| {
+                        Failure::input("the covariance matrix is not positive semi-definite")
+                    })?;
+                mc.std.iter().map(|s| [s[0], s[1], s[2]]).collect()
+            }
+        };
+        let mut values = values.into_iter();
+        Ok(samples
+            .iter()
+            .map(|s| match s {
+                Some(s) if !s[0].is_nan() => values.next().expect("one per point inside"),
+                _ => [f64::NAN; 3],
+            })
+            .collect())
+    }
+}
+
+/// The points with `--pose` setting the rotary axes the CSV has no column for.
+fn posed(points: &[QueryPoint], pose: &Command) -> Vec<QueryPoint> {
+    points
+        .iter()
+        .map(|p| {
+            let mut p = p.clone();
+            for ((value, given), posed) in p.command.iter_mut().zip(p.given).zip(*pose).skip(3) {
+                if !given {
+                    *value = posed;
+                }
+            }
+            p
+        })
+        .collect()
 }
 
 pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
+    let mut uncertainty = match (args.uncertainty, args.uncertainty_samples) {
+        (true, _) => Some(Uncertainty::FirstOrder),
+        (false, Some(draws)) => Some(Uncertainty::MonteCarlo {
+            draws: draws as usize,
+            seed: args.seed,
+        }),
+        (false, None) => None,
+    };
+    if uncertainty.is_some() && args.device.device == Device::Gpu {
+        let flag = if args.uncertainty {
+            "--uncertainty"
+        } else {
+            "--uncertainty-samples"
+        };
+        return Err(Failure::input(format!(
+            "{flag} is computed on the CPU only, for now: leave out --device gpu (or say --device cpu)"
+        )));
+    }
     super::output::check_distinct_outputs(&[
         ("--out", args.out.as_deref()),
         ("--json", args.json.json.as_deref()),
@@ -176,9 +275,15 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
                 .inputs
                 .machine_at(&load_machine(machine, &args.machine.reach)?)?;
             record = Some(format!(
-                "exactly for {} at {}",
+                "exactly for {} at {}{}",
                 machine.name,
-                inputs.describe(&machine)
+                inputs.describe(&machine),
+                match &uncertainty {
+                    Some(Uncertainty::FirstOrder) => ", with the first-order uncertainty of VE",
+                    Some(Uncertainty::MonteCarlo { .. }) =>
+                        ", with the uncertainty of VE by Monte Carlo",
+                    None => "",
+                }
             ));
             let pose = args.pose.on(&machine)?;
             envelope = args.json.json.is_some().then(|| {
@@ -188,11 +293,21 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
                     .at_pose(&machine, &pose)
             });
             query::check_exact_columns(&machine, reader.columns(), &path).flag("--points")?;
+            if uncertainty.is_some() && machine.uncertainty.is_empty() {
+                errln!(
+                    "note: {} gives no error value a u: every standard uncertainty is 0",
+                    machine.name
+                );
+            }
+            let uncertainty = uncertainty
+                .take()
+                .map(|how| Box::new((Propagation::new(&machine), how)));
             let source = Source::Exact {
                 machine,
                 pose,
                 path: path.clone(),
                 outside,
+                uncertainty,
             };
             (source, Precision::F64)
         }
@@ -218,7 +333,15 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         Some(path) => Failure::from(FileError::write(path, e)).context("--out"),
         None => super::output::stdout_failed(&e),
     };
-    let writer = SampleWriter::start(out, reader.columns(), precision).map_err(write_error)?;
+    let with_uncertainty = matches!(
+        source,
+        Source::Exact {
+            uncertainty: Some(_),
+            ..
+        }
+    );
+    let writer = SampleWriter::start_with(out, reader.columns(), precision, with_uncertainty)
+        .map_err(write_error)?;
     let (mut outside_count, mut first_outside, mut sampled) = (0usize, None, 0usize);
     let mut read = 0usize;
     while !batch.points.is_empty() {
@@ -233,7 +356,10 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
             Err(error) => {
                 // The rows before the failing position are written, as everywhere else.
                 let (prefix, samples) = sampled_prefix(&mut source, &batch);
-                writer.write(out, &prefix, &samples).map_err(write_error)?;
+                let uncertainties = source.uncertainty(&prefix.points, &samples)?;
+                writer
+                    .write_with(out, &prefix, &samples, &uncertainties)
+                    .map_err(write_error)?;
                 out.flush().map_err(write_error)?;
                 return Err(error);
             }
@@ -244,7 +370,10 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
                 first_outside.get_or_insert(p.line);
             }
         }
-        writer.write(out, &batch, &samples).map_err(write_error)?;
+        let uncertainties = source.uncertainty(&batch.points, &samples)?;
+        writer
+            .write_with(out, &batch, &samples, &uncertainties)
+            .map_err(write_error)?;
         sampled += samples.iter().filter(|s| s.is_some()).count();
         batch = next.flag("--points")?;
     }
@@ -254,6 +383,13 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
         if let (Some(path), Some(record)) = (&args.out, &record) {
             outln!("{}: {sampled} position(s) sampled {record}", path.display());
         }
+    }
+    if let Some(draws) = args.uncertainty_samples {
+        let relative = 100.0 / (2.0 * (f64::from(draws) - 1.0)).sqrt();
+        errln!(
+            "note: u(VE) by Monte Carlo over {draws} machines (seed {}): each carries a standard error of {relative:.2} % of itself",
+            args.seed
+        );
     }
     if let Some(line) = first_outside {
         let done = match outside {
@@ -286,6 +422,13 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
                 Precision::F64 => "f64",
             },
             "out": args.out.as_ref().map(|p| p.display().to_string()),
+            "uncertainty": match (args.uncertainty, args.uncertainty_samples) {
+                (true, _) => serde_json::json!({ "method": "first_order" }),
+                (false, Some(draws)) => serde_json::json!({
+                    "method": "monte_carlo", "draws": draws, "seed": args.seed,
+                }),
+                (false, None) => serde_json::Value::Null,
+            },
         });
         envelope.write(json, "--json", &result)?;
     }

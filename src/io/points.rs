@@ -16,7 +16,7 @@ use super::csv::{is_skipped, CsvError, Header, Row};
 use super::source::{describe_bytes, LINE_LIMIT_BYTES};
 use super::FileError;
 use crate::error::{excerpt, input_errors};
-use crate::model::channels::{Sample, SAMPLE_COLUMNS};
+use crate::model::channels::{Sample, SAMPLE_COLUMNS, UNCERTAINTY_COLUMNS};
 use crate::model::{AxisLetter, Command};
 
 /// What is wrong with a points file.
@@ -64,11 +64,16 @@ impl PointColumns {
             if name.is_empty() {
                 return Err(error(format!("column {} has no name", n + 1)));
             }
-            if SAMPLE_COLUMNS.iter().any(|c| c.eq_ignore_ascii_case(name)) {
+            if SAMPLE_COLUMNS
+                .iter()
+                .chain(&UNCERTAINTY_COLUMNS)
+                .any(|c| c.eq_ignore_ascii_case(name))
+            {
                 return Err(error(format!(
-                    "column `{}` is one the answer adds ({}): rename it",
+                    "column `{}` is one the answer adds ({}, {}): rename it",
                     excerpt(name),
-                    SAMPLE_COLUMNS.join(", ")
+                    SAMPLE_COLUMNS.join(", "),
+                    UNCERTAINTY_COLUMNS.join(", ")
                 )));
             }
             let letter = match name.chars().collect::<Vec<_>>()[..] {
@@ -256,6 +261,9 @@ pub struct SampleWriter {
     precision: Precision,
 }
 
+/// The standard uncertainties of VE written beside a sample ([`UNCERTAINTY_COLUMNS`]).
+pub type VeUncertainty = [f64; 3];
+
 impl SampleWriter {
     /// Writes the header row.
     pub fn start(
@@ -263,8 +271,22 @@ impl SampleWriter {
         columns: &PointColumns,
         precision: Precision,
     ) -> std::io::Result<SampleWriter> {
+        SampleWriter::start_with(out, columns, precision, false)
+    }
+
+    /// [`SampleWriter::start`], with the [`UNCERTAINTY_COLUMNS`] after the samples' where
+    /// `uncertainty` says.
+    pub fn start_with(
+        out: &mut (impl Write + ?Sized),
+        columns: &PointColumns,
+        precision: Precision,
+        uncertainty: bool,
+    ) -> std::io::Result<SampleWriter> {
         let mut header = columns.names.clone();
         header.extend(SAMPLE_COLUMNS.iter().map(|c| c.to_string()));
+        if uncertainty {
+            header.extend(UNCERTAINTY_COLUMNS.iter().map(|c| c.to_string()));
+        }
         writeln!(out, "{}", header.join(","))?;
         Ok(SampleWriter { precision })
     }
@@ -277,17 +299,32 @@ impl SampleWriter {
         batch: &PointBatch,
         samples: &[Option<Sample>],
     ) -> std::io::Result<()> {
+        self.write_with(out, batch, samples, &[])
+    }
+
+    /// [`SampleWriter::write`] with the standard uncertainties of VE after each sample: one per
+    /// sample, or none (`&[]`) for a writer started without them.
+    pub fn write_with(
+        &self,
+        out: &mut (impl Write + ?Sized),
+        batch: &PointBatch,
+        samples: &[Option<Sample>],
+        uncertainties: &[VeUncertainty],
+    ) -> std::io::Result<()> {
         let blocks: Vec<Vec<u8>> = batch
             .rows
             .par_chunks(8_192)
             .zip(samples.par_chunks(8_192))
-            .map(|(rows, samples)| {
+            .enumerate()
+            .map(|(n, (rows, samples))| {
+                let u: &[VeUncertainty] = uncertainties.get(n * 8_192..).unwrap_or(&[]);
                 let mut block = Vec::with_capacity(rows.len() * 160);
                 let mut number = ryu::Buffer::new();
-                for (row, s) in rows.iter().zip(samples) {
+                for (i, (row, s)) in rows.iter().zip(samples).enumerate() {
                     let Some(s) = s else { continue };
                     block.extend_from_slice(row.as_bytes());
-                    for &v in s {
+                    let extra = u.get(i).map_or(&[][..], |u| &u[..]);
+                    for &v in s.iter().chain(extra) {
                         block.push(b',');
                         let text = match self.precision {
                             Precision::F32 => number.format(v as f32),

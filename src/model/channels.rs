@@ -15,3 +15,7 @@ pub const SAMPLE_COLUMNS: [&str; 6] = ["VE.X", "VE.Y", "VE.Z", "OE.X", "OE.Y", "
 
 /// The six values at a point, in [`SAMPLE_COLUMNS`] order.
 pub type Sample = [f64; 6];
+
+/// The columns `sample --exact --uncertainty` adds: the standard uncertainty of each VE
+/// component (mm), first order or by Monte Carlo.
+pub const UNCERTAINTY_COLUMNS: [&str; 3] = ["u(VE.X)", "u(VE.Y)", "u(VE.Z)"];

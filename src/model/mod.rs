@@ -14,6 +14,7 @@ pub mod random;
 mod spline;
 pub mod statistics;
 pub mod table2d;
+pub mod uncertainty;
 
 pub use chain::{AxisLetter, Chain, ChainError};
 pub use errorfn::{ErrorFunction, Interp, Pieces, Table};
@@ -136,6 +137,8 @@ pub struct Machine {
     /// The evaluation inputs the error values above are at: the default ones (every axis `+`,
     /// every input at `reference_C`) as loaded, those given to [`Machine::at`] after it.
     pub inputs: inputs::Inputs,
+    /// The standard uncertainties of the error values, where the machine file gives them.
+    pub uncertainty: uncertainty::Uncertainty,
     pub source: MachineSource,
 }
 
@@ -183,6 +186,7 @@ impl Machine {
             thermal: None,
             dependent: Vec::new(),
             inputs: inputs::Inputs::default(),
+            uncertainty: uncertainty::Uncertainty::default(),
             source: MachineSource::default(),
         })
     }
@@ -197,6 +201,7 @@ impl Machine {
         }
         ideal.spindle = [0.0; 5];
         ideal.dependent.clear();
+        ideal.uncertainty = uncertainty::Uncertainty::default();
         ideal
     }
 }

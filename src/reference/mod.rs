@@ -8,8 +8,10 @@
 //! result is the tool tip frame expressed in the workpiece frame.
 
 mod twin;
+pub mod uncertainty;
 
 pub use twin::Twin;
+pub use uncertainty::{MonteCarlo, Propagation};
 
 use nalgebra::{Matrix3, Matrix4, Rotation3, Unit, Vector3};
 

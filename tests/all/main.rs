@@ -68,5 +68,6 @@ mod standards_inputs;
 mod standards_regressions;
 mod standards_rotary;
 mod tour;
+mod uncertainty;
 mod variants;
 mod vtk;

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use super::csv::{Csv, CsvError};
+use super::csv::CsvError;
 use super::source::Reach;
 use super::{read_text, FileError};
 use crate::error::{excerpt, input_errors, toml_message};
@@ -21,6 +21,7 @@ use crate::model::perturbation::{ErrorTarget, SPINDLE_NAMES};
 use crate::model::{Axis, Machine, MachineSource, COMPONENT_NAMES};
 
 mod plausible;
+mod uncertainty;
 mod values;
 
 pub use plausible::{
@@ -83,6 +84,21 @@ pub enum MachineError {
         #[source]
         source: CsvError,
     },
+    #[error("{file}: {key}: {value} is negative: a standard uncertainty is zero or positive")]
+    NegativeUncertainty {
+        file: String,
+        key: String,
+        value: String,
+    },
+    #[error("{file}: {key}: {given} standard uncertainties for a table of {nodes} nodes: give one per node")]
+    UncertaintyCount {
+        file: String,
+        key: String,
+        given: usize,
+        nodes: usize,
+    },
+    #[error("{file}: [covariance]: {pairs} make a covariance matrix that is not positive semi-definite: no quantities have these variances and covariances together (each pair needs |cov| <= u1·u2, and three or more must agree as well)")]
+    NotPositiveSemidefinite { file: String, pairs: String },
     #[error("no embedded machine is called `{name}` and no file `{name}` exists{}(`volmap machines` lists the embedded ones)", .suggestion.as_ref().map_or(" ".to_string(), |s| format!("; did you mean `{s}`? ")))]
     UnknownMachine {
         name: String,
@@ -115,6 +131,9 @@ struct RawMachine {
     thermal: Option<RawThermal>,
     #[serde(default)]
     axes: BTreeMap<String, toml::Table>,
+    /// `[covariance]`: `"NAME NAME" = covariance` in the values' units squared.
+    #[serde(default)]
+    covariance: Option<toml::Table>,
 }
 
 /// `[tool]`: the tool tip in the spindle frame, mm.
@@ -206,6 +225,8 @@ impl Machine {
                 .map_or(Vec::new(), |t: &Thermal| t.inputs.clone()),
             dependent: Vec::new(),
             values: Vec::new(),
+            found: Vec::new(),
+            uncertain: Vec::new(),
         };
 
         for section in raw.axes.keys() {
@@ -249,7 +270,8 @@ impl Machine {
                     ),
                 )
             })?;
-            let spec = reader.error_value(None, key, &path, value, ValueKind::Constant)?;
+            let target = ErrorTarget::Spindle { index };
+            let spec = reader.error_value(target, key, &path, value, ValueKind::Constant)?;
             spindle[index] = spec.value.eval(0.0);
             reader.values.push(ErrorValue {
                 key: path.clone(),
@@ -257,8 +279,9 @@ impl Machine {
                 angular: index >= 3,
                 spec: spec.clone(),
             });
-            reader.keep(ErrorTarget::Spindle { index }, spec);
+            reader.keep(target, spec);
         }
+        let uncertainty = reader.uncertainty(raw.covariance.as_ref())?;
 
         plausible::check_lengths(file, &axes, &tool_offset_mm)?;
         plausible::check_values(file, &reader.values, &axes)?;
@@ -282,6 +305,7 @@ impl Machine {
             thermal,
             dependent: reader.dependent,
             inputs: Inputs::default(),
+            uncertainty,
             source: MachineSource {
                 toml: text.to_string(),
                 csv_files: reader.csv_files,
@@ -304,6 +328,11 @@ struct Reader {
     dependent: Vec<Dependent>,
     /// The error values read so far, checked once every travel is known.
     values: Vec<ErrorValue>,
+    /// The standard uncertainties the forms of the error value being read carry, not yet
+    /// assigned to the value and its part (see `uncertainty.rs`).
+    found: Vec<uncertainty::Found>,
+    /// The error values (and parts) read so far that carry standard uncertainties.
+    uncertain: Vec<crate::model::uncertainty::UncertainValue>,
 }
 
 /// `[thermal]` checked: inputs named once each.
@@ -490,8 +519,19 @@ impl Reader {
             .position(|&c| c == chars[1])
             .unwrap_or(0);
         let letter = axis.letter;
+        let target = if chars.len() == 4 {
+            ErrorTarget::Location {
+                axis: letter,
+                index: n,
+            }
+        } else {
+            ErrorTarget::Component {
+                axis: letter,
+                index: n,
+            }
+        };
         let spec = self.error_value(
-            Some(letter),
+            target,
             key,
             path,
             value,
@@ -509,57 +549,10 @@ impl Reader {
         });
         if chars.len() == 4 {
             axis.location[n] = spec.value.eval(0.0);
-            self.keep(
-                ErrorTarget::Location {
-                    axis: letter,
-                    index: n,
-                },
-                spec,
-            );
         } else {
             axis.components[n] = Some(spec.value.clone());
-            self.keep(
-                ErrorTarget::Component {
-                    axis: letter,
-                    index: n,
-                },
-                spec,
-            );
         }
+        self.keep(target, spec);
         Ok(())
     }
-}
-
-/// The `(position, value)` rows of `column` in a CSV table whose first column is the position.
-fn read_column(text: &str, path: &str, column: &str) -> Result<Vec<(f64, f64)>, CsvError> {
-    let mut csv = Csv::new(text, path);
-    let header = csv.header("naming the position, then the error columns")?;
-    let index = header
-        .names
-        .iter()
-        .position(|n| n == column)
-        .ok_or_else(|| {
-            csv.error(
-                header.line,
-                format!(
-                    "has no column `{}` (its columns: {})",
-                    excerpt(column),
-                    excerpt(&header.names.join(", "))
-                ),
-            )
-        })?;
-    if index == 0 {
-        return Err(csv.error(
-            header.line,
-            format!(
-                "column `{}` is the position column; name a value column",
-                excerpt(column)
-            ),
-        ));
-    }
-    let position = format!("`{}`", header.names[0]);
-    let value = format!("`{column}`");
-    csv.rows()
-        .map(|row| Ok((row.number(0, &position)?, row.number(index, &value)?)))
-        .collect()
 }

@@ -1,12 +1,17 @@
 //! Error values in a machine file (docs/model.md, "Error values"): the forms (a number, `poly`,
 //! `table` or `csv`, each with an optional `of`; `table2d`; `sum`), the general form `{ value,
 //! reverse, per_kelvin }` and its shorthand beside a `poly` or `table`, and the constant values of
-//! location and spindle errors with their `per_kelvin` terms.
+//! location and spindle errors with their `per_kelvin` terms. The standard uncertainties forms
+//! carry (`u`, `u_column`, `u_scale`) are read in `uncertainty.rs`.
 
-use super::{read_column, MachineError, Reader};
+use super::{MachineError, Reader};
+use crate::error::excerpt;
+use crate::io::csv::{Csv, CsvError};
 use crate::io::read_text;
 use crate::io::source::confined;
 use crate::model::errorfn::{ErrorFunction, Interp, Table};
+use crate::model::inputs::Approach;
+use crate::model::perturbation::ErrorTarget;
 use crate::model::table2d::Table2d;
 use crate::model::AxisLetter;
 
@@ -28,14 +33,18 @@ pub(super) enum ValueKind {
 }
 
 /// The keys of a `poly`, `table` or `csv` form, before they are checked against each other.
-struct FormSpec {
-    poly: Option<Vec<f64>>,
-    nodes: Option<Vec<(f64, f64)>>,
-    csv: Option<String>,
-    column: Option<String>,
-    interp: Interp,
-    periodic: bool,
-    of: Option<AxisLetter>,
+pub(super) struct FormSpec {
+    pub poly: Option<Vec<f64>>,
+    pub nodes: Option<Vec<(f64, f64)>>,
+    pub csv: Option<String>,
+    pub column: Option<String>,
+    pub interp: Interp,
+    pub periodic: bool,
+    pub of: Option<AxisLetter>,
+    /// `u`, `u_column` and `u_scale`, checked once the form is known.
+    pub u: Option<toml::Value>,
+    pub u_column: Option<String>,
+    pub u_scale: Option<f64>,
 }
 
 impl Reader {
@@ -43,12 +52,16 @@ impl Reader {
     /// (the CSV column it defaults to).
     pub(super) fn error_value(
         &mut self,
-        letter: Option<AxisLetter>,
+        target: ErrorTarget,
         key: &str,
         path: &str,
         value: &toml::Value,
         kind: ValueKind,
     ) -> Result<ValueSpec, MachineError> {
+        let letter = match target {
+            ErrorTarget::Spindle { .. } => None,
+            ErrorTarget::Component { axis, .. } | ErrorTarget::Location { axis, .. } => Some(axis),
+        };
         let plain = |value| ValueSpec {
             value,
             reverse: None,
@@ -62,21 +75,29 @@ impl Reader {
             if kind == ValueKind::Constant {
                 return Err(self.constant_error(path));
             }
-            return Ok(plain(self.form(letter, key, path, value)?));
+            let mark = self.found.len();
+            let spec = plain(self.form(letter, key, path, value)?);
+            self.adopt(mark, target, None, None);
+            return Ok(spec);
         }
         // The general form, or its shorthand beside a poly or table's own keys.
         let mut own = table.clone();
         let reverse = own.remove("reverse");
         let per_kelvin = own.remove("per_kelvin");
+        let mark = self.found.len();
         let value = if general {
-            if let Some(other) = own.keys().find(|k| *k != "value") {
+            if let Some(other) = own.keys().find(|k| *k != "value" && *k != "u") {
                 return Err(self.key_error(
                     &format!("{path}.{other}"),
-                    "unknown key (the general form takes value, reverse and per_kelvin)",
+                    "unknown key (the general form takes value, u, reverse and per_kelvin)",
                 ));
             }
             let at = format!("{path}.value");
-            self.form(letter, key, &at, &own["value"])?
+            let form = self.form(letter, key, &at, &own["value"])?;
+            if let Some(u) = own.get("u") {
+                self.general_u(path, &form, mark, u)?;
+            }
+            form
         } else {
             if !own.contains_key("poly") && !own.contains_key("table") && !own.contains_key("csv") {
                 return Err(self.key_error(
@@ -89,6 +110,9 @@ impl Reader {
         if kind == ValueKind::Constant && !matches!(value, ErrorFunction::Constant(_)) {
             return Err(self.constant_error(&format!("{path}.value")));
         }
+        // `value` holds for the positive approach alone where a `reverse` stands beside it.
+        let value_approach = reverse.is_some().then_some(Approach::Positive);
+        self.adopt(mark, target, value_approach, None);
         let reverse = match reverse {
             None => None,
             Some(_) if kind == ValueKind::Constant => {
@@ -97,11 +121,16 @@ impl Reader {
                     "`reverse` is for component errors: location and spindle errors have no approach direction",
                 ))
             }
-            Some(r) => Some(self.form(letter, key, &format!("{path}.reverse"), &r)?),
+            Some(r) => {
+                let mark = self.found.len();
+                let form = self.form(letter, key, &format!("{path}.reverse"), &r)?;
+                self.adopt(mark, target, Some(Approach::Negative), None);
+                Some(form)
+            }
         };
         let per_kelvin = match per_kelvin {
             None => Vec::new(),
-            Some(p) => self.per_kelvin(letter, key, &format!("{path}.per_kelvin"), &p, kind)?,
+            Some(p) => self.per_kelvin(target, key, &format!("{path}.per_kelvin"), &p, kind)?,
         };
         Ok(ValueSpec {
             value,
@@ -120,7 +149,7 @@ impl Reader {
     /// `per_kelvin = { input = form, … }`: each input declared in `[thermal]`.
     fn per_kelvin(
         &mut self,
-        letter: Option<AxisLetter>,
+        target: ErrorTarget,
         key: &str,
         path: &str,
         value: &toml::Value,
@@ -152,10 +181,18 @@ impl Reader {
                         },
                     )
                 })?;
+            let mark = self.found.len();
             let f = match kind {
-                ValueKind::Constant => ErrorFunction::Constant(self.number(&at, form)?),
-                ValueKind::Component => self.form(letter, key, &at, form)?,
+                ValueKind::Constant => self.constant_form(&at, form)?,
+                ValueKind::Component => {
+                    let letter = match target {
+                        ErrorTarget::Component { axis, .. } => Some(axis),
+                        _ => None,
+                    };
+                    self.form(letter, key, &at, form)?
+                }
             };
+            self.adopt(mark, target, None, Some(index));
             out.push((index, f));
         }
         Ok(out)
@@ -173,11 +210,15 @@ impl Reader {
         let Some(table) = value.as_table() else {
             return Ok(ErrorFunction::Constant(self.number(path, value)?));
         };
+        // A constant with its uncertainty; `{ value = … }` alone says nothing a number does not.
+        if table.contains_key("u") && table.keys().all(|k| k == "value" || k == "u") {
+            return self.constant_form(path, value);
+        }
         for own in ["value", "reverse", "per_kelvin"] {
             if table.contains_key(own) {
                 return Err(self.key_error(
                     &format!("{path}.{own}"),
-                    "a form inside an error value carries no value, reverse or per_kelvin of its own",
+                    "a form inside an error value carries no value, reverse or per_kelvin of its own (a constant with its uncertainty is { value = number, u = number })",
                 ));
             }
         }
@@ -310,7 +351,7 @@ impl Reader {
         path: &str,
         table: &toml::Table,
     ) -> Result<ErrorFunction, MachineError> {
-        let spec = self.form_spec(path, table)?;
+        let mut spec = self.form_spec(path, table)?;
         let sources = [
             spec.poly.is_some(),
             spec.nodes.is_some(),
@@ -335,30 +376,41 @@ impl Reader {
                 "only tables of a rotary axis's position (A, B, C) are periodic",
             ));
         }
-        let form = if let Some(coefficients) = spec.poly {
+        let form = if let Some(coefficients) = spec.poly.take() {
             if table.contains_key("interp") || table.contains_key("periodic") {
                 return Err(self.key_error(
                     path,
                     "`interp` and `periodic` apply to tables, not to `poly`",
                 ));
             }
+            self.poly_u(path, &spec)?;
             ErrorFunction::Poly(coefficients)
         } else {
-            let nodes = match (spec.nodes, spec.csv) {
-                (Some(nodes), _) => nodes,
+            if spec.u_column.is_some() && spec.csv.is_none() {
+                return Err(self.key_error(
+                    &format!("{path}.u_column"),
+                    "`u_column` names a column of the CSV table (`csv`); an inline table takes u = [u0, u1, …]",
+                ));
+            }
+            let (nodes, column_u) = match (spec.nodes.take(), &spec.csv) {
+                (Some(nodes), _) => (nodes, None),
                 (None, Some(csv)) => {
-                    let column = spec.column.unwrap_or_else(|| key.to_string());
-                    self.csv_column(path, &csv, &column)?
+                    let column = spec.column.clone().unwrap_or_else(|| key.to_string());
+                    self.csv_column(path, csv, &column, spec.u_column.as_deref())?
                 }
                 (None, None) => return Err(self.key_error(path, "give a table")),
             };
-            Table::new(nodes, spec.interp, spec.periodic)
+            let positions: Vec<f64> = nodes.iter().map(|&(q, _)| q).collect();
+            let table = Table::new(nodes, spec.interp, spec.periodic)
                 .map(ErrorFunction::Table)
                 .map_err(|source| MachineError::Table {
                     file: self.file.clone(),
                     key: path.to_string(),
                     source,
-                })?
+                })?;
+            let of = spec.of.filter(|&axis| Some(axis) != letter);
+            self.table_u(path, &spec, positions, column_u, of)?;
+            table
         };
         Ok(match spec.of {
             Some(axis) if Some(axis) != letter => ErrorFunction::Of {
@@ -379,6 +431,9 @@ impl Reader {
             interp: Interp::Linear,
             periodic: false,
             of: None,
+            u: None,
+            u_column: None,
+            u_scale: None,
         };
         for (key, v) in table {
             let sub = format!("{path}.{key}");
@@ -427,10 +482,13 @@ impl Reader {
                         .as_bool()
                         .ok_or_else(|| self.key_error(&sub, "expected true or false"))?;
                 }
+                "u" => spec.u = Some(v.clone()),
+                "u_column" => spec.u_column = Some(text("column name")?),
+                "u_scale" => spec.u_scale = Some(self.u_number(&sub, v)?),
                 other => {
                     return Err(self.key_error(
                         &sub,
-                        format!("unknown key `{other}` (an error value takes poly, table, csv, column, interp, periodic, of; table2d; sum; or value, reverse, per_kelvin)"),
+                        format!("unknown key `{other}` (an error value takes poly, table, csv, column, interp, periodic, of, u, u_column, u_scale; table2d; sum; or value, u, reverse, per_kelvin)"),
                     ))
                 }
             }
@@ -439,12 +497,14 @@ impl Reader {
     }
 
     /// Reads `(position, value)` rows from a CSV file: one header row, first column the position.
+    /// With `u_column`, that column's values too, one per row (each a standard uncertainty).
     fn csv_column(
         &mut self,
         key: &str,
         csv: &str,
         column: &str,
-    ) -> Result<Vec<(f64, f64)>, MachineError> {
+        u_column: Option<&str>,
+    ) -> Result<ColumnRows, MachineError> {
         let Some(base) = &self.csv_base else {
             return Err(self.key_error(key, "CSV tables need a machine file on disk (embedded machines carry their tables inline)"));
         };
@@ -456,14 +516,79 @@ impl Reader {
         let path = confined(base, std::path::Path::new(csv), self.reach).map_err(file_error)?;
         let text = read_text(&path).map_err(file_error)?;
         let csv_name = path.display().to_string();
-        let rows = read_column(&text, &csv_name, column).map_err(|source| MachineError::Csv {
-            file: self.file.clone(),
-            key: key.to_string(),
-            source,
+        let rows = read_column(&text, &csv_name, column, u_column).map_err(|source| {
+            MachineError::Csv {
+                file: self.file.clone(),
+                key: key.to_string(),
+                source,
+            }
         })?;
         if !self.csv_files.iter().any(|(name, _)| name == csv) {
             self.csv_files.push((csv.to_string(), text));
         }
         Ok(rows)
     }
+}
+
+/// The `(position, value)` rows of a CSV table's value column, and the standard uncertainties of
+/// its `u_column` where one is named.
+type ColumnRows = (Vec<(f64, f64)>, Option<Vec<f64>>);
+
+/// The `(position, value)` rows of `column` in a CSV table whose first column is the position,
+/// and with `u_column` that column's standard uncertainties (each zero or positive).
+fn read_column(
+    text: &str,
+    path: &str,
+    column: &str,
+    u_column: Option<&str>,
+) -> Result<ColumnRows, CsvError> {
+    let mut csv = Csv::new(text, path);
+    let header = csv.header("naming the position, then the error columns")?;
+    let find = |column: &str| {
+        let index = header
+            .names
+            .iter()
+            .position(|n| n == column)
+            .ok_or_else(|| {
+                csv.error(
+                    header.line,
+                    format!(
+                        "has no column `{}` (its columns: {})",
+                        excerpt(column),
+                        excerpt(&header.names.join(", "))
+                    ),
+                )
+            })?;
+        if index == 0 {
+            return Err(csv.error(
+                header.line,
+                format!(
+                    "column `{}` is the position column; name a value column",
+                    excerpt(column)
+                ),
+            ));
+        }
+        Ok(index)
+    };
+    let index = find(column)?;
+    let u_index = u_column.map(find).transpose()?;
+    let position = format!("`{}`", header.names[0]);
+    let value = format!("`{column}`");
+    let u_name = format!("`{}`", u_column.unwrap_or(""));
+    let mut rows = Vec::new();
+    let mut u = u_index.map(|_| Vec::new());
+    for row in csv.rows() {
+        rows.push((row.number(0, &position)?, row.number(index, &value)?));
+        if let (Some(u_index), Some(u)) = (u_index, u.as_mut()) {
+            let x = row.number(u_index, &u_name)?;
+            if x < 0.0 {
+                return Err(row.error(format!(
+                    "{} in column {u_name} is negative: a standard uncertainty is zero or positive",
+                    crate::error::shown(x)
+                )));
+            }
+            u.push(x);
+        }
+    }
+    Ok((rows, u))
 }

@@ -41,6 +41,7 @@ mod standards;
 mod standards_frames;
 mod sweep;
 mod trace;
+mod uncertainty;
 
 use std::path::Path;
 
