@@ -1,6 +1,7 @@
 //! A campaign: executions of one target on inputs mutated from its corpus, each checked for a
-//! panic, a check of the target broken, more than a second of CPU time and more than 1 GiB of
-//! heap; a watchdog reports an execution that does not end. Every finding is saved as the input
+//! panic, a check of the target broken, more work than its counted limits (allocations and the
+//! bytes they ask for) and more than 1 GiB of heap; a watchdog reports an execution that does not
+//! end. Every finding is saved as the input
 //! that caused it, and execution `n` of seed `s` can be made again alone (`input_at`).
 
 use std::cell::RefCell;
@@ -17,11 +18,26 @@ use super::rng::Rng;
 use super::targets::{Context, Outcome, Target, Verdict};
 use super::watch::{self, ThreadClock, Usage, MEMORY_LIMIT_BYTES};
 
-/// The most CPU time one execution may take.
-pub const TIME_LIMIT: Duration = Duration::from_secs(1);
+/// The most work one execution may do, counted by the allocator: a bound that is the same in
+/// every build and under any load.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Work {
+    pub allocations: u64,
+    pub allocated_bytes: u64,
+}
 
-/// CPU time after which the watchdog stops waiting for an execution (one between
-/// [`TIME_LIMIT`] and this is reported when it ends).
+impl Work {
+    /// [`watch::MOST_ALLOCATIONS`] and [`watch::MOST_ALLOCATED_BYTES`].
+    pub const LIMIT: Work = Work {
+        allocations: watch::MOST_ALLOCATIONS,
+        allocated_bytes: watch::MOST_ALLOCATED_BYTES,
+    };
+}
+
+/// CPU time after which the watchdog stops waiting for an execution: it catches a hang only. An
+/// execution that ends is judged by its counted work ([`Work`]), never by a clock, which depends
+/// on the build, the profile and the load (release campaigns have seen 1.2 s executions that
+/// end well within the counts).
 pub const HANG_CPU: Duration = Duration::from_secs(10);
 /// Wall time, in multiples of the CPU time above, after which the watchdog stops waiting
 /// whatever the CPU time (a reader blocked).
@@ -48,13 +64,15 @@ pub struct Plan {
     pub progress: Option<Duration>,
     /// CPU time after which an execution is reported as hung ([`HANG_CPU`]).
     pub hang_after: Duration,
+    /// The most work an execution may do ([`Work::LIMIT`]).
+    pub work: Work,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
     Panic,
     Check,
-    Slow,
+    Work,
     Memory,
     Hang,
 }
@@ -64,7 +82,7 @@ impl Kind {
         match self {
             Kind::Panic => "panic",
             Kind::Check => "check",
-            Kind::Slow => "slow",
+            Kind::Work => "work",
             Kind::Memory => "memory",
             Kind::Hang => "hang",
         }
@@ -94,6 +112,10 @@ pub struct Report {
     /// The most heap one execution held, and the largest single request.
     pub peak_bytes: u64,
     pub largest_request_bytes: u64,
+    /// The most allocations one execution made, and the most bytes one asked for in all: the
+    /// figures [`Work`] bounds.
+    pub most_allocations: u64,
+    pub most_allocated_bytes: u64,
     pub findings: Vec<Finding>,
 }
 
@@ -104,7 +126,7 @@ impl Report {
 
     pub fn summary(&self) -> String {
         format!(
-            "{}: {} executions in {:.1} s ({:.0}/s), seed {}; {} accepted, {} refused; slowest {:.1} ms (execution {}), most heap {:.1} MiB, largest request {:.1} MiB; {} finding(s)",
+            "{}: {} executions in {:.1} s ({:.0}/s), seed {}; {} accepted, {} refused; slowest {:.1} ms (execution {}), most heap {:.1} MiB, largest request {:.1} MiB, most allocations {} ({:.1} MiB in all; at most {} and {:.0} MiB); {} finding(s)",
             self.target,
             self.executions,
             self.seconds,
@@ -116,6 +138,10 @@ impl Report {
             self.slowest.0,
             self.peak_bytes as f64 / (1 << 20) as f64,
             self.largest_request_bytes as f64 / (1 << 20) as f64,
+            self.most_allocations,
+            self.most_allocated_bytes as f64 / (1 << 20) as f64,
+            Work::LIMIT.allocations,
+            Work::LIMIT.allocated_bytes as f64 / (1 << 20) as f64,
             self.findings.len()
         )
     }
@@ -250,27 +276,31 @@ pub fn execute(target: &Target, cx: &mut Context, input: &[u8], clock: &ThreadCl
     Executed { result, cpu, usage }
 }
 
-/// The findings of one execution.
-fn judge(executed: &Executed) -> Vec<(Kind, String)> {
+/// The findings of one execution, whose work is bounded by `work`.
+pub fn judge(executed: &Executed, work: Work) -> Vec<(Kind, String)> {
     let mut out = Vec::new();
     match &executed.result {
         Err(panic) => out.push((Kind::Panic, panic.clone())),
         Ok(Err(check)) => out.push((Kind::Check, check.clone())),
         Ok(Ok(_)) => {}
     }
-    if executed.cpu > TIME_LIMIT {
+    let Usage {
+        peak_bytes,
+        largest_request_bytes,
+        allocations,
+        allocated_bytes,
+    } = executed.usage;
+    if allocations > work.allocations || allocated_bytes > work.allocated_bytes {
         out.push((
-            Kind::Slow,
+            Kind::Work,
             format!(
-                "took {:.2} s of CPU time (at most 1 s)",
+                "made {allocations} allocations asking for {allocated_bytes} bytes in all (at most {} and {} bytes), in {:.2} s of CPU time",
+                work.allocations,
+                work.allocated_bytes,
                 executed.cpu.as_secs_f64()
             ),
         ));
     }
-    let Usage {
-        peak_bytes,
-        largest_request_bytes,
-    } = executed.usage;
     if peak_bytes > MEMORY_LIMIT_BYTES || largest_request_bytes > MEMORY_LIMIT_BYTES {
         out.push((
             Kind::Memory,
@@ -506,7 +536,7 @@ fn campaign(
         shared.running.store(true, Ordering::SeqCst);
         let executed = execute(target, &mut cx, &input, &clock);
         shared.running.store(false, Ordering::SeqCst);
-        let findings = judge(&executed);
+        let findings = judge(&executed, plan.work);
         let mut r = report.lock().unwrap_or_else(|p| p.into_inner());
         r.executions += 1;
         match &executed.result {
@@ -521,6 +551,8 @@ fn campaign(
         r.largest_request_bytes = r
             .largest_request_bytes
             .max(executed.usage.largest_request_bytes);
+        r.most_allocations = r.most_allocations.max(executed.usage.allocations);
+        r.most_allocated_bytes = r.most_allocated_bytes.max(executed.usage.allocated_bytes);
         for (kind, message) in findings {
             let k = key(kind, &message);
             if seen.contains(&k) {

@@ -6,8 +6,8 @@
 //! An execution makes an input from the target's seed corpus (`tests/fuzz-corpus/<target>/`)
 //! with mutations chosen by a generator seeded from the campaign's seed and the execution's
 //! number (`rng`, `mutate`, `grammar`), runs the library's reader on it and checks that it did
-//! not panic, broke none of the target's checks, took at most a second of CPU time and held at
-//! most 1 GiB of heap (`campaign`, `watch`).
+//! not panic, broke none of the target's checks, made no more allocations and asked for no more
+//! bytes than its counted limits and held at most 1 GiB of heap (`campaign`, `watch`).
 
 use std::path::{Path, PathBuf};
 

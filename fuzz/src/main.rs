@@ -112,6 +112,7 @@ fn main() -> ExitCode {
             keep_going: args.keep_going,
             progress: Some(Duration::from_secs(30)),
             hang_after: campaign::HANG_CPU,
+            work: campaign::Work::LIMIT,
         };
         eprintln!(
             "fuzz: {}: {} executions from {}, seed {}; the input under way is kept in {}",
@@ -175,6 +176,8 @@ fn record(path: &std::path::Path, report: &campaign::Report, first: u64) {
         "slowest_ms": report.slowest.1.as_secs_f64() * 1e3,
         "peak_heap_bytes": report.peak_bytes,
         "largest_request_bytes": report.largest_request_bytes,
+        "most_allocations": report.most_allocations,
+        "most_allocated_bytes": report.most_allocated_bytes,
         "findings": report.findings.len(),
         "date": humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
     });
@@ -230,12 +233,20 @@ fn replay_in(
             }
         };
         println!(
-            "{}: {what}\n  {:.3} ms of CPU time, {} bytes of heap at most, largest request {} bytes",
+            "{}: {what}\n  {:.3} ms of CPU time, {} bytes of heap at most, largest request {} bytes, {} allocations asking for {} bytes in all",
             target.name,
             executed.cpu.as_secs_f64() * 1e3,
             executed.usage.peak_bytes,
-            executed.usage.largest_request_bytes
+            executed.usage.largest_request_bytes,
+            executed.usage.allocations,
+            executed.usage.allocated_bytes
         );
+        for (kind, message) in campaign::judge(&executed, campaign::Work::LIMIT) {
+            if matches!(kind, campaign::Kind::Work | campaign::Kind::Memory) {
+                found = true;
+                println!("  {}: {message}", kind.name().to_uppercase());
+            }
+        }
     }
     if found {
         ExitCode::from(1)

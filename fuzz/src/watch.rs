@@ -1,13 +1,24 @@
-//! What each execution costs: the heap it holds at most and its largest single request (a
-//! counting global allocator, which every binary that runs campaigns installs), and the CPU
-//! time of the thread that runs it (read by that thread after each execution, and by a
-//! watchdog while it runs).
+//! What each execution costs: the heap it holds at most, its largest single request, and the
+//! work it does counted as its allocations and the bytes they ask for in all (a counting global
+//! allocator, which every binary that runs campaigns installs), and the CPU time of the thread
+//! that runs it (read by that thread after each execution, and by a watchdog while it runs: only
+//! to catch a hang, as a clock depends on the build and the load and a count does not).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 /// The most heap one execution may hold, or ask for at once.
 pub const MEMORY_LIMIT_BYTES: u64 = 1 << 30;
+
+/// The most allocations one execution may make: 16 for each of the 4,000,000 words an NC
+/// program may expand to, the largest count of items any reader admits (subprogram calls and
+/// cycles; `volmap::limits`). A reader that stays within its bounds makes far fewer; one that
+/// loops without a bound passes it, in any build and under any load.
+pub const MOST_ALLOCATIONS: u64 = 16 * 4_000_000;
+
+/// The most bytes one execution's allocations may ask for in all (freed or not): the largest file
+/// a reader takes (64 MiB of text), copied 256 times.
+pub const MOST_ALLOCATED_BYTES: u64 = 256 * volmap::io::source::TEXT_LIMIT_BYTES;
 
 /// A request that would take the execution beyond this is refused, not made and reported: the
 /// allocation fails, so the process stops, with the input kept in the campaign's slot file.
@@ -18,6 +29,8 @@ thread_local! {
     static LIVE: Cell<i64> = const { Cell::new(0) };
     static PEAK: Cell<i64> = const { Cell::new(0) };
     static LARGEST: Cell<u64> = const { Cell::new(0) };
+    static COUNT: Cell<u64> = const { Cell::new(0) };
+    static ALLOCATED: Cell<u64> = const { Cell::new(0) };
     /// What to say of the thread when a request is refused: its target and where its input is.
     static CONTEXT: Cell<(&'static str, &'static str)> = const { Cell::new(("", "")) };
 }
@@ -46,6 +59,8 @@ fn note_alloc(size: usize) -> bool {
     LIVE.with(|l| l.set(live));
     PEAK.with(|p| p.set(p.get().max(live)));
     LARGEST.with(|l| l.set(l.get().max(size)));
+    COUNT.with(|c| c.set(c.get() + 1));
+    ALLOCATED.with(|a| a.set(a.get().saturating_add(size)));
     true
 }
 
@@ -129,6 +144,10 @@ pub struct Usage {
     pub peak_bytes: u64,
     /// Its largest single request.
     pub largest_request_bytes: u64,
+    /// How many allocations it made (a growth in place counts as one).
+    pub allocations: u64,
+    /// The bytes they asked for in all, freed or not.
+    pub allocated_bytes: u64,
 }
 
 /// Starts counting this thread's heap.
@@ -136,6 +155,8 @@ pub fn begin() {
     LIVE.with(|l| l.set(0));
     PEAK.with(|p| p.set(0));
     LARGEST.with(|l| l.set(0));
+    COUNT.with(|c| c.set(0));
+    ALLOCATED.with(|a| a.set(0));
     WATCHED.with(|w| w.set(true));
 }
 
@@ -145,6 +166,8 @@ pub fn end() -> Usage {
     Usage {
         peak_bytes: PEAK.with(Cell::get).max(0) as u64,
         largest_request_bytes: LARGEST.with(Cell::get),
+        allocations: COUNT.with(Cell::get),
+        allocated_bytes: ALLOCATED.with(Cell::get),
     }
 }
 

@@ -2,16 +2,17 @@
 //! the harness of this crate (the one the long campaigns run), a few thousand executions per
 //! target from a fixed seed (`VOLMAP_FUZZ_SEED` picks another), each failing the test with the
 //! finding and the saved input; the corpus read as it is; and the harness's own checks (a
-//! panic, a broken check, a slow execution, a large allocation and a hang are each found, and
-//! execution N of a seed is always the same input).
+//! panic, a broken check, an execution beyond its counted work, a large allocation and a hang are
+//! each found, a slow execution that ends within its counts is not, and execution N of a seed is
+//! always the same input).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use volmap_fuzz::campaign::{self, Kind, Plan, Report};
+use volmap_fuzz::campaign::{self, Executed, Kind, Plan, Report, Work};
 use volmap_fuzz::material::Grammar;
 use volmap_fuzz::targets::{self, Context, Outcome, Target, Verdict, TARGETS};
-use volmap_fuzz::watch::ThreadClock;
+use volmap_fuzz::watch::{self, ThreadClock, Usage};
 
 fn plan(executions: u64) -> Plan {
     let seed = std::env::var("VOLMAP_FUZZ_SEED")
@@ -26,6 +27,7 @@ fn plan(executions: u64) -> Plan {
         keep_going: false,
         progress: None,
         hang_after: campaign::HANG_CPU,
+        work: Work::LIMIT,
     }
 }
 
@@ -238,6 +240,25 @@ fn spins(_: &mut Context, _: &[u8]) -> Verdict {
     Ok(Outcome::Accepted)
 }
 
+/// A thousand and one small allocations, each freed at once.
+fn allocates_often(_: &mut Context, _: &[u8]) -> Verdict {
+    for i in 0..1001u32 {
+        std::hint::black_box(Box::new(i));
+    }
+    Ok(Outcome::Accepted)
+}
+
+/// Blocks of 1 MiB asked for and freed until the bytes in all pass the limit: the heap held
+/// stays at 1 MiB.
+fn allocates_much_in_all(_: &mut Context, _: &[u8]) -> Verdict {
+    for _ in 0..=watch::MOST_ALLOCATED_BYTES >> 20 {
+        // Asked for, never touched: address space only.
+        let block: Vec<u8> = Vec::with_capacity(1 << 20);
+        std::hint::black_box(&block);
+    }
+    Ok(Outcome::Accepted)
+}
+
 fn allocates(_: &mut Context, _: &[u8]) -> Verdict {
     // Asked for, never touched: address space only.
     let big: Vec<u8> = Vec::with_capacity(1536 << 20);
@@ -269,6 +290,8 @@ static BREAKS: Target = made_to(breaks_a_check);
 static AS_WORK: Target = made_to(refuses_as_work);
 static SPINS: Target = made_to(spins);
 static ALLOCATES: Target = made_to(allocates);
+static ALLOCATES_OFTEN: Target = made_to(allocates_often);
+static ALLOCATES_MUCH: Target = made_to(allocates_much_in_all);
 static HANGS: Target = made_to(hangs);
 
 fn first_finding(target: &'static Target, plan: &Plan) -> (Kind, String, Vec<u8>) {
@@ -307,14 +330,49 @@ fn the_harness_finds_each_kind_of_failure_and_saves_its_input() {
     assert!(message.contains("exit code 1"), "{message}");
     let (kind, _, _) = first_finding(&ALLOCATES, &plan);
     assert_eq!(kind, Kind::Memory);
+    // Work is counted: a thousand and one allocations pass a limit of a thousand, and 16 GiB
+    // asked for in all pass the real limit, however little heap is held at once.
     let (kind, message, _) = first_finding(
+        &ALLOCATES_OFTEN,
+        &Plan {
+            work: Work {
+                allocations: 1000,
+                ..Work::LIMIT
+            },
+            ..plan.clone()
+        },
+    );
+    assert_eq!(kind, Kind::Work, "{message}");
+    assert!(message.starts_with("made 1001 allocations"), "{message}");
+    let quiet = run(&ALLOCATES_OFTEN, &plan);
+    assert_eq!(quiet.findings.len(), 0, "{:?}", quiet.findings);
+    assert_eq!(quiet.most_allocations, 1001, "{}", quiet.summary());
+    let (kind, message, _) = first_finding(
+        &ALLOCATES_MUCH,
+        &Plan {
+            executions: 1,
+            ..plan.clone()
+        },
+    );
+    assert_eq!(kind, Kind::Work, "{message}");
+    assert!(
+        message.contains(&format!("at most {}", watch::MOST_ALLOCATIONS)),
+        "{message}"
+    );
+    // A clock does not decide: 1.2 s of CPU time that ends within the counts is no finding.
+    let slow = run(
         &SPINS,
         &Plan {
             executions: 1,
             ..plan.clone()
         },
     );
-    assert_eq!(kind, Kind::Slow, "{message}");
+    assert_eq!(slow.findings.len(), 0, "{:?}", slow.findings);
+    assert!(
+        slow.slowest.1 > Duration::from_secs(1),
+        "{}",
+        slow.summary()
+    );
 
     let hang_plan = Plan {
         executions: 1,
@@ -324,4 +382,50 @@ fn the_harness_finds_each_kind_of_failure_and_saves_its_input() {
     let (kind, _, _) = first_finding(&HANGS, &hang_plan);
     STOP_HANGING.store(true, Ordering::SeqCst);
     assert_eq!(kind, Kind::Hang);
+}
+
+/// The check of an execution's work, alone: over either count is a finding that reports both
+/// figures, at the count is none, and CPU time is no part of it.
+#[test]
+fn work_beyond_either_count_is_a_finding_whatever_the_clock() {
+    let limit = Work::LIMIT;
+    let executed = |allocations: u64, allocated_bytes: u64, seconds: u64| Executed {
+        result: Ok(Ok(Outcome::Accepted)),
+        cpu: Duration::from_secs(seconds),
+        usage: Usage {
+            peak_bytes: 0,
+            largest_request_bytes: 0,
+            allocations,
+            allocated_bytes,
+        },
+    };
+    let at_limit = executed(limit.allocations, limit.allocated_bytes, 9);
+    assert_eq!(campaign::judge(&at_limit, limit), vec![]);
+    for (allocations, bytes) in [(limit.allocations + 1, 0), (0, limit.allocated_bytes + 1)] {
+        let findings = campaign::judge(&executed(allocations, bytes, 0), limit);
+        assert_eq!(findings.len(), 1, "{findings:?}");
+        assert_eq!(findings[0].0, Kind::Work);
+        assert!(
+            findings[0].1.starts_with(&format!(
+                "made {allocations} allocations asking for {bytes} bytes"
+            )),
+            "{}",
+            findings[0].1
+        );
+    }
+}
+
+/// The allocator counts every allocation of the watched thread and the bytes each asks for,
+/// from zero at each execution's start.
+#[test]
+fn the_allocator_counts_allocations_and_bytes() {
+    for round in 0..2 {
+        watch::begin();
+        for i in 0..10u64 {
+            std::hint::black_box(Vec::<u8>::with_capacity(100 + i as usize));
+        }
+        let usage = watch::end();
+        assert_eq!(usage.allocations, 10, "round {round}: {usage:?}");
+        assert_eq!(usage.allocated_bytes, 1045, "round {round}: {usage:?}");
+    }
 }
