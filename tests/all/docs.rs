@@ -398,7 +398,9 @@ fn the_book_states_the_number_of_tests_there_are() {
     let stated = stated_counts(counts);
     if std::env::var_os("VOLMAP_BLESS").is_some() {
         // The sentence as it stands (wrapped or not), replaced by the counts of this suite.
-        let start = raw.find("It holds ").expect("docs/testing.md states the count");
+        let start = raw
+            .find("It holds ")
+            .expect("docs/testing.md states the count");
         let end = start
             + raw[start..]
                 .find("in `fuzz/`.")
