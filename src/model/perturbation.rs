@@ -167,30 +167,46 @@ impl Machine {
             if s == 0.0 {
                 continue;
             }
-            match p.target {
-                ErrorTarget::Component { axis, index } => {
-                    let Some(axis) = machine.axis_mut(axis) else {
-                        continue;
-                    };
-                    let delta = ErrorFunction::Poly(p.shape.polynomial(s, axis.range));
-                    axis.components[index] = Some(match axis.components[index].take() {
-                        None => delta,
-                        Some(ErrorFunction::Sum(mut terms)) => {
-                            terms.push(delta);
-                            ErrorFunction::Sum(terms)
-                        }
-                        Some(f) => ErrorFunction::Sum(vec![f, delta]),
-                    });
-                }
-                ErrorTarget::Location { axis, index } => {
-                    if let Some(axis) = machine.axis_mut(axis) {
-                        axis.location[index] += s;
+            // Location and spindle errors take the constant shape only: its range is moot.
+            let range = match p.target {
+                ErrorTarget::Component { axis, .. } | ErrorTarget::Location { axis, .. } => {
+                    match machine.axis_mut(axis) {
+                        Some(a) => a.range,
+                        None => continue,
                     }
                 }
-                ErrorTarget::Spindle { index } => machine.spindle[index] += s,
-            }
+                ErrorTarget::Spindle { .. } => [0.0, 1.0],
+            };
+            machine.add_to_error(p.target, ErrorFunction::Poly(p.shape.polynomial(s, range)));
         }
         machine
+    }
+
+    /// Adds `delta` to the error value `target` names: a component error gains it as a term of
+    /// its sum; a location or spindle error (a constant) gains its value at 0. An axis the
+    /// machine lacks changes nothing.
+    pub(crate) fn add_to_error(&mut self, target: ErrorTarget, delta: ErrorFunction) {
+        match target {
+            ErrorTarget::Component { axis, index } => {
+                let Some(axis) = self.axis_mut(axis) else {
+                    return;
+                };
+                axis.components[index] = Some(match axis.components[index].take() {
+                    None => delta,
+                    Some(ErrorFunction::Sum(mut terms)) => {
+                        terms.push(delta);
+                        ErrorFunction::Sum(terms)
+                    }
+                    Some(f) => ErrorFunction::Sum(vec![f, delta]),
+                });
+            }
+            ErrorTarget::Location { axis, index } => {
+                if let Some(axis) = self.axis_mut(axis) {
+                    axis.location[index] += delta.eval(0.0);
+                }
+            }
+            ErrorTarget::Spindle { index } => self.spindle[index] += delta.eval(0.0),
+        }
     }
 
     /// Every axis's location errors and the spindle errors of [`Machine::perturbed`], without

@@ -297,29 +297,7 @@ impl Machine {
         if factor == 0.0 || e.iter().all(|&x| x == 0.0) {
             return;
         }
-        let delta = value.delta(e);
-        match value.target {
-            ErrorTarget::Component { axis, index } => {
-                let Some(axis) = self.axis_mut(axis) else {
-                    return;
-                };
-                let delta = delta.scaled(factor);
-                axis.components[index] = Some(match axis.components[index].take() {
-                    None => delta,
-                    Some(ErrorFunction::Sum(mut terms)) => {
-                        terms.push(delta);
-                        ErrorFunction::Sum(terms)
-                    }
-                    Some(f) => ErrorFunction::Sum(vec![f, delta]),
-                });
-            }
-            ErrorTarget::Location { axis, index } => {
-                if let Some(axis) = self.axis_mut(axis) {
-                    axis.location[index] += factor * delta.eval(0.0);
-                }
-            }
-            ErrorTarget::Spindle { index } => self.spindle[index] += factor * delta.eval(0.0),
-        }
+        self.add_to_error(value.target, value.delta(e).scaled(factor));
     }
 }
 
