@@ -79,17 +79,14 @@ fn main() {
         let trace = peak_of(|| {
             // As `volmap trace` runs: the summary's largest deviation and one entry a block.
             let mut largest = 0.0f64;
-            let mut blocks: Vec<(usize, f64)> = Vec::new();
+            let mut blocks = nc::PerBlock::default();
             nc::trace_each(&machine, &text, "bench.nc", &options, 0.5, |s| {
                 largest = largest.max(s.deviation_mm);
-                match blocks.last_mut() {
-                    Some(b) if b.0 == s.line => b.1 = b.1.max(s.deviation_mm),
-                    _ => blocks.push((s.line, s.deviation_mm)),
-                }
+                blocks.add(s.line, s.deviation_mm);
             })
             .expect("the trace");
             nc::moves_left_alone(&machine, &text, "bench.nc", &options).expect("the reader");
-            std::hint::black_box((largest, blocks));
+            std::hint::black_box((largest, blocks.by_line()));
         });
         let compensate = peak_of(|| {
             // As `volmap compensate` runs: the compensation, the check of what it wrote and

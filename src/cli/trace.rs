@@ -80,8 +80,7 @@ struct Tally {
     /// The largest feed deviation and its line (the last of equal ones).
     worst: Option<(f64, usize)>,
     largest_rapid_mm: f64,
-    /// The largest deviation of each run of samples of one line, in order.
-    blocks: Vec<(usize, f64)>,
+    blocks: nc::PerBlock,
     /// Distance along the path (mm) and deviation (µm) of every sample, for the plot.
     plotted: Option<Vec<(f32, f32)>>,
 }
@@ -92,7 +91,7 @@ impl Tally {
             program,
             worst: None,
             largest_rapid_mm: 0.0,
-            blocks: Vec::new(),
+            blocks: nc::PerBlock::default(),
             plotted: plotted.then(Vec::new),
         }
     }
@@ -103,35 +102,21 @@ impl Tally {
         } else if self.worst.is_none_or(|(mm, _)| s.deviation_mm >= mm) {
             self.worst = Some((s.deviation_mm, s.line));
         }
-        match self.blocks.last_mut() {
-            Some((line, worst)) if *line == s.line => *worst = worst.max(s.deviation_mm),
-            _ => self.blocks.push((s.line, s.deviation_mm)),
-        }
+        self.blocks.add(s.line, s.deviation_mm);
         if let Some(points) = &mut self.plotted {
             points.push((s.distance_mm as f32, (s.deviation_mm * 1000.0) as f32));
         }
     }
 
     /// The summary, and the plot's points.
-    fn summary(mut self) -> (Summary, Vec<(f32, f32)>) {
-        // A line run more than once (a subprogram, a compensated move split in pieces) counts
-        // once, at its largest.
-        self.blocks.sort_by_key(|b| b.0);
-        self.blocks.dedup_by(|b, a| {
-            if a.0 == b.0 {
-                a.1 = a.1.max(b.1);
-                true
-            } else {
-                false
-            }
-        });
+    fn summary(self) -> (Summary, Vec<(f32, f32)>) {
         let summary = Summary {
             program: self.program,
             covers: "feed moves (G1 G2 G3)",
             largest_mm: self.worst.map_or(0.0, |w| w.0),
             largest_line: self.worst.map_or(0, |w| w.1),
             largest_rapid_mm: self.largest_rapid_mm,
-            per_block: self.blocks,
+            per_block: self.blocks.by_line(),
         };
         (summary, self.plotted.unwrap_or_default())
     }

@@ -78,8 +78,8 @@ pub use program::{parse, MAX_EXPANDED_WORDS, MAX_PECKS};
 pub use report::{Compensated, LeftMove, OrientationLeft, PassedBlock, Report, ReportInputs};
 pub use residual::{residual, Residual};
 pub use trace::{
-    per_block, trace, trace_compensated, trace_compensated_each, trace_each, trace_path,
-    TracePoint, TraceSample,
+    trace, trace_compensated, trace_compensated_each, trace_each, trace_path, PerBlock, TracePoint,
+    TraceSample,
 };
 pub use untraced::moves_left_alone;
 pub use write::with_note;

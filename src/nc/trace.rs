@@ -523,23 +523,33 @@ fn at_same_fraction(
     (measured, ub)
 }
 
-/// The largest deviation of every block that moves, by line (increasing).
-pub fn per_block(samples: &[TraceSample]) -> Vec<(usize, f64)> {
-    let mut blocks: Vec<(usize, f64)> = Vec::new();
-    for s in samples {
-        match blocks.last_mut() {
-            Some((line, worst)) if *line == s.line => *worst = worst.max(s.deviation_mm),
-            _ => blocks.push((s.line, s.deviation_mm)),
+/// The largest deviation of every block that moves, gathered as the samples arrive: a run of
+/// samples of one line held as one entry.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PerBlock {
+    runs: Vec<(usize, f64)>,
+}
+
+impl PerBlock {
+    pub fn add(&mut self, line: usize, deviation_mm: f64) {
+        match self.runs.last_mut() {
+            Some((l, worst)) if *l == line => *worst = worst.max(deviation_mm),
+            _ => self.runs.push((line, deviation_mm)),
         }
     }
-    blocks.sort_by_key(|b| b.0);
-    blocks.dedup_by(|b, a| {
-        if a.0 == b.0 {
-            a.1 = a.1.max(b.1);
-            true
-        } else {
-            false
-        }
-    });
-    blocks
+
+    /// By line (increasing); a line run more than once (a subprogram, a compensated move split
+    /// in pieces) once, at its largest.
+    pub fn by_line(mut self) -> Vec<(usize, f64)> {
+        self.runs.sort_by_key(|b| b.0);
+        self.runs.dedup_by(|b, a| {
+            if a.0 == b.0 {
+                a.1 = a.1.max(b.1);
+                true
+            } else {
+                false
+            }
+        });
+        self.runs
+    }
 }
