@@ -12,6 +12,7 @@ use super::envelope::{field_pose, Envelope};
 use super::failure::Failure;
 use super::field_report::{file_json, stats_json, sweep_json};
 use super::map::print_summary;
+use super::numbers;
 use super::sweep::print_sweep_summary;
 
 #[derive(clap::Args)]
@@ -29,12 +30,21 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         let mut reader = file.reader(0)?;
         let stats = field_stats(&mut reader)?;
         print_summary(reader.info(), &stats);
+        let uncertainty = uncertainty_stats(&file, 0)?;
+        if let Some((method, u)) = &uncertainty {
+            print_uncertainty(reader.info(), method, u);
+        }
         outln!("  stored      {}", file.storage(0));
         outln!("  field       {}", args.file.display());
         if let Some(path) = &args.json.json {
             let info = reader.info();
             let mut result = file_json(&args.file, info, file.storage(0));
             result["stats"] = stats_json(info, &stats);
+            result["uncertainty"] = uncertainty
+                .as_ref()
+                .map_or(serde_json::Value::Null, |(method, u)| {
+                    serde_json::json!({ "method": method, "stats": stats_json(info, u) })
+                });
             Envelope::new("info")
                 .field(info)
                 .write(path, "--json", &result)?;
@@ -51,6 +61,18 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
         names.push(file.name(part));
     }
     print_sweep_summary(&file.info(total.max_ve_pose), &names, &stats, &total);
+    let mut u_total: Option<(String, FieldStats)> = None;
+    for part in 0..file.parts() {
+        if let Some((method, u)) = uncertainty_stats(&file, part)? {
+            match &mut u_total {
+                Some((_, all)) => all.merge(&u, part),
+                None => u_total = Some((method, u)),
+            }
+        }
+    }
+    if let Some((method, u)) = &u_total {
+        print_uncertainty(&file.info(u.max_ve_pose), method, u);
+    }
     outln!("  stored      {}", file.storage(0));
     outln!(
         "  field       {} ({} parts, one per pose)",
@@ -70,6 +92,38 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
             .write(path, "--json", &result)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The method and statistics of the uncertainties of part `part`, where the file holds them.
+fn uncertainty_stats(
+    file: &FieldFile,
+    part: usize,
+) -> Result<Option<(String, FieldStats)>, Failure> {
+    let (Some(method), Some(reader)) = (file.uncertainty(part), file.uncertainty_reader(part))
+    else {
+        return Ok(None);
+    };
+    Ok(Some((method.to_string(), field_stats(&mut reader?)?)))
+}
+
+/// The lines of a field's uncertainties: the method, the largest |u(VE)| and where.
+fn print_uncertainty(info: &volmap::io::field::FieldInfo, method: &str, u: &FieldStats) {
+    let grid = info.grid();
+    let ijk = grid.indices(u.max_ve_point);
+    outln!("  uncertainty {method}");
+    outln!(
+        "  max |u(VE)| {} at point ({}, {}, {}){}",
+        numbers::error_um(u.max_ve_mm),
+        ijk[0],
+        ijk[1],
+        ijk[2],
+        if info.pose_axes.is_empty() {
+            String::new()
+        } else {
+            format!(" of pose {}", info.pose_name())
+        }
+    );
+    outln!("  max |u(OE)| {}", numbers::angle_urad(u.max_oe_rad));
 }
 
 /// The statistics of one field, read in chunks.

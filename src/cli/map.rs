@@ -6,6 +6,8 @@ use std::process::ExitCode;
 
 use volmap::design::shards::Shard;
 use volmap::engine::map::{self, CheckResult, FieldStats, MapOptions};
+use volmap::engine::map_uncertainty::UncertaintySummary;
+use volmap::engine::uncertainty::UncertaintyMethod;
 use volmap::engine::EngineError;
 use volmap::gpu::GpuError;
 use volmap::io::disk;
@@ -58,7 +60,65 @@ pub struct MapArgs {
     #[command(flatten)]
     storage: StorageArg,
     #[command(flatten)]
+    uncertainty: MapUncertaintyArg,
+    #[command(flatten)]
     json: JsonArg,
+}
+
+/// The uncertainty of a map: a part of the field beside the values, holding the standard
+/// uncertainty of every channel from the `u` and `[covariance]` of the machine file.
+#[derive(clap::Args)]
+pub struct MapUncertaintyArg {
+    /// Add the standard uncertainty of VE and OE at every point by the GUM's first-order
+    /// propagation (one pair of maps per uncertain quantity, summed on the device).
+    #[arg(long, conflicts_with = "uncertainty_samples")]
+    uncertainty: bool,
+    /// The same by Monte Carlo (JCGM 101): the standard deviation over N machines drawn from
+    /// the machine file's u and [covariance], summed on the device; with
+    /// --uncertainty-adaptive, the draws of each batch.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(2..=MAX_MAP_DRAWS))]
+    uncertainty_samples: Option<u32>,
+    /// Monte Carlo with the adaptive stopping rule of JCGM 101 section 7.9: batches of
+    /// --uncertainty-samples draws (default 10000) until every point's uncertainty and mean are
+    /// stable to two significant digits (at most 100 batches).
+    #[arg(long, conflicts_with = "uncertainty")]
+    uncertainty_adaptive: bool,
+    /// The seed of the Monte Carlo draws: the same seed gives the same machines.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// The most machines a map's Monte Carlo draws (per batch, adaptive).
+const MAX_MAP_DRAWS: i64 = 1_000_000;
+
+impl MapUncertaintyArg {
+    /// The method asked for, if any; a machine without `u` refused for it.
+    fn method(&self, machine: &Machine) -> Result<Option<UncertaintyMethod>, Failure> {
+        let method = match (self.uncertainty, self.uncertainty_samples, self.uncertainty_adaptive) {
+            (true, _, _) => UncertaintyMethod::FirstOrder,
+            (false, draws, true) => UncertaintyMethod::Adaptive {
+                batch: draws.unwrap_or(10_000) as usize,
+                seed: self.seed,
+            },
+            (false, Some(draws), false) => UncertaintyMethod::MonteCarlo {
+                draws: draws as usize,
+                seed: self.seed,
+            },
+            (false, None, false) => return Ok(None),
+        };
+        if machine.uncertainty.is_empty() {
+            let flag = match method {
+                UncertaintyMethod::FirstOrder => "--uncertainty",
+                UncertaintyMethod::MonteCarlo { .. } => "--uncertainty-samples",
+                UncertaintyMethod::Adaptive { .. } => "--uncertainty-adaptive",
+            };
+            return Err(Failure::input(format!(
+                "{flag}: {} gives no error value a standard uncertainty (`u`): there is nothing to propagate",
+                machine.name
+            )));
+        }
+        Ok(Some(method))
+    }
 }
 
 /// `--compression` and `--half`: how the field file stores its values.
@@ -152,8 +212,10 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
             ));
         }
     }
+    let method = args.uncertainty.method(&machine)?;
     if !device_out {
-        let parts = grids.as_ref().map_or(1, |g| g.len() as u64);
+        let per_pose = if method.is_some() { 2 } else { 1 };
+        let parts = per_pose * grids.as_ref().map_or(1, |g| g.len() as u64);
         let text_bytes = machine.source.toml.len()
             + machine
                 .source
@@ -186,6 +248,7 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
         vtk_image: args.vti.clone(),
         storage: args.storage.storage(),
         corrupt_point_for_tests: corrupt_point_for_tests(),
+        uncertainty: method,
     };
     if let Some(grids) = &grids {
         let summary = sweep::map_sweep(&machine, grids, &engine, &args.out, &options)
@@ -222,6 +285,7 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
             result["bytes"] = summary.times.write.bytes.into();
             result["seconds"] = summary.seconds.into();
             result["check"] = check_json(summary.check.as_ref());
+            result["uncertainty"] = uncertainty_json(&bare, summary.uncertainty.as_ref());
             let poses = grids.iter().map(|g| pose_of(&machine, &g.pose)).collect();
             Envelope::new("map")
                 .machine(&machine)
@@ -229,7 +293,11 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
                 .write(path, "--json", &result)?;
         }
         let names: Vec<String> = summary.poses.iter().map(|p| p.name.clone()).collect();
-        return Ok(print_check(summary.check.as_ref(), &names));
+        let code = print_check(summary.check.as_ref(), &names);
+        return Ok(match &summary.uncertainty {
+            Some(u) => worse(code, print_uncertainty(&map::field_info(&machine, &grid, &summary.device), u, &names)),
+            None => code,
+        });
     }
     let bar = progress(Some(grid.points()), "mapping", "points");
     let summary = map::map_to_file(&machine, &grid, &engine, &args.out, &options, |done| {
@@ -253,12 +321,91 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
         result["stats"] = stats_json(&info, &summary.stats);
         result["vti"] = args.vti.as_ref().map(|p| p.display().to_string()).into();
         result["check"] = check_json(summary.check.as_ref());
+        result["uncertainty"] = uncertainty_json(&info, summary.uncertainty.as_ref());
         Envelope::new("map")
             .machine(&machine)
             .at_pose(&machine, &grid.pose)
             .write(path, "--json", &result)?;
     }
-    Ok(print_check(summary.check.as_ref(), &[]))
+    let code = print_check(summary.check.as_ref(), &[]);
+    Ok(match &summary.uncertainty {
+        Some(u) => worse(code, print_uncertainty(&info, u, &[])),
+        None => code,
+    })
+}
+
+/// The worse of two exit codes of a map's checks.
+pub fn worse(a: ExitCode, b: ExitCode) -> ExitCode {
+    if a == ExitCode::SUCCESS {
+        b
+    } else {
+        a
+    }
+}
+
+/// The closing lines of a map's uncertainties: the method, the largest |u(VE)| and where, the
+/// machines summed, and their spot check (exit code 4 when it failed).
+pub fn print_uncertainty(
+    info: &FieldInfo,
+    summary: &UncertaintySummary,
+    pose_names: &[String],
+) -> ExitCode {
+    let stats = &summary.stats;
+    let grid = info.grid();
+    let ijk = grid.indices(stats.max_ve_point);
+    let command = grid.command(ijk);
+    let at: Vec<String> = (0..3)
+        .map(|d| format!("{}={}", ["X", "Y", "Z"][d], numbers::length(command[d])))
+        .collect();
+    outln!("  uncertainty {}", summary.method.describe());
+    let run = &summary.run;
+    let machines = match summary.method {
+        UncertaintyMethod::FirstOrder => format!("{} directions, two maps each", run.terms_max),
+        _ if run.terms_min == run.terms_max => format!("{} draws", run.terms_max),
+        _ => format!("{} to {} draws per chunk", run.terms_min, run.terms_max),
+    };
+    outln!(
+        "  max |u(VE)| {} at point ({}, {}, {}){}: {} mm ({machines}, {} s)",
+        numbers::error_um(stats.max_ve_mm),
+        ijk[0],
+        ijk[1],
+        ijk[2],
+        pose_names
+            .get(stats.max_ve_pose)
+            .map_or(String::new(), |n| format!(" of pose {n}")),
+        at.join(" "),
+        numbers::quantity(summary.seconds)
+    );
+    outln!("  max |u(OE)| {}", numbers::angle_urad(stats.max_oe_rad));
+    if run.unstable_chunks > 0 {
+        errln!(
+            "volmap: the adaptive rule stopped at its bound of {} batches in {} chunks before their uncertainties were stable to 2 significant digits",
+            volmap::engine::uncertainty::MAX_ADAPTIVE_BATCHES,
+            run.unstable_chunks
+        );
+    }
+    match &summary.check {
+        Some(check) => {
+            outln!("  check of u  against the f64 reference's propagation by the same method:");
+            print_check(Some(check), pose_names)
+        }
+        None => ExitCode::SUCCESS,
+    }
+}
+
+/// The uncertainties of a map in its JSON report (`null` where none were asked for).
+pub fn uncertainty_json(info: &FieldInfo, summary: Option<&UncertaintySummary>) -> serde_json::Value {
+    summary.map_or(serde_json::Value::Null, |u| {
+        serde_json::json!({
+            "method": u.method.describe(),
+            "terms_min": u.run.terms_min,
+            "terms_max": u.run.terms_max,
+            "unstable_chunks": u.run.unstable_chunks,
+            "stats": stats_json(info, &u.stats),
+            "check": check_json(u.check.as_ref()),
+            "seconds": u.seconds,
+        })
+    })
 }
 
 /// Tests corrupt the field on purpose (`VOLMAP_TEST_CORRUPT_OUTPUT=N`: grid point N of every pose
@@ -371,13 +518,14 @@ fn print_stored(storage: &Storage, bytes: u64) {
 fn print_check(check: Option<&CheckResult>, pose_names: &[String]) -> ExitCode {
     if let Some(check) = check {
         outln!(
-            "  check       {} points against the f64 reference: max ΔVE {}, max ΔOE {} (tolerance {}, {}): {}",
+            "  check       {} points against the f64 reference: max ΔVE {}, max ΔOE {} (tolerance {}, {}, or {} f32 units in the last place of the value): {}",
             check.points,
             // Numerical agreement, far below the 0.001 of an error: 4 significant digits.
             format!("{} µm", numbers::quantity(check.max_ve_diff_mm * 1e3)),
             format!("{} µrad", numbers::quantity(check.max_oe_diff_rad * 1e6)),
             format!("{} µm", numbers::quantity(map::VE_TOLERANCE_MM * 1e3)),
             format!("{} µrad", numbers::quantity(map::OE_TOLERANCE_RAD * 1e6)),
+            map::ULPS,
             if check.passed() { "ok" } else { "FAILED" }
         );
         if !check.passed() {

@@ -7,8 +7,10 @@
 
 pub mod cpu;
 pub mod map;
+pub mod map_uncertainty;
 pub mod reference;
 pub mod sweep;
+pub mod uncertainty;
 pub mod variants;
 
 use crate::error::{Classify, ErrorKind};
@@ -31,6 +33,10 @@ pub enum EngineError {
     /// any number there (bad input; a machine file's values are bounded as it is read).
     #[error("{what} is not a finite number: the machine's errors are beyond any number there ({inputs})")]
     NotFinite { what: String, inputs: String },
+    /// The machine's uncertainties cannot be propagated (a covariance that is no covariance:
+    /// the machine file's reader refuses those first).
+    #[error("the uncertainties of the error values cannot be propagated: {0}")]
+    Uncertainty(String),
 }
 
 impl Classify for EngineError {
@@ -39,7 +45,7 @@ impl Classify for EngineError {
             EngineError::Gpu(e) => e.kind(),
             EngineError::Field(e) => e.kind(),
             EngineError::NoAdapter => ErrorKind::Work,
-            EngineError::NotFinite { .. } => ErrorKind::Input,
+            EngineError::NotFinite { .. } | EngineError::Uncertainty(_) => ErrorKind::Input,
         }
     }
 }

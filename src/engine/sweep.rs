@@ -13,6 +13,7 @@ use super::map::{
     capture, check_against_reference, check_finite, corrupted_for_tests, field_info, sample_points,
 };
 use super::map::{CheckResult, MapOptions, MapTimes};
+use super::map_uncertainty::{map_uncertainty, uncertainty_part, UncertaintySummary};
 use super::{Engine, EngineError};
 use crate::io::field::PartsWriter;
 use crate::model::grid::Grid;
@@ -41,6 +42,8 @@ pub struct SweepSummary {
     pub check: Option<CheckResult>,
     /// Where the time went, over every pose.
     pub times: MapTimes,
+    /// The parts of uncertainties over every pose, where asked for.
+    pub uncertainty: Option<UncertaintySummary>,
 }
 
 /// Maps `machine` over every grid of `grids` (one per pose, the same linear grid) into the
@@ -55,17 +58,24 @@ pub fn map_sweep_to_file(
     mut on_progress: impl FnMut(u64),
 ) -> Result<SweepSummary, EngineError> {
     let device = engine.name();
+    // With uncertainties, each pose's part of values is followed by its part of uncertainties.
+    let per_pose = if options.uncertainty.is_some() { 2 } else { 1 };
     let mut writer = PartsWriter::create_stored(
         out,
-        grids.len(),
+        per_pose * grids.len(),
         |p| {
-            (
-                pose_name(&grids[p].pose, machine),
-                field_info(machine, &grids[p], &device),
-            )
+            let grid = &grids[p / per_pose];
+            let info = field_info(machine, grid, &device);
+            match options.uncertainty {
+                Some(method) if p % per_pose == 1 => {
+                    uncertainty_part(machine, grid, &info, method, false)
+                }
+                _ => (pose_name(&grid.pose, machine), info),
+            }
         },
         options.storage,
     )?;
+    let mut uncertainty: Option<UncertaintySummary> = None;
     let start = Instant::now();
     let mut poses = Vec::with_capacity(grids.len());
     let mut total = FieldStats::default();
@@ -93,7 +103,7 @@ pub fn map_sweep_to_file(
                 );
                 let data = corrupted.as_deref().unwrap_or(data);
                 check_finite(machine, grid, first_line, lines, data)?;
-                writer.write_lines(p, first_line, lines, data)?;
+                writer.write_lines(per_pose * p, first_line, lines, data)?;
                 stats.add_chunk(first_line, lines, nx, data);
                 let end_point = capture(&checked, &mut captured, first_line, lines, nx, data);
                 on_progress(points_before + end_point);
@@ -115,6 +125,22 @@ pub fn map_sweep_to_file(
             // The time of the map, as for one pose, leaves the spot check out.
             check_seconds += checking.elapsed().as_secs_f64();
         }
+        if let Some(method) = options.uncertainty {
+            let part = map_uncertainty(
+                machine,
+                grid,
+                engine,
+                method,
+                (options.chunk_points, options.check_points, p),
+                |first_line, lines, data| {
+                    Ok(writer.write_lines(per_pose * p + 1, first_line, lines, data)?)
+                },
+            )?;
+            match &mut uncertainty {
+                Some(all) => all.merge(&part, p),
+                None => uncertainty = Some(part),
+            }
+        }
         total.merge(&stats, p);
         poses.push(PoseSummary {
             name: pose_name(&grid.pose, machine),
@@ -134,5 +160,6 @@ pub fn map_sweep_to_file(
             handoff_s,
             write,
         },
+        uncertainty,
     })
 }

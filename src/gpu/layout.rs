@@ -1,4 +1,5 @@
-//! Host mirrors of the WGSL structs in `shaders/chain.wgsl` and `shaders/sample.wgsl`, and the
+//! Host mirrors of the WGSL structs in `shaders/chain.wgsl`, `shaders/sample.wgsl` and
+//! `shaders/uncertainty.wgsl`, and the
 //! constants both sides share: one `#[repr(C)]` Pod struct per WGSL struct, vec4/mat4 fields
 //! only (no vec3 in buffers), explicit padding, a compile-time size check for each. A test reads
 //! the shaders with naga and holds every name in [`SHARED_CONSTANTS`] and [`STRUCT_SIZES`] to the
@@ -93,7 +94,7 @@ pub const SHARED_CONSTANTS: [(&str, Shared); 27] = [
 ];
 
 /// The size of every struct a shader reads or writes through a buffer, by its WGSL name.
-pub const STRUCT_SIZES: [(&str, usize); 14] = [
+pub const STRUCT_SIZES: [(&str, usize); 15] = [
     ("Params", std::mem::size_of::<Params>()),
     ("AxisData", std::mem::size_of::<AxisData>()),
     ("Function", std::mem::size_of::<Function>()),
@@ -108,6 +109,7 @@ pub const STRUCT_SIZES: [(&str, usize); 14] = [
     ("XPoly", std::mem::size_of::<XPoly>()),
     ("Partial", std::mem::size_of::<Partial>()),
     ("FoldedPart", std::mem::size_of::<FoldedPart>()),
+    ("UncertaintyParams", std::mem::size_of::<UncertaintyParams>()),
 ];
 
 /// A 3×3 matrix in the upper-left of a WGSL `mat4x4<f32>`, column-major.
@@ -378,3 +380,14 @@ pub struct FoldedPart {
     pub stride: [u32; 4],
 }
 const _: () = assert!(std::mem::size_of::<FoldedPart>() == 32);
+
+/// `struct UncertaintyParams` in `shaders/uncertainty.wgsl`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct UncertaintyParams {
+    /// Values in the chunk, 1 for the first term of the sums (it writes them), then unused.
+    pub counts: [u32; 4],
+    /// The factor of `a − b`; then unused.
+    pub scale: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<UncertaintyParams>() == 32);

@@ -2,7 +2,8 @@
 //! constants shared with WGSL in [`layout`], and one module per shader beside its name:
 //! [`chain`] (`shaders/deviation.wgsl` + `shaders/chain.wgsl`: the machine packed into buffers and
 //! the map computed chunk by chunk) and [`sample`] (`shaders/sample.wgsl`: trilinear sampling of a
-//! field).
+//! field); `shaders/uncertainty.wgsl`, the sums of a map's uncertainty, beside the chain's
+//! mapper ([`chain::SumsPlan`]).
 
 pub mod chain;
 pub mod device;
@@ -27,7 +28,7 @@ pub struct Shader {
 }
 
 /// Every shader volmap compiles.
-pub const SHADERS: [Shader; 2] = [
+pub const SHADERS: [Shader; 3] = [
     Shader {
         name: "chain",
         files: &chain::CHAIN_WGSL_FILES,
@@ -37,5 +38,10 @@ pub const SHADERS: [Shader; 2] = [
         name: "sample",
         files: &["sample.wgsl"],
         source: SAMPLE_WGSL,
+    },
+    Shader {
+        name: "uncertainty",
+        files: &["uncertainty.wgsl"],
+        source: chain::UNCERTAINTY_WGSL,
     },
 ];

@@ -12,7 +12,7 @@ use super::deviation_against;
 use crate::design::draws::standard_draw;
 use crate::model::channels::Sample;
 use crate::model::perturbation::{Distribution, ErrorTarget};
-use crate::model::uncertainty::{NotPositiveSemidefinite, UncertainValue};
+use crate::model::uncertainty::{NotPositiveSemidefinite, UncertainValue, Uncertainty};
 use crate::model::{Command, Machine, MachineSource};
 
 /// A machine prepared for uncertainty evaluations: itself (at its inputs, without the files it
@@ -133,22 +133,13 @@ impl Propagation {
         draws: usize,
         seed: u64,
     ) -> Result<MonteCarlo, NotPositiveSemidefinite> {
-        let uncertainty = &self.base.uncertainty;
-        let sigmas = uncertainty.sigmas();
-        let (members, factor) = uncertainty.correlated_factor()?;
-        let normal = Distribution::Normal { sigma: 1.0 };
+        let drawn = Draws::new(&self.base.uncertainty, seed)?;
         let n = commands.len();
         // Welford's running mean and sum of squared deviations, per point and channel.
         let mut mean = vec![[0.0; 6]; n];
         let mut m2 = vec![[0.0; 6]; n];
         for draw in 0..draws {
-            let z: Vec<f64> = (0..sigmas.len())
-                .map(|i| standard_draw(seed, draw as u64, i as u64, normal))
-                .collect();
-            let mut e: Vec<f64> = z.iter().zip(&sigmas).map(|(z, s)| z * s).collect();
-            for (a, row) in factor.iter().enumerate() {
-                e[members[a]] = row.iter().zip(&members).map(|(f, &m)| f * z[m]).sum();
-            }
+            let e = drawn.deviations(draw as u64);
             let machine = self.base.with_deviations(&e);
             let samples: Vec<Sample> = commands
                 .par_iter()
@@ -176,6 +167,43 @@ impl Propagation {
                 .map(|m| m.map(|x| (x / divisor).max(0.0).sqrt()))
                 .collect(),
         })
+    }
+}
+
+/// The draws of a Monte Carlo run: `e ~ N(0, cov)`, each draw's numbers a function of `(seed,
+/// draw, quantity)` alone, so a draw is the same whoever makes it (the map's engines, the
+/// reference, chunk after chunk).
+#[derive(Debug, Clone)]
+pub struct Draws {
+    sigmas: Vec<f64>,
+    members: Vec<usize>,
+    factor: Vec<Vec<f64>>,
+    seed: u64,
+}
+
+impl Draws {
+    pub fn new(uncertainty: &Uncertainty, seed: u64) -> Result<Draws, NotPositiveSemidefinite> {
+        let (members, factor) = uncertainty.correlated_factor()?;
+        Ok(Draws {
+            sigmas: uncertainty.sigmas(),
+            members,
+            factor,
+            seed,
+        })
+    }
+
+    /// The perturbations of draw `draw`, one per quantity: independent quantities `z_i·u_i`,
+    /// correlated ones `F·z` over their members.
+    pub fn deviations(&self, draw: u64) -> Vec<f64> {
+        let normal = Distribution::Normal { sigma: 1.0 };
+        let z: Vec<f64> = (0..self.sigmas.len())
+            .map(|i| standard_draw(self.seed, draw, i as u64, normal))
+            .collect();
+        let mut e: Vec<f64> = z.iter().zip(&self.sigmas).map(|(z, s)| z * s).collect();
+        for (a, row) in self.factor.iter().enumerate() {
+            e[self.members[a]] = row.iter().zip(&self.members).map(|(f, &m)| f * z[m]).sum();
+        }
+        e
     }
 }
 

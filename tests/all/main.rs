@@ -32,6 +32,7 @@ mod gpu;
 mod gpu_sparse;
 mod identifiability;
 mod machine_file;
+mod map_uncertainty;
 mod mesh;
 mod min_zone;
 mod model_check;

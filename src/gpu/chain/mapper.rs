@@ -50,9 +50,9 @@ pub(super) struct Prepared {
 }
 
 /// What the per-map passes leave on the device for the point pass.
-struct MapTables {
-    group_values: Buffer,
-    x_errors: Buffer,
+pub(super) struct MapTables {
+    pub group_values: Buffer,
+    pub x_errors: Buffer,
 }
 
 /// A cache of pipelines compiled on first use, one per key.
@@ -64,7 +64,10 @@ pub struct GpuMapper {
     axis_values: device::Kernel,
     groups: device::Kernel,
     /// The point pass per variant (its override constants).
-    points: Pipelines<PointVariant>,
+    pub(super) points: Pipelines<PointVariant>,
+    /// The sums of the uncertainty of a map (`shaders/uncertainty.wgsl`), compiled when first
+    /// asked for.
+    pub(super) accumulate: Pipelines<()>,
     /// The write-only ceiling per lines per invocation.
     write_only: Pipelines<u32>,
     /// The kernels of sampled machines, compiled when first asked for.
@@ -149,6 +152,7 @@ impl GpuMapper {
             points: Mutex::new(HashMap::new()),
             write_only: Mutex::new(HashMap::new()),
             sampled: Mutex::new(HashMap::new()),
+            accumulate: Mutex::new(HashMap::new()),
             tiling,
         }))
     }
@@ -305,7 +309,7 @@ impl GpuMapper {
 
     /// Uploads the packed machine and runs the per-map passes: every axis at every grid value it
     /// takes, then the group tables. Returns what the point pass reads of them.
-    fn per_map_passes(&self, packed: &Packed, nx: u64) -> Result<MapTables, GpuError> {
+    pub(super) fn per_map_passes(&self, packed: &Packed, nx: u64) -> Result<MapTables, GpuError> {
         let gpu = &self.gpu;
         let [entries, group_entries, _, _] = packed.params.counts.map(u64::from);
         let params = gpu.uniform("params", bytemuck::bytes_of(&packed.params));

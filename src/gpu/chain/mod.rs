@@ -13,9 +13,11 @@ pub mod pack;
 mod positions;
 mod sampled;
 mod timing;
+mod uncertainty;
 
 pub use mapper::GpuMapper;
 pub use pack::{pack, MachineShape, Packed, PointVariant};
+pub use uncertainty::{ChunkSums, SumTerm, SumsPlan, TERMS_PER_BATCH, UNCERTAINTY_WGSL};
 
 use super::GpuError;
 use crate::model::channels::CHANNELS;

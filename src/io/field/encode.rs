@@ -138,6 +138,9 @@ pub(super) fn header_attributes(
     }
     h.string(inputs::WORDS, &info.inputs.describe())?;
     h.string("volmap.device", &info.device)?;
+    if let Some(method) = &info.uncertainty {
+        h.string("volmap.uncertainty", method)?;
+    }
     h.string("volmap.version", env!("CARGO_PKG_VERSION"))?;
     sequence_end::write(&mut h.bytes).map_err(io_error)?;
     Ok(h)

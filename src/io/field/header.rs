@@ -253,6 +253,7 @@ impl Cursor<'_> {
             ("volmap.chain", _) => info.chain = string(),
             ("volmap.machineToml", _) => info.machine_toml = string(),
             ("volmap.device", _) => info.device = string(),
+            ("volmap.uncertainty", _) => info.uncertainty = Some(string()),
             (inputs::APPROACH, _) => raw.approach = Some(string()),
             (inputs::TEMPERATURES, _) => raw.temperatures = Some(string()),
             (inputs::REFERENCE, "double") => {

@@ -3,7 +3,10 @@
 //! PXR24. The image is `nx` wide and `ny·nz` tall; pixel `(i, j + k·ny)` holds grid point
 //! `(i, j, k)`. A five-axis map over the rotary axes is one multi-part file: one such field per
 //! pose of the sweep, each part named by its pose (`B=-90,C=0`) and carrying every attribute a
-//! single-pose field has.
+//! single-pose field has. A map with its uncertainty adds, after each part of errors, a part of
+//! the same grid and pose holding the standard uncertainty of each channel, its method in
+//! `volmap.uncertainty`; readers find the parts of errors by pose and each one's uncertainty
+//! beside it.
 //!
 //! The writers stream lines as they arrive through a pipeline that compresses and writes them
 //! behind the computation, with a fixed number of pieces in memory whatever the grid or the
@@ -49,7 +52,7 @@ pub use blocks::{compress_on_one_thread, Compression, Storage, HALF_MAX};
 pub use loaded::{field_memory_bytes, GridCell, LoadedField, FIELD_MEMORY_BYTES};
 pub use merge::merge_parts;
 pub use pipeline::WriteTimes;
-pub use read::{FieldFile, FieldReader};
+pub use read::{FieldFile, FieldReader, SINGLE_MAP_PART};
 pub use write::{FieldWriter, PartsWriter};
 
 use super::FileError;
@@ -187,6 +190,10 @@ pub struct FieldInfo {
     /// `volmap.referenceTemperature`); the default inputs in a field written before fields
     /// recorded them.
     pub inputs: InputsRecord,
+    /// Where the part holds the standard uncertainties of the channels rather than their
+    /// values: the method that computed them (`volmap.uncertainty`). Such a part follows the
+    /// part of the errors at the same pose.
+    pub uncertainty: Option<String>,
 }
 
 impl FieldInfo {
@@ -204,6 +211,7 @@ impl FieldInfo {
             csv_files: Vec::new(),
             device: self.device.clone(),
             inputs: self.inputs.clone(),
+            uncertainty: self.uncertainty.clone(),
         }
     }
 

@@ -34,6 +34,10 @@ struct Part {
     half: bool,
     blocks: u64,
     table: u64,
+    /// Its number in the file.
+    index: usize,
+    /// The part of the standard uncertainties of this part's channels, where the file has one.
+    uncertainty: Option<Box<Part>>,
 }
 
 /// A field file with its headers read: one part, or (a five-axis map over the rotary axes) one
@@ -42,6 +46,9 @@ pub struct FieldFile {
     path: PathBuf,
     display: String,
     multipart: bool,
+    /// Whether the parts are a sweep's, one per pose (a map of one pose with its uncertainties
+    /// is multi-part too: its part of errors is named [`SINGLE_MAP_PART`]).
+    sweep: bool,
     /// Where the blocks start (after every offset table) and where the file ends.
     data_start: u64,
     file_bytes: u64,
@@ -105,6 +112,8 @@ impl FieldFile {
                 half,
                 blocks,
                 table: 0,
+                index: parts.len(),
+                uncertainty: None,
             });
             if !multipart {
                 break;
@@ -122,6 +131,8 @@ impl FieldFile {
             at = at.saturating_add(part.blocks.saturating_mul(8));
         }
         let data_start = at;
+        let parts = attach_uncertainties(&c, parts)?;
+        let sweep = multipart && !(parts.len() == 1 && parts[0].name == SINGLE_MAP_PART);
         let needed = data_start.saturating_add(least_data);
         let file_bytes = c.reader.get_ref().metadata().map(|m| m.len()).unwrap_or(0);
         if needed > file_bytes {
@@ -140,6 +151,7 @@ impl FieldFile {
             path: path.to_path_buf(),
             display,
             multipart,
+            sweep,
             data_start,
             file_bytes,
             parts,
@@ -153,7 +165,7 @@ impl FieldFile {
     /// Whether the file has the parts of a sweep (even one), rather than the one field of a map
     /// at one pose.
     pub fn is_multipart(&self) -> bool {
-        self.multipart
+        self.sweep
     }
 
     /// The number of parts: the poses of the file.
@@ -213,7 +225,7 @@ impl FieldFile {
     /// name of its pose.
     pub fn name(&self, part: usize) -> String {
         let part = &self.parts[part];
-        if self.multipart {
+        if self.sweep {
             part.name.clone()
         } else {
             part.info.pose_name()
@@ -261,11 +273,31 @@ impl FieldFile {
         Ok(0)
     }
 
+    /// The method of the standard uncertainties of part `part`'s channels, where the file holds
+    /// them.
+    pub fn uncertainty(&self, part: usize) -> Option<&str> {
+        self.parts[part]
+            .uncertainty
+            .as_ref()
+            .and_then(|u| u.info.uncertainty.as_deref())
+    }
+
+    /// A reader of the standard uncertainties of part `part`'s channels, where the file holds
+    /// them (the same layout as the part's values).
+    pub fn uncertainty_reader(&self, part: usize) -> Option<Result<FieldReader, FieldError>> {
+        let stored = self.parts[part].uncertainty.as_deref()?;
+        let mut info = self.info(part);
+        info.uncertainty = stored.info.uncertainty.clone();
+        Some(self.reader_of(stored, info))
+    }
+
     /// A reader of the lines of part `part`.
     pub fn reader(&self, part: usize) -> Result<FieldReader, FieldError> {
+        self.reader_of(&self.parts[part], self.info(part))
+    }
+
+    fn reader_of(&self, stored: &Part, info: FieldInfo) -> Result<FieldReader, FieldError> {
         let file = File::open(&self.path).map_err(|e| FileError::read(&self.path, e))?;
-        let info = self.info(part);
-        let stored = &self.parts[part];
         let lines = (info.dims[1] * info.dims[2]) as u64;
         let codec = BlockCodec::new(info.dims[0], lines, stored.code, stored.half)
             .expect("the header's compression was checked");
@@ -274,7 +306,7 @@ impl FieldFile {
             file: BufReader::with_capacity(1 << 20, file),
             position: None,
             info,
-            part: self.multipart.then_some(part as u32),
+            part: self.multipart.then_some(stored.index as u32),
             codec,
             lines,
             blocks: stored.blocks,
@@ -287,6 +319,42 @@ impl FieldFile {
             values: Vec::new(),
         })
     }
+}
+
+/// The name of the part of errors of a map of one pose with its uncertainties (its part of
+/// uncertainties is `u`); a sweep's parts are named by their poses.
+pub const SINGLE_MAP_PART: &str = "errors";
+
+/// The parts of errors, each with the part of its uncertainties that follows it: a part of
+/// uncertainties must follow one of errors of the same grid and pose.
+fn attach_uncertainties(c: &Cursor, all: Vec<Part>) -> Result<Vec<Part>, FieldError> {
+    let mut parts: Vec<Part> = Vec::with_capacity(all.len());
+    for part in all {
+        if part.info.uncertainty.is_none() {
+            parts.push(part);
+            continue;
+        }
+        let index = part.index;
+        match parts.last_mut() {
+            Some(errors)
+                if errors.uncertainty.is_none()
+                    && errors.index + 1 == index
+                    && errors.info.dims == part.info.dims
+                    && errors.info.pose_deg == part.info.pose_deg =>
+            {
+                errors.uncertainty = Some(Box::new(part))
+            }
+            _ => {
+                return Err(c.format(format!(
+                    "part {index} holds uncertainties (volmap.uncertainty) but does not follow the part of the errors of its grid and pose"
+                )))
+            }
+        }
+    }
+    if parts.is_empty() {
+        return Err(c.format("the file holds uncertainties but no errors"));
+    }
+    Ok(parts)
 }
 
 /// Offsets read from a table at a time.

@@ -1,0 +1,276 @@
+//! Sums over machines for the uncertainty of a map (`shaders/uncertainty.wgsl`): chunk by chunk,
+//! each term's two machines mapped by the point pass into two fields on the device and their
+//! scaled difference added to the chunk's running sums there; only the sums are read back, once
+//! per batch of terms, whatever the number of machines.
+//!
+//! The first-order propagation (GUM) gives one term per direction of the quantities'
+//! covariance: the machine moved by `±t` times the direction, the difference scaled by
+//! `1/(2t)` (a central difference); Monte Carlo (JCGM 101) one term per draw: the drawn
+//! machine against the nominal one, mapped once per chunk.
+
+use std::sync::Arc;
+
+use super::mapper::{LineTiles, MapTables};
+use super::pack::{pack, PointVariant};
+use super::{check_error_angles, check_own_axis_errors, GpuMapper, BYTES_PER_POINT};
+use crate::gpu::device::{self, Buffer, Pass, Readback};
+use crate::gpu::layout::{Params, UncertaintyParams, WORKGROUP_SIZE};
+use crate::gpu::GpuError;
+use crate::model::channels::CHANNELS;
+use crate::model::grid::{Chunks, Grid};
+use crate::model::Machine;
+
+/// The shader of the sums.
+pub const UNCERTAINTY_WGSL: &str = include_str!("../../../shaders/uncertainty.wgsl");
+
+/// One term of the sums: `scale · (field(plus) − field(minus))`, `minus` the nominal machine
+/// where `None`.
+pub struct SumTerm {
+    pub plus: Machine,
+    pub minus: Option<Machine>,
+    pub scale: f64,
+}
+
+/// What the sums of a chunk hold, per value of the chunk (its layout: for each line, `nx`
+/// values of each channel): `Σ d` and `Σ d²` over the terms, `d` each term's scaled difference.
+pub struct ChunkSums {
+    pub first: Vec<f32>,
+    pub second: Vec<f32>,
+}
+
+/// A machine's tables on the device, bound to the point pass writing into one field buffer.
+struct Mapped {
+    _tables: MapTables,
+    params: Params,
+    params_buffer: Buffer,
+    kernel: Arc<device::Kernel>,
+    bindings: device::Bindings,
+    tiles: LineTiles,
+}
+
+/// The buffers of the sums of a map: two fields of a chunk, the nominal field, the sums and
+/// their staging buffer, and the nominal machine mapped into its field.
+pub struct SumsPlan {
+    nx: u64,
+    pub chunks: Chunks,
+    a: Buffer,
+    b: Buffer,
+    nominal: Buffer,
+    sums: Buffer,
+    staging: Buffer,
+    accumulate_params: Buffer,
+    accumulate: Arc<device::Kernel>,
+    grid: Grid,
+    base: Mapped,
+}
+
+/// Terms whose machines are on the device at once (their tables are small; the fields are
+/// shared).
+pub const TERMS_PER_BATCH: usize = 64;
+
+impl GpuMapper {
+    /// Plans the sums of `base`'s map over `grid`, the chunks as a map of it would have them.
+    pub fn plan_sums(
+        &self,
+        base: &Machine,
+        grid: &Grid,
+        chunk_points: Option<u64>,
+    ) -> Result<SumsPlan, GpuError> {
+        let nx = grid.dims[0] as u64;
+        let device_limit = self.max_chunk_points();
+        let limit = chunk_points.map_or(device_limit, |c| c.max(nx).min(device_limit));
+        if nx > limit {
+            return Err(self.error(format!(
+                "a line of {nx} points does not fit in one chunk of at most {limit} points"
+            )));
+        }
+        let lines_per_chunk = (limit / nx).min(self.max_chunk_lines()).max(1);
+        let chunks = grid.chunks(lines_per_chunk * nx);
+        let chunk_bytes = chunks.most_lines().max(1) * nx * BYTES_PER_POINT;
+        let gpu = &self.gpu;
+        let accumulate = {
+            let mut cache = self.accumulate.lock().unwrap_or_else(|p| p.into_inner());
+            match cache.get(&()) {
+                Some(kernel) => kernel.clone(),
+                None => {
+                    let kernel = Arc::new(gpu.kernel(
+                        "uncertainty.wgsl accumulate_main",
+                        UNCERTAINTY_WGSL,
+                        "accumulate_main",
+                    )?);
+                    cache.insert((), kernel.clone());
+                    kernel
+                }
+            }
+        };
+        let nominal = gpu.output("nominal field", chunk_bytes);
+        let base = self.mapped(base, grid, &nominal)?;
+        Ok(SumsPlan {
+            nx,
+            chunks,
+            a: gpu.output("field a", chunk_bytes),
+            b: gpu.output("field b", chunk_bytes),
+            nominal,
+            sums: gpu.output("sums", 2 * chunk_bytes),
+            staging: gpu.staging("sums staging", 2 * chunk_bytes),
+            accumulate_params: gpu.uniform(
+                "uncertainty params",
+                bytemuck::bytes_of(&UncertaintyParams {
+                    counts: [0; 4],
+                    scale: [0.0; 4],
+                }),
+            ),
+            accumulate,
+            grid: grid.clone(),
+            base,
+        })
+    }
+
+    /// `machine`'s tables on the device, the point pass bound to write into `output`.
+    fn mapped(&self, machine: &Machine, grid: &Grid, output: &Buffer) -> Result<Mapped, GpuError> {
+        check_error_angles(machine, grid)?;
+        check_own_axis_errors(machine)?;
+        let packed = pack(machine, grid);
+        let nx = grid.dims[0] as u64;
+        let tables = self.per_map_passes(&packed, nx)?;
+        let tiling = self.tiling();
+        let tiles = LineTiles::of(tiling, nx, self.gpu.max_workgroups_per_dimension() as u64)
+            .ok_or_else(|| {
+                self.error(format!(
+                    "a line of {nx} points needs more workgroups than one dispatch holds"
+                ))
+            })?;
+        let variant = PointVariant {
+            shape: packed.shape,
+            lines_per_lane: tiling.lines_per_lane,
+        };
+        let kernel = self.pipeline(&self.points, variant, "points_main", &variant.constants())?;
+        let params_buffer = self
+            .gpu
+            .uniform("term params", bytemuck::bytes_of(&packed.params));
+        let bindings = self.gpu.bind(
+            &kernel,
+            &[
+                (0, &params_buffer),
+                (6, &tables.group_values),
+                (7, output),
+                (8, &tables.x_errors),
+            ],
+        );
+        Ok(Mapped {
+            _tables: tables,
+            params: packed.params,
+            params_buffer,
+            kernel,
+            bindings,
+            tiles,
+        })
+    }
+
+    /// The point pass of `mapped` over lines `first_line .. first_line + lines`, its chunk
+    /// parameters written first.
+    fn point_pass<'a>(&self, mapped: &'a Mapped, first_line: u64, lines: u64) -> Pass<'a> {
+        let mut params = mapped.params;
+        params.chunk = [
+            first_line as u32,
+            lines as u32,
+            mapped.tiles.points_per_invocation,
+            mapped.tiles.invocations_per_line_group,
+        ];
+        self.gpu
+            .write(&mapped.params_buffer, bytemuck::bytes_of(&params));
+        Pass {
+            kernel: &mapped.kernel,
+            bindings: &mapped.bindings,
+            workgroups: [mapped.tiles.x_groups, mapped.tiles.line_groups(lines), 1],
+        }
+    }
+
+    /// The sums of chunk `n` of `plan` over `terms`: every term's machines mapped on the device,
+    /// their scaled difference added there, the sums read back once. `terms` must not be empty.
+    pub fn chunk_sums(
+        &self,
+        plan: &SumsPlan,
+        n: usize,
+        terms: &[SumTerm],
+    ) -> Result<ChunkSums, GpuError> {
+        assert!(!terms.is_empty(), "a sum of no terms");
+        let (first_line, lines) = plan.chunks.get(n);
+        let values = lines * plan.nx * CHANNELS.len() as u64;
+        let gpu = &self.gpu;
+        if terms.iter().any(|t| t.minus.is_none()) {
+            let pass = self.point_pass(&plan.base, first_line, lines);
+            gpu.submit(&[pass], None);
+        }
+        let accumulate_bindings = |b: &Buffer| {
+            gpu.bind(
+                &plan.accumulate,
+                &[
+                    (0, &plan.accumulate_params),
+                    (1, &plan.a),
+                    (2, b),
+                    (3, &plan.sums),
+                ],
+            )
+        };
+        let against_b = accumulate_bindings(&plan.b);
+        let against_nominal = accumulate_bindings(&plan.nominal);
+        let groups = values.div_ceil(WORKGROUP_SIZE as u64).max(1);
+        let width = (gpu.max_workgroups_per_dimension() as u64).min(groups);
+        let workgroups = [width as u32, groups.div_ceil(width) as u32, 1];
+        let mut last = None;
+        let mut written = 0usize;
+        for batch in terms.chunks(TERMS_PER_BATCH) {
+            let mapped = batch
+                .iter()
+                .map(|t| {
+                    let plus = self.mapped(&t.plus, &plan.grid, &plan.a)?;
+                    let minus = match &t.minus {
+                        Some(m) => Some(self.mapped(m, &plan.grid, &plan.b)?),
+                        None => None,
+                    };
+                    Ok((plus, minus))
+                })
+                .collect::<Result<Vec<_>, GpuError>>()?;
+            for (term, (plus, minus)) in batch.iter().zip(&mapped) {
+                gpu.write(
+                    &plan.accumulate_params,
+                    bytemuck::bytes_of(&UncertaintyParams {
+                        counts: [values as u32, u32::from(written == 0), 0, 0],
+                        scale: [term.scale as f32, 0.0, 0.0, 0.0],
+                    }),
+                );
+                written += 1;
+                let mut passes = vec![self.point_pass(plus, first_line, lines)];
+                if let Some(minus) = minus {
+                    passes.push(self.point_pass(minus, first_line, lines));
+                }
+                passes.push(Pass {
+                    kernel: &plan.accumulate,
+                    bindings: if minus.is_some() {
+                        &against_b
+                    } else {
+                        &against_nominal
+                    },
+                    workgroups,
+                });
+                let last_term = written == terms.len();
+                let copy = last_term.then_some(Readback {
+                    from: &plan.sums,
+                    to: &plan.staging,
+                    bytes: 2 * values * 4,
+                });
+                last = Some(gpu.submit(&passes, copy));
+            }
+        }
+        let submission = last.expect("at least one term");
+        let n = values as usize;
+        gpu.read(submission, &plan.staging, 2 * values * 4, |data| {
+            let all: &[f32] = bytemuck::cast_slice(data);
+            ChunkSums {
+                first: all[..n].to_vec(),
+                second: all[n..2 * n].to_vec(),
+            }
+        })
+    }
+}
