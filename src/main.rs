@@ -2,8 +2,9 @@
 //!
 //! Exit codes: 0 success; 1 a failure while working (GPU, file system); 2 bad input (machine
 //! file, grid, pose, field file, part file, CSV, command-line values); 3 `features` found a
-//! feature the machine is unfit for; 4 `--check` found the field further from the f64 reference
-//! than the tolerance; 130, 143 and 129 interrupted by SIGINT, SIGTERM or SIGHUP, 141 its standard
+//! feature that does not conform; 4 `--check` found the field further from the f64 reference
+//! than the tolerance; 5 `features` found none that fails but some it cannot decide within the
+//! errors' uncertainty; 130, 143 and 129 interrupted by SIGINT, SIGTERM or SIGHUP, 141 its standard
 //! output closed under it (its temporary files removed).
 
 mod cli;
@@ -34,7 +35,8 @@ enum Command {
     /// file, or exactly from the machine model.
     Sample(cli::sample::SampleArgs),
     /// The GD&T error each feature of a part gets from the machine, against its tolerance: the
-    /// machine's capability (exit code 3 when any feature is unfit).
+    /// machine's capability and the ISO 14253-1 decision with the error's expanded uncertainty
+    /// (exit code 3 when any feature does not conform, 5 when none fails but some are undecided).
     Features(cli::features::FeaturesArgs),
     /// Measure every path on this machine (CPU reference, CPU engine, GPU kernel, readback, EXR
     /// writing, whole maps) and print one table.

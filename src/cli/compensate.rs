@@ -168,7 +168,7 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         ),
     );
     let text = corrupted_for_tests(text);
-    check(&machine, &program, &text, &compensated, &args, &options)?;
+    let residual = check(&machine, &program, &text, &compensated, &args, &options)?;
     let report = compensated.report;
     write_file(&args.out, |out| out.write_all(text.as_bytes())).flag("--out")?;
     outln!("{}: compensated for {}", args.out.display(), machine.name);
@@ -189,6 +189,28 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         numbers::error_um(report.largest_error_after_mm),
         numbers::error_um(options.chord_tolerance_mm)
     );
+    if let Some(worst) = residual
+        .worst
+        .as_ref()
+        .filter(|_| !machine.uncertainty.is_empty())
+    {
+        let name = args.program.display().to_string();
+        let u = nc::expanded_uncertainty_at(&machine, worst, &name, &options)
+            .map_err(option_failure)?;
+        // ISO 14253-1's reading: an error within U cannot be told from none.
+        let (within, reading) = if worst.deviation_mm <= u {
+            ("within", ": below what the measurements can know")
+        } else {
+            ("beyond", "")
+        };
+        outln!(
+            "  largest error after         {} at line {} (the model traced every {}), {within} U = {} (k = 2) there{reading}",
+            numbers::error_um(worst.deviation_mm),
+            worst.line,
+            numbers::length_mm(residual.step_mm),
+            numbers::error_um(u)
+        );
+    }
     if report.cycle_holes_expanded > 0 {
         outln!(
             "  canned cycle holes          {} expanded into rapid and feed moves, each compensated",
@@ -286,7 +308,7 @@ fn check(
     compensated: &nc::Compensated,
     args: &CompensateArgs,
     options: &Options,
-) -> Result<(), Failure> {
+) -> Result<nc::Residual, Failure> {
     let name = args.program.display().to_string();
     let bounds = nc::CheckBounds::of(compensated.report.largest_correction_mm, options);
     nc::check_written(machine, program, text.as_bytes(), &name, options, bounds).map_err(|e| {
@@ -295,7 +317,7 @@ fn check(
     let residual =
         nc::residual(machine, program, compensated, &name, options).map_err(option_failure)?;
     if residual.lines.is_empty() {
-        return Ok(());
+        return Ok(residual);
     }
     let lines: Vec<String> = residual.lines.iter().map(|l| l.to_string()).collect();
     let message = format!(
@@ -306,7 +328,7 @@ fn check(
     );
     if args.allow_residual {
         errln!("warning: {message} (written as --allow-residual asks)");
-        return Ok(());
+        return Ok(residual);
     }
     Err(Failure::beyond_tolerance(format!(
         "{message}; nothing was written to {}",

@@ -1,12 +1,14 @@
 //! `volmap features`: the GD&T error each feature of a part gets from the machine, against its
-//! tolerance: the machine's capability (exit code 3 when any feature is unfit).
+//! tolerance: the machine's capability, and the decision by ISO 14253-1 with the expanded
+//! uncertainty of each error (exit code 3 when any feature does not conform, 5 when none fails
+//! but some cannot be decided).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use volmap::io::field::{FieldError, FieldFile, LoadedField};
 use volmap::model::{poses, AxisLetter};
-use volmap::part::{self, ErrorSource, Evaluation, PartFile, Verdict};
+use volmap::part::{self, Conformance, ErrorSource, Evaluation, PartFile, Verdict};
 
 use volmap::design::conformance::{feature_errors, summarize, FeatureConformance};
 use volmap::design::monte_carlo::{check_confidence, check_samples, Study};
@@ -205,13 +207,15 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
         .unwrap_or(0)
         .max(16);
     outln!(
-        "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} {:<wide$} worst point (commanded X Y Z, mm)",
+        "  {:<24} {:<18} {:>12} {:>12} {:>12} {:>8}  {:<8} {:<16} {:<wide$} worst point (commanded X Y Z, mm)",
         "feature",
         "kind",
         "error µm",
+        "U µm (k=2)",
         "tolerance µm",
         "safety",
         "verdict",
+        "ISO 14253-1",
         "against"
     );
     for (r, against) in rows.iter().zip(&against) {
@@ -228,13 +232,15 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
             )
         });
         outln!(
-            "  {:<24} {:<18} {:>12} {:>12} {:>8}  {:<8} {:<wide$} {} {} {}{area}",
+            "  {:<24} {:<18} {:>12} {:>12} {:>12} {:>8}  {:<8} {:<16} {:<wide$} {} {} {}{area}",
             r.name,
             r.kind,
             numbers::error(r.error_mm),
+            numbers::error(r.u_expanded_mm),
             numbers::error(r.tolerance_mm),
             safety,
             verdict,
+            r.conformance.words(),
             against,
             numbers::length(r.worst_point[0]),
             numbers::length(r.worst_point[1]),
@@ -258,10 +264,21 @@ pub fn run(args: FeaturesArgs) -> Result<ExitCode, Failure> {
     if let (Some(path), Some(envelope)) = (&args.json.json, &envelope) {
         envelope.write(path, "--json", &rows)?;
     }
-    if rows.iter().any(|r| r.verdict == Verdict::Unfit) {
-        return Ok(ExitCode::from(3));
+    Ok(exit_code(&rows))
+}
+
+/// 3 where any feature does not conform (by ISO 14253-1: beyond its tolerance by more than the
+/// error's expanded uncertainty), else 5 where any cannot be decided, else 0. Without
+/// uncertainties (U = 0) no feature is undecided: 3 where any error exceeds its tolerance.
+fn exit_code(rows: &[part::FeatureResult]) -> ExitCode {
+    let any = |c: Conformance| rows.iter().any(|r| r.conformance == c);
+    if any(Conformance::DoesNotConform) {
+        ExitCode::from(3)
+    } else if any(Conformance::Undecided) {
+        ExitCode::from(5)
+    } else {
+        ExitCode::SUCCESS
     }
-    Ok(ExitCode::SUCCESS)
 }
 
 /// The part's pose (`placement.pose_deg`) as a report's `pose_deg` holds it.

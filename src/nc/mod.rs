@@ -76,7 +76,7 @@ pub use options::{
 };
 pub use program::{parse, MAX_EXPANDED_WORDS, MAX_PECKS};
 pub use report::{Compensated, LeftMove, OrientationLeft, PassedBlock, Report, ReportInputs};
-pub use residual::{residual, Residual};
+pub use residual::{expanded_uncertainty_at, residual, Residual};
 pub use trace::{
     trace, trace_compensated, trace_compensated_each, trace_each, trace_path, PerBlock, TracePoint,
     TraceSample,

@@ -101,6 +101,11 @@ pub struct TraceSample {
     pub real: Vector3<f64>,
     /// The distance of the real tool tip from where it was meant to be, mm.
     pub deviation_mm: f64,
+    /// The machine command there, the direction every axis approaches it in, and the active
+    /// tool: what the machine's error there depends on (its uncertainty, say).
+    pub command: Command,
+    pub approach: [Approach; 6],
+    pub tool: Option<u32>,
 }
 
 /// The samples of one move: its path, from its start to its end.
@@ -254,6 +259,9 @@ pub fn trace_each(
                 ideal,
                 real,
                 deviation_mm: (real - ideal).norm(),
+                command,
+                approach: directions,
+                tool: state.tool,
             });
         }
         travelled += length;

@@ -14,6 +14,7 @@ use super::datum_frame::SurfacePoint;
 use super::file::{FeatureSpec, PartFile, ProfileEvaluation};
 use super::geometry::{datum_shift, enclosing_diameter, median_line, worst};
 use super::profile::DatumSurfaces;
+use super::uncertainty::{expanded_uncertainties, Conformance};
 use super::{zone, ErrorSource, Evaluation, FeatureError, FeatureResult, Verdict};
 use crate::io::mesh::Mesh;
 use crate::limits::number_words;
@@ -92,11 +93,20 @@ pub fn evaluate(
     if let ErrorSource::Exact(machine) = &source {
         check_pose_on(machine, &pose, file)?;
     }
-    let errors = match source {
-        ErrorSource::Exact(machine) => Errors::Exact(Box::new(Twin::of(machine))),
-        ErrorSource::Field(field) => Errors::Field(field),
+    let (errors, machine) = match source {
+        ErrorSource::Exact(machine) => (Errors::Exact(Box::new(Twin::of(machine))), Some(machine)),
+        ErrorSource::Field(field) => (Errors::Field(field), None),
     };
-    evaluate_with(part, errors, file)
+    let mut rows = evaluate_with(part, errors, file)?;
+    // A field holds no uncertainties: its values are taken as exact (U = 0).
+    if let Some(machine) = machine.filter(|m| !m.uncertainty.is_empty()) {
+        let expanded = expanded_uncertainties(part, machine, file)?;
+        for (row, u) in rows.iter_mut().zip(expanded) {
+            row.u_expanded_mm = u;
+            row.conformance = Conformance::of(row.error_mm, u, row.tolerance_mm);
+        }
+    }
+    Ok(rows)
 }
 
 /// Checks the part's pose (`placement.pose_deg`) against the machine: an axis it lacks, or a
@@ -187,6 +197,8 @@ fn evaluate_with(
             tolerance_mm,
             safety,
             verdict: safety.map_or(Verdict::Fit, Verdict::of),
+            u_expanded_mm: 0.0,
+            conformance: Conformance::of(error_mm, 0.0, tolerance_mm),
             worst_point,
             area_outside,
             evaluation,

@@ -37,8 +37,9 @@
 //! The part file ([`PartFile`]) is read and checked in `file`; `cuts` generates the cutter
 //! positions of each kind of feature and what they leave, `profile` does the same over a meshed
 //! surface, `datum_frame` fits datum reference frames and best fits, `geometry` and
-//! [`tolerance`] (minimum zones) turn cuts into tolerances, and
-//! [`evaluate`] rates every feature.
+//! [`tolerance`] (minimum zones) turn cuts into tolerances,
+//! [`evaluate`] rates every feature, and [`uncertainty`] gives each error its expanded
+//! uncertainty from the machine's and decides conformance by ISO 14253-1.
 
 mod counts;
 mod cuts;
@@ -47,11 +48,13 @@ mod evaluate;
 mod file;
 mod geometry;
 mod profile;
+pub mod uncertainty;
 pub mod zone;
 
 pub use cuts::CutterPositions;
 pub use evaluate::{cutter_positions, evaluate, evaluate_at};
 pub use file::{Cutter, FeatureSpec, PartFile, Placement, ProfileEvaluation, Sampling};
+pub use uncertainty::Conformance;
 
 use serde::Serialize;
 
@@ -154,6 +157,11 @@ pub struct FeatureResult {
     /// Tolerance over error (`null` in JSON where the error is zero).
     pub safety: Option<f64>,
     pub verdict: Verdict,
+    /// The expanded uncertainty (`k = 2`) of `error_mm` from the standard uncertainties of the
+    /// machine's error values, mm: 0 where the machine has none, and from a field.
+    pub u_expanded_mm: f64,
+    /// The decision by ISO 14253-1: `error_mm` against `tolerance_mm` with `u_expanded_mm`.
+    pub conformance: Conformance,
     /// The commanded position (mm) of the cutter where the feature's worst point was cut.
     pub worst_point: [f64; 3],
     /// Profiles: the fraction of the surface's area outside the tolerance zone.

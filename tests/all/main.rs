@@ -22,6 +22,7 @@ mod export_isg_axis;
 mod export_klipper_twist;
 mod export_rrf;
 mod export_siemens;
+mod feature_uncertainty;
 mod features;
 mod field;
 mod field_inputs;

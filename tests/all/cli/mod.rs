@@ -12,6 +12,7 @@ mod evaluation_inputs;
 mod export;
 mod export_fanuc;
 mod features;
+mod features_uncertainty;
 mod field_files;
 mod flag_values;
 mod input_files;
