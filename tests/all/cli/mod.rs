@@ -29,6 +29,7 @@ mod machine_values;
 mod machines;
 mod map;
 mod map_check;
+mod map_uncertainty;
 mod messages;
 mod outputs;
 mod plot;
