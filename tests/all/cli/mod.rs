@@ -13,6 +13,7 @@ mod export;
 mod export_fanuc;
 mod features;
 mod field_files;
+mod fit_uncertainty;
 mod flag_values;
 mod input_files;
 mod interrupt;
