@@ -4,8 +4,9 @@
 //!
 //! Per axis one CSV, the way interferometer software exports a run: a header row naming the
 //! axis position (`position_mm`, or `position_deg` for a rotary axis) and any of the axis's six
-//! component errors with their unit, `EXX_um EYX_mm ECX_urad EAX_arcsec EBX_rad`; one row per
-//! measured position, rising. Each component becomes a table with the interpolation chosen for
+//! component errors with their unit, `EXX_um EYX_mm ECX_urad EAX_arcsec EBX_rad`, and optionally
+//! each row's standard uncertainty (`u_um`, `u_urad`: see [`read_axis_csv`]), written beside the
+//! table as `u = [ … ]`; one row per measured position, rising. Each component becomes a table with the interpolation chosen for
 //! it: the one that predicts each interior node best from the others (leave-one-out: linear from
 //! the two neighbours, quadratic through the three nearest nodes, the natural cubic spline
 //! through all the others), ties (within 10%) going to the simpler. Quadratic tables need an odd
@@ -16,10 +17,9 @@ use std::path::Path;
 
 use toml_edit::{Array, DocumentMut, InlineTable, Item, TableLike, Value};
 
+pub use super::axis_csv::{read_axis_csv, MeasuredComponent};
 use super::{toml_number, CalibrateError};
 use crate::error::excerpt;
-use crate::io::csv::Csv;
-use crate::io::read_text;
 use crate::io::source::Reach;
 use crate::model::{AxisLetter, Interp, Machine, Table, COMPONENT_NAMES};
 
@@ -37,111 +37,9 @@ pub struct BuiltComponent {
     pub leave_one_out: Vec<(String, f64)>,
     /// Why this interpolation: `best at leave-one-out`, `asked for`, `too few nodes to compare`.
     pub reason: String,
-}
-
-/// A measured component: its index among the six and its `(position, value)` nodes.
-pub type MeasuredComponent = (usize, Vec<(f64, f64)>);
-
-/// Reads one axis's CSV: its components as node lists.
-pub fn read_axis_csv(
-    path: &Path,
-    axis: AxisLetter,
-) -> Result<Vec<MeasuredComponent>, CalibrateError> {
-    let text = read_text(path)?;
-    let name = path.display().to_string();
-    let mut csv = Csv::new(&text, &name);
-    let position_unit = if axis.is_linear() { "mm" } else { "deg" };
-    let header = csv.header(&format!("naming position_{position_unit} and the errors"))?;
-    let position_column = format!("position_{position_unit}");
-    if header.names.first() != Some(&position_column) {
-        return Err(csv
-            .error(
-                header.line,
-                format!("the first column must be `{position_column}` (the {axis} position)"),
-            )
-            .into());
-    }
-    // (component index, factor to mm or rad)
-    let mut components: Vec<(usize, f64)> = Vec::new();
-    for column in &header.names[1..] {
-        let component = component_column(column, axis).map_err(|m| csv.error(header.line, m))?;
-        if components.iter().any(|&(i, _)| i == component.0) {
-            let key = column.split_once('_').map_or(column.as_str(), |(k, _)| k);
-            return Err(csv
-                .error(header.line, format!("{key} appears twice"))
-                .into());
-        }
-        components.push(component);
-    }
-    if components.is_empty() {
-        return Err(csv
-            .error(header.line, "no error column after the position")
-            .into());
-    }
-    let names: Vec<String> = header.names.iter().map(|n| format!("`{n}`")).collect();
-    let mut nodes: Vec<Vec<(f64, f64)>> = vec![Vec::new(); components.len()];
-    let mut previous: Option<f64> = None;
-    for row in csv.rows() {
-        row.require_fields(names.len())?;
-        let q = row.number(0, &names[0])?;
-        if let Some(p) = previous.filter(|&p| q <= p) {
-            return Err(row
-                .error(format!(
-                    "position {q} after {p}: rows must be sorted by position, rising"
-                ))
-                .into());
-        }
-        previous = Some(q);
-        for (c, &(_, factor)) in components.iter().enumerate() {
-            nodes[c].push((q, row.number(c + 1, &names[c + 1])? * factor));
-        }
-    }
-    if nodes[0].len() < 2 {
-        return Err(csv
-            .error(
-                header.line,
-                format!(
-                    "{} measured position(s): a table needs at least 2",
-                    nodes[0].len()
-                ),
-            )
-            .into());
-    }
-    Ok(components.iter().map(|&(i, _)| i).zip(nodes).collect())
-}
-
-/// A component column of `axis` with its unit, `EXX_um` or `EAX_urad`: the component's index
-/// among the six and the factor to mm or rad (else the message why not).
-fn component_column(column: &str, axis: AxisLetter) -> Result<(usize, f64), String> {
-    let (key, unit) = column.split_once('_').unwrap_or((column, ""));
-    let chars: Vec<char> = key.chars().collect();
-    let index = match chars.as_slice() {
-        ['E', c, a] if *a == axis.as_char() => COMPONENT_NAMES.iter().position(|n| n == c),
-        _ => None,
-    }
-    .ok_or_else(|| {
-        format!(
-            "column `{column}`: expected a component error of {axis} with its unit, such as EX{axis}_um or EA{axis}_urad"
-        )
-    })?;
-    let factor = match (index < 3, unit) {
-        (true, "mm") => 1.0,
-        (true, "um") => 1e-3,
-        (false, "rad") => 1.0,
-        (false, "urad") => 1e-6,
-        (false, "arcsec") => std::f64::consts::PI / (180.0 * 3600.0),
-        (true, _) => {
-            return Err(format!(
-                "column `{column}`: unit `{unit}` — translational errors are in mm or um"
-            ))
-        }
-        (false, _) => {
-            return Err(format!(
-                "column `{column}`: unit `{unit}` — angular errors are in rad, urad or arcsec"
-            ))
-        }
-    };
-    Ok((index, factor))
+    /// The standard uncertainty of each node (mm or rad) and the CSV column it came from
+    /// (`u_um`), where the measurements give one.
+    pub u: Option<(String, Vec<f64>)>,
 }
 
 /// Linear interpolation or extrapolation through two nodes.
@@ -346,8 +244,9 @@ pub fn parse_interp_choices(text: &str) -> Result<Vec<(String, Interp)>, Calibra
 }
 
 /// A measured component as the machine file holds it: `{ interp = "…", table = [ [q, v], … ] }`,
-/// one node a line, each number rounded to [`super::SIGNIFICANT_DIGITS`] significant digits.
-fn component_entry(nodes: &[(f64, f64)], interp: Interp) -> InlineTable {
+/// one node a line, and `u = [ … ]` beside it, one per node, where the measurements give it; each
+/// number rounded to [`super::SIGNIFICANT_DIGITS`] significant digits.
+fn component_entry(nodes: &[(f64, f64)], interp: Interp, u: Option<&[f64]>) -> InlineTable {
     let mut table = Array::new();
     for &(q, v) in nodes {
         let mut pair = Array::new();
@@ -362,6 +261,17 @@ fn component_entry(nodes: &[(f64, f64)], interp: Interp) -> InlineTable {
     let mut entry = InlineTable::new();
     entry.insert("interp", interp.name().into());
     entry.insert("table", Value::Array(table));
+    if let Some(u) = u {
+        let mut column = Array::new();
+        for &value in u {
+            let mut value = toml_number(value);
+            value.decor_mut().set_prefix("\n    ");
+            column.push_formatted(value);
+        }
+        column.set_trailing_comma(true);
+        column.set_trailing("\n");
+        entry.insert("u", Value::Array(column));
+    }
     entry
 }
 
@@ -451,7 +361,7 @@ pub fn build(
                     "the base machine file has no [axes.{axis}] section"
                 ))
             })?;
-        for (index, nodes) in read_axis_csv(path, axis)? {
+        for MeasuredComponent { index, nodes, u } in read_axis_csv(path, axis)? {
             let name = format!("E{}{}", COMPONENT_NAMES[index], axis);
             let wanted = asked.iter().find(|(k, _)| *k == name).map(|&(_, i)| i);
             let (interp, scores, reason) = choose_interp(&nodes, wanted);
@@ -459,7 +369,8 @@ pub fn build(
             Table::new(nodes.clone(), interp, false).map_err(|e| {
                 CalibrateError::Parameter(format!("{}: {name}: {e}", path.display()))
             })?;
-            set_component(section, &name, component_entry(&nodes, interp));
+            let u_nodes = u.as_ref().map(|(_, values)| values.as_slice());
+            set_component(section, &name, component_entry(&nodes, interp, u_nodes));
             built.push(BuiltComponent {
                 name,
                 axis: axis.as_char(),
@@ -468,6 +379,7 @@ pub fn build(
                 interp: interp.name().into(),
                 leave_one_out: scores,
                 reason,
+                u,
             });
         }
     }

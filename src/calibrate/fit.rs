@@ -60,6 +60,9 @@ pub struct FitReport {
     pub rms_after_mm: f64,
     /// What the measurements can see of each estimate (figures in the order of `estimates`).
     pub identifiability: Identifiability,
+    /// The covariance of the estimates, `σ²(JᵀJ)⁻¹`, in the order of `estimates` (the products of
+    /// their units): its diagonal is the square of each `uncertainty`.
+    pub covariance: Vec<Vec<f64>>,
     #[serde(skip)]
     pub machine: Machine,
 }
@@ -219,6 +222,9 @@ fn estimate(
         rms_before_mm: rms(&before),
         rms_after_mm: rms(r.as_slice()),
         identifiability,
+        covariance: (0..k)
+            .map(|a| (0..k).map(|b| covariance[(a, b)]).collect())
+            .collect(),
         machine: current,
     })
 }
@@ -377,26 +383,45 @@ fn gauss_newton(
 }
 
 /// The machine file with the estimates written in: the original file, comments, order and all,
-/// with each estimated error set, as a number or, where it has a thermal coefficient, as `{ value
-/// = …, per_kelvin = { input = … } }`. Each estimate is written to the decimal place of a
-/// thousandth of its standard uncertainty (rounding moves it by less than 0.05 % of the
-/// uncertainty; digits below carry nothing the measurements know) and to at most
-/// [`super::SIGNIFICANT_DIGITS`] significant digits.
+/// with each estimated error set with its standard uncertainty, `{ value = …, u = … }` (a thermal
+/// coefficient the same inside `per_kelvin`), and the covariance of every pair of estimates in
+/// `[covariance]` (pairs the file gave that name an estimate are dropped: the fit replaces what
+/// was known of it). Each estimate is written to the decimal place of a thousandth of its standard
+/// uncertainty (rounding moves it by less than 0.05 % of the uncertainty; digits below carry
+/// nothing the measurements know), and every number to at most [`super::SIGNIFICANT_DIGITS`]
+/// significant digits.
 pub fn fitted_machine_toml(
     machine: &Machine,
-    estimates: &[Estimate],
+    report: &FitReport,
 ) -> Result<String, CalibrateError> {
     let mut document: toml_edit::DocumentMut = machine.source.toml.parse().map_err(|e| {
         CalibrateError::Parameter(format!("the machine's own file does not parse again: {e}"))
     })?;
+    let estimates = &report.estimates;
     let values = estimates
         .iter()
         .map(|e| {
             Unknown::parse(&e.name, machine)
-                .map(|u| (u, super::rounded(e.value, e.uncertainty * 1e-3)))
+                .map(|u| {
+                    let value = super::rounded(e.value, e.uncertainty * 1e-3);
+                    (u, value, super::rounded(e.uncertainty, 0.0))
+                })
                 .map_err(CalibrateError::Parameter)
         })
         .collect::<Result<Vec<_>, _>>()?;
     super::unknowns::write_into(&mut document, &values).map_err(CalibrateError::Parameter)?;
+    let names: Vec<String> = values.iter().map(|(u, ..)| u.quantity()).collect();
+    let mut pairs = Vec::new();
+    for a in 0..names.len() {
+        for b in a + 1..names.len() {
+            let c = report.covariance.get(a).and_then(|row| row.get(b)).copied();
+            // An estimate with no uncertainty (a perfect fit) is exact: it has no covariance.
+            if let Some(c) = c.filter(|_| values[a].2 > 0.0 && values[b].2 > 0.0) {
+                pairs.push((format!("{} {}", names[a], names[b]), c));
+            }
+        }
+    }
+    super::unknowns::write_covariance(&mut document, &names, &pairs)
+        .map_err(CalibrateError::Parameter)?;
     Ok(document.to_string())
 }

@@ -2,6 +2,7 @@
 //! coefficients fitted to standard-test results
 //! ([`fit`]), machine files built from component errors measured at sparse positions ([`build`]).
 
+mod axis_csv;
 pub mod ballbar_figures;
 pub mod build;
 pub mod fit;

@@ -95,6 +95,15 @@ impl Unknown {
         }
     }
 
+    /// As the machine file's `[covariance]` names it: `axes.Y.EC0Y`, `spindle.EZS`,
+    /// `axes.Y.EC0Y.per_kelvin.hall`.
+    pub fn quantity(&self) -> String {
+        match &self.per_kelvin {
+            None => self.target.key(),
+            Some((_, input)) => format!("{}.per_kelvin.{input}", self.target.key()),
+        }
+    }
+
     /// mm or rad, per kelvin for a thermal coefficient.
     pub fn unit(&self) -> &'static str {
         match (self.target.is_angular(), self.per_kelvin.is_some()) {
@@ -206,24 +215,36 @@ fn set_plain_value(machine: &mut Machine, target: ErrorTarget, value: f64) {
 }
 
 /// Sets `key` of a table to `value`, keeping the comments and spacing around the old one.
-fn set(table: &mut dyn TableLike, key: &str, value: f64) {
+fn set(table: &mut dyn TableLike, key: &str, value: Value) {
     match table.get_mut(key).and_then(Item::as_value_mut) {
         Some(old) => {
             let decor = old.decor().clone();
-            *old = number(value);
+            *old = value;
             *old.decor_mut() = decor;
         }
         None => {
-            table.insert(key, Item::Value(number(value)));
+            table.insert(key, Item::Value(value));
         }
     }
 }
 
-/// Writes the unknowns' values into the machine file, keeping everything else as it is: each
-/// error as a number, or in the form `{ value = …, per_kelvin = { input = … } }` where it has
-/// (or had in the file) a thermal coefficient; coefficients of other inputs stay.
-pub fn write_into(document: &mut DocumentMut, unknowns: &[(Unknown, f64)]) -> Result<(), String> {
-    for (unknown, value) in unknowns {
+/// A constant with its standard uncertainty: `{ value = …, u = … }`.
+fn with_u(value: f64, u: f64) -> Value {
+    let mut form = InlineTable::new();
+    form.insert("value", number(value));
+    form.insert("u", number(u));
+    Value::InlineTable(form)
+}
+
+/// Writes the unknowns' values and standard uncertainties `(unknown, value, u)` into the machine
+/// file, keeping everything else as it is: each error as `{ value = …, u = … }`, or in the form
+/// `{ value = …, u = …, per_kelvin = { input = { value = …, u = … } } }` where it has (or had in the
+/// file) a thermal coefficient; coefficients of other inputs stay.
+pub fn write_into(
+    document: &mut DocumentMut,
+    unknowns: &[(Unknown, f64, f64)],
+) -> Result<(), String> {
+    for (unknown, value, u) in unknowns {
         let key = unknown.error_name();
         let section: &mut dyn TableLike = match unknown.target {
             ErrorTarget::Location { axis, .. } => document
@@ -242,13 +263,15 @@ pub fn write_into(document: &mut DocumentMut, unknowns: &[(Unknown, f64)]) -> Re
             .get(&key)
             .is_some_and(|item| item.as_table_like().is_some());
         match (&unknown.per_kelvin, general) {
-            (None, false) => set(section, &key, *value),
+            (None, false) => set(section, &key, with_u(*value, *u)),
             (None, true) => {
                 let form = section
                     .get_mut(&key)
                     .and_then(Item::as_table_like_mut)
                     .expect("checked");
-                set(form, "value", *value);
+                // A `value = { value = …, u = … }` becomes a number: the u stands beside it.
+                set(form, "value", number(*value));
+                set(form, "u", number(*u));
             }
             (Some((_, input)), _) => {
                 if !general {
@@ -278,9 +301,41 @@ pub fn write_into(document: &mut DocumentMut, unknowns: &[(Unknown, f64)]) -> Re
                     .ok_or_else(|| {
                         format!("`{key}.per_kelvin` in the machine file is not a table")
                     })?;
-                set(per_kelvin, input, *value);
+                set(per_kelvin, input, with_u(*value, *u));
             }
         }
+    }
+    Ok(())
+}
+
+/// Writes `pairs` (`"NAME NAME"`, covariance) into the file's `[covariance]`, made where the file
+/// has none, after dropping the pairs it gave that name any of `estimated`.
+pub fn write_covariance(
+    document: &mut DocumentMut,
+    estimated: &[String],
+    pairs: &[(String, f64)],
+) -> Result<(), String> {
+    if pairs.is_empty() && document.get("covariance").is_none() {
+        return Ok(());
+    }
+    let table = document
+        .entry("covariance")
+        .or_insert(Item::Table(toml_edit::Table::new()))
+        .as_table_like_mut()
+        .ok_or_else(|| "the machine file's `covariance` is not a table".to_string())?;
+    let stale: Vec<String> = table
+        .iter()
+        .map(|(key, _)| key.to_string())
+        .filter(|key| {
+            key.split_whitespace()
+                .any(|n| estimated.iter().any(|e| e == n))
+        })
+        .collect();
+    for key in stale {
+        table.remove(&key);
+    }
+    for (key, c) in pairs {
+        table.insert(key, Item::Value(number(*c)));
     }
     Ok(())
 }

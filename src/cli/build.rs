@@ -158,6 +158,19 @@ pub fn run(args: BuildArgs) -> Result<ExitCode, Failure> {
             c.reason
         );
     }
+    let uncertain: Vec<String> = built
+        .iter()
+        .filter_map(|c| {
+            c.u.as_ref()
+                .map(|(column, _)| format!("{} ({column})", c.name))
+        })
+        .collect();
+    if !uncertain.is_empty() {
+        outln!(
+            "  with the standard uncertainty of each node: {}",
+            uncertain.join(", ")
+        );
+    }
     if let Some(path) = &args.json.json {
         // What every command reads from the file written: its hash as read back.
         let written =

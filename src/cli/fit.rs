@@ -22,7 +22,8 @@ pub struct FitArgs {
     /// the temperatures each was measured at).
     #[arg(long)]
     measurements: PathBuf,
-    /// Write the machine file with the estimates in.
+    /// Write the machine file with the estimates in, each with its standard uncertainty `u`, and
+    /// their covariances in `[covariance]`.
     #[arg(long)]
     out: Option<PathBuf>,
     #[command(flatten)]
@@ -79,7 +80,7 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
     );
     outln!("  (uncertainty: one standard uncertainty, from the residuals)");
     if let Some(path) = &args.out {
-        let text = fit::fitted_machine_toml(&machine, &report.estimates)?;
+        let text = fit::fitted_machine_toml(&machine, &report)?;
         let names: Vec<&str> = report.estimates.iter().map(|e| e.name.as_str()).collect();
         let text = calibrate::with_header(
             &text,
@@ -93,7 +94,7 @@ pub fn run(args: FitArgs) -> Result<ExitCode, Failure> {
                     report.points,
                     report.rms_after_mm * UM_PER_MM
                 ),
-                "Each estimate written to a thousandth of its standard uncertainty.".to_string(),
+                "Each estimate written with its standard uncertainty u, to a thousandth of it; their covariances in [covariance].".to_string(),
             ],
         );
         let folder = out_folder(path);

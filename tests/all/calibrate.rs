@@ -19,7 +19,7 @@ impl CsvCause for CalibrateError {
 }
 
 /// Writes a test's predicted curves, with noise, as the measured CSV of its kind.
-fn write_measured(
+pub fn write_measured(
     path: &std::path::Path,
     header: &str,
     result: &standards::TestResult,
@@ -39,7 +39,7 @@ fn write_measured(
     std::fs::write(path, text).unwrap();
 }
 
-const THREE_AXIS_TOML: &str = r#"
+pub const THREE_AXIS_TOML: &str = r#"
 name = "three-axis"
 chain = "FYXFZ"
 [axes.X]
@@ -129,7 +129,7 @@ fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
     assert!(report.rms_after_mm < 0.4e-3, "{}", report.rms_after_mm);
     assert!(report.rms_before_mm > 3.0 * report.rms_after_mm);
     // The machine file with the estimates reads back with them.
-    let text = volmap::calibrate::fit::fitted_machine_toml(&given, &report.estimates).unwrap();
+    let text = volmap::calibrate::fit::fitted_machine_toml(&given, &report).unwrap();
     let fitted = Machine::from_toml(&text, "fitted.toml", None).unwrap();
     // Each to a thousandth of its uncertainty: moved by at most half of that.
     for (estimate, &(_, axis, index, _)) in report.estimates.iter().zip(&truth) {
@@ -356,7 +356,7 @@ fn build_rejects_bad_measurement_files() {
     assert!(error.contains("missing.csv"), "{error}");
 }
 
-const THERMAL_TOML: &str = r#"
+pub const THERMAL_TOML: &str = r#"
 name = "three-axis, warm hall"
 chain = "FYXFZ"
 [thermal]
@@ -373,7 +373,7 @@ range = [-250.0, 250.0]
 /// Measured circles of the thermal machine with EC0Y = s0 + k·(hall − 20) and EB0Z = b: XY
 /// circles at `xy_halls`, a ZX circle at 26 °C, each with its `temperatures`, written beside
 /// the fit file whose `estimate` line is `estimate`.
-fn thermal_measurements(
+pub fn thermal_measurements(
     dir: &tempfile::TempDir,
     truth: (f64, f64, f64),
     xy_halls: &[f64],
@@ -452,9 +452,8 @@ fn fit_recovers_a_squareness_and_its_thermal_coefficient_from_circles_at_three_t
         );
     }
     assert!(report.rms_after_mm < 0.4e-3, "{}", report.rms_after_mm);
-    // The machine file with the estimates carries the coefficient in the general form; EB0Z
-    // stays a number.
-    let text = fit::fitted_machine_toml(&given, &report.estimates).unwrap();
+    // The machine file with the estimates carries the coefficient in the general form.
+    let text = fit::fitted_machine_toml(&given, &report).unwrap();
     assert!(text.contains("per_kelvin"), "{text}");
     let fitted = Machine::from_toml(&text, "fitted.toml", None).unwrap();
     let (s, c) = (report.estimates[0].value, report.estimates[1].value);

@@ -192,7 +192,7 @@ fn fit_file(cx: &mut Context, input: &[u8]) -> Verdict {
     let machine = machine_of(cx, input, "vmc-li2015");
     let report = read!(fit::fit(machine, &file), &files);
     // What `fit --out` writes must read back as a machine.
-    let text = read!(fit::fitted_machine_toml(machine, &report.estimates), &files);
+    let text = read!(fit::fitted_machine_toml(machine, &report), &files);
     if let Err(e) = Machine::from_toml(&text, "fitted.toml", None) {
         return Err(format!("the fitted machine file does not read back: {e}"));
     }

@@ -177,7 +177,7 @@ fn fit_edits_only_the_fitted_values_of_the_machine_file() {
         header.contains("EC0Y") && header.contains("fit.toml"),
         "{header}"
     );
-    // Line for line the base file, but for EC0Y's value (its comment and spacing kept).
+    // Line for line the base file, but for EC0Y's value and u (its comment and spacing kept).
     let (old, new): (Vec<&str>, Vec<&str>) = (BASE.lines().collect(), body.lines().collect());
     assert_eq!(old.len(), new.len());
     let mut fitted = None;
@@ -190,8 +190,17 @@ fn fit_edits_only_the_fitted_values_of_the_machine_file() {
             assert_eq!(a, b);
         }
     }
+    // `{ value = …, u = … }`: the estimate with its standard uncertainty.
     let fitted = fitted.expect("EC0Y written");
-    assert!(significant_digits(&fitted) <= 12, "{fitted}");
+    let form: toml::Table = toml::from_str(&format!("v = {fitted}")).unwrap();
+    assert!(form["v"]["u"].as_float().unwrap() >= 0.0, "{fitted}");
+    let fitted = fitted
+        .split("value = ")
+        .nth(1)
+        .and_then(|rest| rest.split(',').next())
+        .unwrap()
+        .trim();
+    assert!(significant_digits(fitted) <= 12, "{fitted}");
     let value: f64 = fitted.parse().unwrap();
     assert!((value - 2.0e-5).abs() < 1e-12, "{value}");
     assert!(volmap::model::Machine::from_path(&dir.path().join("fitted.toml")).is_ok());

@@ -192,7 +192,7 @@ fn fit_into_another_folder_maps_like_the_base_with_the_estimate() {
         "{written}"
     );
     let value: toml::Table = toml::from_str(&written).unwrap();
-    let estimate = value["axes"]["Y"]["EC0Y"].as_float().unwrap();
+    let estimate = value["axes"]["Y"]["EC0Y"]["value"].as_float().unwrap();
     assert!((estimate - 4.0e-5).abs() < 1e-9, "{estimate}");
     // The base with the estimate in, beside the base.
     let expected_path = dir.path().join("base/expected.toml");

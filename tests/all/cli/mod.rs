@@ -14,6 +14,7 @@ mod export_fanuc;
 mod features;
 mod features_uncertainty;
 mod field_files;
+mod fit_uncertainty;
 mod flag_values;
 mod input_files;
 mod interrupt;
