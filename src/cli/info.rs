@@ -40,11 +40,10 @@ pub fn run(args: InfoArgs) -> Result<ExitCode, Failure> {
             let info = reader.info();
             let mut result = file_json(&args.file, info, file.storage(0));
             result["stats"] = stats_json(info, &stats);
-            result["uncertainty"] = uncertainty
-                .as_ref()
-                .map_or(serde_json::Value::Null, |(method, u)| {
-                    serde_json::json!({ "method": method, "stats": stats_json(info, u) })
-                });
+            result["uncertainty"] = uncertainty.as_ref().map_or(
+                serde_json::Value::Null,
+                |(method, u)| serde_json::json!({ "method": method, "stats": stats_json(info, u) }),
+            );
             Envelope::new("info")
                 .field(info)
                 .write(path, "--json", &result)?;

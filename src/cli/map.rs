@@ -94,7 +94,11 @@ const MAX_MAP_DRAWS: i64 = 1_000_000;
 impl MapUncertaintyArg {
     /// The method asked for, if any; a machine without `u` refused for it.
     fn method(&self, machine: &Machine) -> Result<Option<UncertaintyMethod>, Failure> {
-        let method = match (self.uncertainty, self.uncertainty_samples, self.uncertainty_adaptive) {
+        let method = match (
+            self.uncertainty,
+            self.uncertainty_samples,
+            self.uncertainty_adaptive,
+        ) {
             (true, _, _) => UncertaintyMethod::FirstOrder,
             (false, draws, true) => UncertaintyMethod::Adaptive {
                 batch: draws.unwrap_or(10_000) as usize,
@@ -295,7 +299,14 @@ pub fn run(args: MapArgs) -> Result<ExitCode, Failure> {
         let names: Vec<String> = summary.poses.iter().map(|p| p.name.clone()).collect();
         let code = print_check(summary.check.as_ref(), &names);
         return Ok(match &summary.uncertainty {
-            Some(u) => worse(code, print_uncertainty(&map::field_info(&machine, &grid, &summary.device), u, &names)),
+            Some(u) => worse(
+                code,
+                print_uncertainty(
+                    &map::field_info(&machine, &grid, &summary.device),
+                    u,
+                    &names,
+                ),
+            ),
             None => code,
         });
     }
@@ -394,7 +405,10 @@ pub fn print_uncertainty(
 }
 
 /// The uncertainties of a map in its JSON report (`null` where none were asked for).
-pub fn uncertainty_json(info: &FieldInfo, summary: Option<&UncertaintySummary>) -> serde_json::Value {
+pub fn uncertainty_json(
+    info: &FieldInfo,
+    summary: Option<&UncertaintySummary>,
+) -> serde_json::Value {
     summary.map_or(serde_json::Value::Null, |u| {
         serde_json::json!({
             "method": u.method.describe(),

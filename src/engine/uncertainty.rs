@@ -222,7 +222,7 @@ pub fn numerical_tolerance(u: f64) -> f64 {
 
 /// Where the sums of a chunk are computed.
 enum Summer<'a> {
-    Gpu(&'a crate::gpu::GpuMapper, SumsPlan),
+    Gpu(&'a crate::gpu::GpuMapper, Box<SumsPlan>),
     Host {
         reference: bool,
         grid: &'a Grid,
@@ -263,10 +263,7 @@ impl Summer<'_> {
                     }
                     out
                 };
-                let nominal = terms
-                    .iter()
-                    .any(|t| t.minus.is_none())
-                    .then(|| field(base));
+                let nominal = terms.iter().any(|t| t.minus.is_none()).then(|| field(base));
                 let mut first = vec![0.0f64; values];
                 let mut second = vec![0.0f64; values];
                 for term in terms {
@@ -305,8 +302,10 @@ impl Engine {
         let summer = match self {
             Engine::Gpu(gpu) => Summer::Gpu(
                 gpu,
-                gpu.plan_sums(machine, grid, Some(chunk_points))
-                    .map_err(EngineError::from)?,
+                Box::new(
+                    gpu.plan_sums(machine, grid, Some(chunk_points))
+                        .map_err(EngineError::from)?,
+                ),
             ),
             Engine::Cpu | Engine::Reference => Summer::Host {
                 reference: matches!(self, Engine::Reference),
@@ -323,12 +322,11 @@ impl Engine {
             _ => None,
         };
         let draws = match method {
-            UncertaintyMethod::MonteCarlo { seed, .. } | UncertaintyMethod::Adaptive { seed, .. } => {
-                Some(
-                    Draws::new(&machine.uncertainty, seed)
-                        .map_err(|e| EngineError::Uncertainty(format!("{e:?}")))?,
-                )
-            }
+            UncertaintyMethod::MonteCarlo { seed, .. }
+            | UncertaintyMethod::Adaptive { seed, .. } => Some(
+                Draws::new(&machine.uncertainty, seed)
+                    .map_err(|e| EngineError::Uncertainty(format!("{e:?}")))?,
+            ),
             UncertaintyMethod::FirstOrder => None,
         };
         let drawn = |range: std::ops::Range<usize>| -> Vec<SumTerm> {
@@ -345,7 +343,7 @@ impl Engine {
             terms_min: usize::MAX,
             ..Default::default()
         };
-        let chunks = summer.chunks().clone();
+        let chunks = *summer.chunks();
         for n in 0..chunks.len() {
             let (first_line, lines) = chunks.get(n);
             let values = lines as usize * grid.dims[0] * CHANNELS.len();
@@ -356,7 +354,10 @@ impl Engine {
                         (vec![0.0; values], 0)
                     } else {
                         let (_, second) = summer.sums(n, terms).map_err(EngineError::from)?;
-                        (second.iter().map(|s| s.max(0.0).sqrt()).collect(), terms.len())
+                        (
+                            second.iter().map(|s| s.max(0.0).sqrt()).collect(),
+                            terms.len(),
+                        )
                     }
                 }
                 UncertaintyMethod::MonteCarlo { draws, .. } => {
@@ -364,8 +365,9 @@ impl Engine {
                     let mut start = 0;
                     while start < draws {
                         let end = (start + DRAWS_PER_READBACK).min(draws);
-                        let (first, second) =
-                            summer.sums(n, &drawn(start..end)).map_err(EngineError::from)?;
+                        let (first, second) = summer
+                            .sums(n, &drawn(start..end))
+                            .map_err(EngineError::from)?;
                         pooled.merge(&Pooled::of_sums((end - start) as f64, &first, &second));
                         start = end;
                     }
@@ -415,20 +417,24 @@ fn adaptive(
             start = stop;
         }
         let batch_u = batch_pool.std();
-        for i in 0..values {
-            y.0[i] += batch_pool.mean[i];
-            y.1[i] += batch_pool.mean[i].powi(2);
-            u.0[i] += batch_u[i];
-            u.1[i] += batch_u[i].powi(2);
+        assert_eq!(
+            batch_u.len(),
+            values,
+            "a batch's value per value of the chunk"
+        );
+        for (i, (&mean, &bu)) in batch_pool.mean.iter().zip(&batch_u).enumerate() {
+            y.0[i] += mean;
+            y.1[i] += mean * mean;
+            u.0[i] += bu;
+            u.1[i] += bu * bu;
         }
         pooled.merge(&batch_pool);
         h += 1;
         if h >= 2 {
             let hf = h as f64;
             // The standard deviation of the mean of h batch results, s/√h.
-            let spread = |(s1, s2): (&f64, &f64)| {
-                ((s2 - s1 * s1 / hf).max(0.0) / (hf - 1.0) / hf).sqrt()
-            };
+            let spread =
+                |(s1, s2): (&f64, &f64)| ((s2 - s1 * s1 / hf).max(0.0) / (hf - 1.0) / hf).sqrt();
             let total_u = pooled.std();
             let stable = (0..values).all(|i| {
                 let delta = numerical_tolerance(total_u[i]);
@@ -436,11 +442,7 @@ fn adaptive(
                     && 2.0 * spread((&u.0[i], &u.1[i])) <= delta
             });
             if stable || h >= MAX_ADAPTIVE_BATCHES {
-                return Ok((
-                    total_u.into_iter().map(|x| x as f32).collect(),
-                    h,
-                    stable,
-                ));
+                return Ok((total_u.into_iter().map(|x| x as f32).collect(), h, stable));
             }
         }
     }

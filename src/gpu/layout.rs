@@ -109,7 +109,10 @@ pub const STRUCT_SIZES: [(&str, usize); 15] = [
     ("XPoly", std::mem::size_of::<XPoly>()),
     ("Partial", std::mem::size_of::<Partial>()),
     ("FoldedPart", std::mem::size_of::<FoldedPart>()),
-    ("UncertaintyParams", std::mem::size_of::<UncertaintyParams>()),
+    (
+        "UncertaintyParams",
+        std::mem::size_of::<UncertaintyParams>(),
+    ),
 ];
 
 /// A 3×3 matrix in the upper-left of a WGSL `mat4x4<f32>`, column-major.

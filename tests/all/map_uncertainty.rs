@@ -101,9 +101,18 @@ fn a_squareness_maps_to_y_times_u_at_every_point() {
             let want = [y * c.cos() * u, y * c.sin() * u, 0.0];
             for k in 0..3 {
                 let d = (g[3 + k] as f64 - want[k]).abs();
-                assert!(d <= tol, "{} point {p} y {y}: u(VE) {g:?} vs {want:?}", engine.name());
+                assert!(
+                    d <= tol,
+                    "{} point {p} y {y}: u(VE) {g:?} vs {want:?}",
+                    engine.name()
+                );
             }
-            assert!((g[2] as f64 - u).abs() <= 1e-9, "{}: u(OE.z) {}", engine.name(), g[2]);
+            assert!(
+                (g[2] as f64 - u).abs() <= 1e-9,
+                "{}: u(OE.z) {}",
+                engine.name(),
+                g[2]
+            );
             assert!(g[0].abs() < 1e-12 && g[1].abs() < 1e-12, "{g:?}");
         }
     }
@@ -178,16 +187,34 @@ fn every_engine_propagates_as_the_reference_and_monte_carlo_agrees() {
         for p in 0..got.len() {
             let command = grid.command(grid.indices(p as u64));
             let want = propagation.first_order(&command);
-            let ve = (values[p][3] as f64).hypot(values[p][4] as f64).hypot(values[p][5] as f64);
+            let ve = (values[p][3] as f64)
+                .hypot(values[p][4] as f64)
+                .hypot(values[p][5] as f64);
             for k in 0..3 {
                 // Channel order (OE, VE) against the reference's (VE, OE).
                 let d = (got[p][3 + k] as f64 - want[k]).abs();
-                assert!(d <= ve_tolerance_mm(ve), "{} p {p}: {:?} vs {want:?}", engine.name(), got[p]);
+                assert!(
+                    d <= ve_tolerance_mm(ve),
+                    "{} p {p}: {:?} vs {want:?}",
+                    engine.name(),
+                    got[p]
+                );
                 let d = (got[p][k] as f64 - want[3 + k]).abs();
-                assert!(d <= 1e-9, "{} p {p}: {:?} vs {want:?}", engine.name(), got[p]);
+                assert!(
+                    d <= 1e-9,
+                    "{} p {p}: {:?} vs {want:?}",
+                    engine.name(),
+                    got[p]
+                );
                 let se = want[k] / (2.0 * (draws as f64 - 1.0)).sqrt();
                 let d = (mc[p][3 + k] as f64 - want[k]).abs();
-                assert!(d <= 4.0 * se + 1e-9, "{} p {p} VE {k}: MC {} vs {}", engine.name(), mc[p][3 + k], want[k]);
+                assert!(
+                    d <= 4.0 * se + 1e-9,
+                    "{} p {p} VE {k}: MC {} vs {}",
+                    engine.name(),
+                    mc[p][3 + k],
+                    want[k]
+                );
             }
         }
     }
@@ -207,14 +234,19 @@ fn monte_carlo_draws_the_same_machines_on_every_engine() {
         "",
     );
     let grid = grid([3, 3, 3]);
-    let method = UncertaintyMethod::MonteCarlo { draws: 300, seed: 3 };
+    let method = UncertaintyMethod::MonteCarlo {
+        draws: 300,
+        seed: 3,
+    };
     let engines = engines();
     assert_eq!(engines.len(), 2, "the CPU engine and the GPU");
     let (values, cpu) = mapped(&machine, &grid, &engines[0], method);
     let (_, gpu) = mapped(&machine, &grid, &engines[1], method);
     assert_eq!(cpu.len(), gpu.len());
     for p in 0..cpu.len() {
-        let ve = (values[p][3] as f64).hypot(values[p][4] as f64).hypot(values[p][5] as f64);
+        let ve = (values[p][3] as f64)
+            .hypot(values[p][4] as f64)
+            .hypot(values[p][5] as f64);
         for c in 3..6 {
             let d = (cpu[p][c] as f64 - gpu[p][c] as f64).abs();
             assert!(d <= ve_tolerance_mm(ve), "p {p} c {c}: {cpu:?} vs {gpu:?}");

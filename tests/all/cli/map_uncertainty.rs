@@ -44,8 +44,17 @@ fn the_uncertainty_part_is_checked_written_and_read_back() {
         ] {
             let out = dir.path().join(format!("{device}.exr"));
             let mut args = vec![
-                "map", "--machine", s(&m), "--grid", "6x5x4", "--check", "30", "--device", device,
-                "--out", s(&out),
+                "map",
+                "--machine",
+                s(&m),
+                "--grid",
+                "6x5x4",
+                "--check",
+                "30",
+                "--device",
+                device,
+                "--out",
+                s(&out),
             ];
             args.extend_from_slice(method);
             let stdout = succeeds(&args, dir.path());
@@ -57,7 +66,11 @@ fn the_uncertainty_part_is_checked_written_and_read_back() {
             assert_eq!(file.parts(), 1);
             assert!(!file.is_multipart());
             let said = file.uncertainty(0).unwrap().to_string();
-            let expected = if method.len() == 1 { "first order" } else { "500 draws, seed 4" };
+            let expected = if method.len() == 1 {
+                "first order"
+            } else {
+                "500 draws, seed 4"
+            };
             assert!(said.contains(expected), "{said}");
             let info = succeeds(&["info", s(&out)], dir.path());
             assert!(info.contains(&format!("uncertainty {said}")), "{info}");
@@ -80,10 +93,24 @@ fn exrheader_sees_two_parts_and_the_method() {
     let m = machine(dir.path());
     let out = dir.path().join("u.exr");
     succeeds(
-        &["map", "--machine", s(&m), "--grid", "4x4x4", "--device", "cpu", "--uncertainty", "--out", s(&out)],
+        &[
+            "map",
+            "--machine",
+            s(&m),
+            "--grid",
+            "4x4x4",
+            "--device",
+            "cpu",
+            "--uncertainty",
+            "--out",
+            s(&out),
+        ],
         dir.path(),
     );
-    let output = std::process::Command::new("exrheader").arg(&out).output().unwrap();
+    let output = std::process::Command::new("exrheader")
+        .arg(&out)
+        .output()
+        .unwrap();
     let text = String::from_utf8_lossy(&output.stdout);
     assert!(output.status.success(), "{text}");
     assert!(text.contains("name (type string): \"errors\""), "{text}");
@@ -101,11 +128,30 @@ fn a_sweep_writes_each_poses_uncertainties_after_its_errors() {
     // The spindle's EXS given a u, its value kept.
     let m = dir.path().join("h.toml");
     assert!(text.contains("\nEXS = 0.001\n"), "the machine file changed");
-    let with_u = text.replacen("\nEXS = 0.001\n", "\nEXS = { value = 0.001, u = 1e-3 }\n", 1);
+    let with_u = text.replacen(
+        "\nEXS = 0.001\n",
+        "\nEXS = { value = 0.001, u = 1e-3 }\n",
+        1,
+    );
     std::fs::write(&m, with_u).unwrap();
     let out = dir.path().join("sweep.exr");
     let stdout = succeeds(
-        &["map", "--machine", s(&m), "--grid", "4x4x3", "--poses", "B=0:30:30", "--device", "cpu", "--uncertainty", "--check", "10", "--out", s(&out)],
+        &[
+            "map",
+            "--machine",
+            s(&m),
+            "--grid",
+            "4x4x3",
+            "--poses",
+            "B=0:30:30",
+            "--device",
+            "cpu",
+            "--uncertainty",
+            "--check",
+            "10",
+            "--out",
+            s(&out),
+        ],
         dir.path(),
     );
     assert_eq!(stdout.matches(": ok").count(), 2, "{stdout}");
@@ -115,7 +161,7 @@ fn a_sweep_writes_each_poses_uncertainties_after_its_errors() {
     for p in 0..2 {
         assert!(file.uncertainty(p).is_some(), "pose {p}");
     }
-    assert_eq!(file.name(1), "B=30");
+    assert_eq!(file.name(1), "B=30,C=0");
 }
 
 #[test]
@@ -126,9 +172,23 @@ fn a_machine_without_u_is_refused_for_each_method() {
         &["--uncertainty-samples", "100"][..],
         &["--uncertainty-adaptive"][..],
     ] {
-        let mut args = vec!["map", "--machine", "vmc-li2015", "--grid", "3x3x3", "--device", "cpu", "--out", "x.exr"];
+        let mut args = vec![
+            "map",
+            "--machine",
+            "vmc-li2015",
+            "--grid",
+            "3x3x3",
+            "--device",
+            "cpu",
+            "--out",
+            "x.exr",
+        ];
         args.extend_from_slice(flags);
-        refused(&args, dir.path(), &[flags[0], "no error value a standard uncertainty"]);
+        refused(
+            &args,
+            dir.path(),
+            &[flags[0], "no error value a standard uncertainty"],
+        );
         assert!(!dir.path().join("x.exr").exists());
     }
 }
@@ -145,19 +205,37 @@ fn maps_at_large_error_angles_pass_the_check_on_every_engine() {
         [axes.X]\nrange = [0.0, 800.0]\nEBX = { poly = [0.0, 9e-6] }\nECX = 0.008\n\
         [axes.Y]\nrange = [0.0, 600.0]\nEAY = 0.007\nEC0Y = 0.009\n\
         [axes.Z]\nrange = [0.0, 400.0]\nEAZ = { poly = [0.0, 2e-5] }\n";
-    let folded = format!("{own}EBZ = {{ of = \"X\", poly = [0.0, 1e-5] }}\n").replace("\"big\"", "\"big-folded\"");
+    let folded = format!("{own}EBZ = {{ of = \"X\", poly = [0.0, 1e-5] }}\n")
+        .replace("\"big\"", "\"big-folded\"");
     for (name, text) in [("own.toml", own.to_string()), ("folded.toml", folded)] {
         let m = dir.path().join(name);
         std::fs::write(&m, text).unwrap();
         for device in devices() {
             let out = dir.path().join("big.exr");
             let output = volmap()
-                .args(["map", "--machine", s(&m), "--grid", "16x16x16", "--check", "600", "--device", device, "--out", s(&out)])
+                .args([
+                    "map",
+                    "--machine",
+                    s(&m),
+                    "--grid",
+                    "16x16x16",
+                    "--check",
+                    "600",
+                    "--device",
+                    device,
+                    "--out",
+                    s(&out),
+                ])
                 .current_dir(dir.path())
                 .output()
                 .unwrap();
             let stdout = String::from_utf8_lossy(&output.stdout);
-            assert_eq!(output.status.code(), Some(0), "{name} {device}: {stdout} {}", String::from_utf8_lossy(&output.stderr));
+            assert_eq!(
+                output.status.code(),
+                Some(0),
+                "{name} {device}: {stdout} {}",
+                String::from_utf8_lossy(&output.stderr)
+            );
             // The map is large: several mm, where 1 nm is under 3 ulps.
             assert!(stdout.contains("max |VE|"), "{stdout}");
         }
