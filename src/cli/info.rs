@@ -11,7 +11,7 @@ use super::args::JsonArg;
 use super::envelope::{field_pose, Envelope};
 use super::failure::Failure;
 use super::field_report::{file_json, stats_json, sweep_json};
-use super::map::print_summary;
+use super::map_report::print_summary;
 use super::numbers;
 use super::sweep::print_sweep_summary;
 

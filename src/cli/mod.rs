@@ -69,6 +69,7 @@ pub mod interrupt;
 pub mod machines;
 pub mod man;
 pub mod map;
+pub mod map_report;
 pub mod merge_maps;
 pub mod merge_samples;
 pub mod numbers;

@@ -51,6 +51,38 @@ pub struct CheckedPoint {
 }
 
 impl CheckedPoint {
+    /// Point `p` of `grid`: the field's `got` against the reference's `want`, both in channel
+    /// order, the tolerances from the reference's values `value` there (channel order; `want`
+    /// itself for a field of values).
+    pub fn of(
+        grid: &Grid,
+        p: u64,
+        got: &[f32; 6],
+        want: &[f64; 6],
+        value: &[f64; 6],
+    ) -> CheckedPoint {
+        let indices = grid.indices(p);
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let diff = |range: std::ops::Range<usize>| {
+            range
+                .map(|c| (got[c] as f64 - want[c]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        CheckedPoint {
+            pose: 0,
+            point: p,
+            indices,
+            at_mm: grid.command(indices)[..3]
+                .try_into()
+                .expect("three linear axes"),
+            ve_diff_mm: diff(3..6),
+            oe_diff_rad: diff(0..3),
+            ve_mm: norm(&value[3..6]),
+            oe_rad: norm(&value[0..3]),
+        }
+    }
+
     /// How far beyond the tolerances the point lies: above 1 fails.
     pub fn excess(&self) -> f64 {
         (self.ve_diff_mm / ve_tolerance_mm(self.ve_mm))
@@ -89,6 +121,16 @@ impl CheckResult {
     /// Whether every checked point is within its tolerances.
     pub fn passed(&self) -> bool {
         self.worst.as_ref().is_none_or(|w| w.excess() <= 1.0)
+    }
+
+    /// Adds one checked point.
+    pub fn add(&mut self, checked: CheckedPoint) {
+        self.merge(&CheckResult {
+            points: 0,
+            max_ve_diff_mm: checked.ve_diff_mm,
+            max_oe_diff_rad: checked.oe_diff_rad,
+            worst: Some(checked),
+        });
     }
 
     /// Adds the check of another pose of a sweep.
@@ -427,32 +469,8 @@ pub fn check_against_reference(
         worst: None,
     };
     for (&p, got) in points.iter().zip(values) {
-        let indices = grid.indices(p);
-        let want = reference::point_values(&twin, grid, indices);
-        let diff = |range: std::ops::Range<usize>| {
-            range
-                .map(|c| (got[c] as f64 - want[c]).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        };
-        let checked = CheckedPoint {
-            pose: 0,
-            point: p,
-            indices,
-            at_mm: grid.command(indices)[..3]
-                .try_into()
-                .expect("three linear axes"),
-            ve_diff_mm: diff(3..6),
-            oe_diff_rad: diff(0..3),
-            ve_mm: want[3..6].iter().map(|x| x * x).sum::<f64>().sqrt(),
-            oe_rad: want[0..3].iter().map(|x| x * x).sum::<f64>().sqrt(),
-        };
-        result.merge(&CheckResult {
-            points: 0,
-            max_ve_diff_mm: checked.ve_diff_mm,
-            max_oe_diff_rad: checked.oe_diff_rad,
-            worst: Some(checked),
-        });
+        let want = reference::point_values(&twin, grid, grid.indices(p));
+        result.add(CheckedPoint::of(grid, p, got, &want, &want));
     }
     result
 }

@@ -147,35 +147,10 @@ pub fn check_uncertainty(
     };
     assert_eq!(want.len(), points.len(), "a reference per checked point");
     for ((&p, got), want) in points.iter().zip(values).zip(&want) {
-        let indices = grid.indices(p);
-        let value = super::reference::point_values(&twin, grid, indices);
-        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        // Channel order (OE, then VE) against the reference's sample order (VE, then OE).
-        let diff = |channels: std::ops::Range<usize>, sample: usize| {
-            channels
-                .enumerate()
-                .map(|(n, c)| (got[c] as f64 - want[sample + n]).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        };
-        let checked = CheckedPoint {
-            pose: 0,
-            point: p,
-            indices,
-            at_mm: grid.command(indices)[..3]
-                .try_into()
-                .expect("three linear axes"),
-            ve_diff_mm: diff(3..6, 0),
-            oe_diff_rad: diff(0..3, 3),
-            ve_mm: norm(&value[3..6]),
-            oe_rad: norm(&value[0..3]),
-        };
-        result.merge(&CheckResult {
-            points: 0,
-            max_ve_diff_mm: checked.ve_diff_mm,
-            max_oe_diff_rad: checked.oe_diff_rad,
-            worst: Some(checked),
-        });
+        let value = super::reference::point_values(&twin, grid, grid.indices(p));
+        // The reference's sample order (VE, then OE) into channel order (OE, then VE).
+        let want = [want[3], want[4], want[5], want[0], want[1], want[2]];
+        result.add(CheckedPoint::of(grid, p, got, &want, &value));
     }
     Some(result)
 }

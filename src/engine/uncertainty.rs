@@ -268,10 +268,11 @@ impl Summer<'_> {
                 let mut second = vec![0.0f64; values];
                 for term in terms {
                     let a = field(&term.plus);
-                    let b = match &term.minus {
-                        Some(m) => field(m),
-                        None => nominal.clone().expect("the nominal field"),
-                    };
+                    let minus = term.minus.as_ref().map(field);
+                    let b = minus
+                        .as_deref()
+                        .or(nominal.as_deref())
+                        .expect("the nominal field");
                     for i in 0..values {
                         let d = term.scale * (a[i] as f64 - b[i] as f64);
                         first[i] += d;

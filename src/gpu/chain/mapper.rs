@@ -259,6 +259,26 @@ impl GpuMapper {
         }
     }
 
+    /// The chunks of whole lines a map of `grid` is computed in on this device, at most
+    /// `chunk_points` points each where asked (a chunk holds at least one line, whatever is
+    /// asked, as on the CPU).
+    pub(super) fn chunks_of(
+        &self,
+        grid: &Grid,
+        chunk_points: Option<u64>,
+    ) -> Result<Chunks, GpuError> {
+        let nx = grid.dims[0] as u64;
+        let device_limit = self.max_chunk_points();
+        let limit = chunk_points.map_or(device_limit, |c| c.max(nx).min(device_limit));
+        if nx > limit {
+            return Err(self.error(format!(
+                "a line of {nx} points does not fit in one chunk of at most {limit} points"
+            )));
+        }
+        let lines_per_chunk = (limit / nx).min(self.max_chunk_lines()).max(1);
+        Ok(grid.chunks(lines_per_chunk * nx))
+    }
+
     /// Uploads the machine, computes its axis values and groups, and plans the chunks for each
     /// of `tilings`.
     pub(super) fn prepare(
@@ -272,16 +292,7 @@ impl GpuMapper {
         super::check_own_axis_errors(machine)?;
         let packed = pack(machine, grid);
         let nx = grid.dims[0] as u64;
-        // A chunk holds whole lines: at least one, whatever is asked, as on the CPU.
-        let device_limit = self.max_chunk_points();
-        let limit = chunk_points.map_or(device_limit, |c| c.max(nx).min(device_limit));
-        if nx > limit {
-            return Err(self.error(format!(
-                "a line of {nx} points does not fit in one chunk of at most {limit} points"
-            )));
-        }
-        let lines_per_chunk = (limit / nx).min(self.max_chunk_lines()).max(1);
-        let chunks = grid.chunks(lines_per_chunk * nx);
+        let chunks = self.chunks_of(grid, chunk_points)?;
         let chunk_lines = chunks.most_lines().max(1);
         let chunk_bytes = chunk_lines * nx * BYTES_PER_POINT;
         let tables = self.per_map_passes(&packed, nx)?;

@@ -77,15 +77,7 @@ impl GpuMapper {
         chunk_points: Option<u64>,
     ) -> Result<SumsPlan, GpuError> {
         let nx = grid.dims[0] as u64;
-        let device_limit = self.max_chunk_points();
-        let limit = chunk_points.map_or(device_limit, |c| c.max(nx).min(device_limit));
-        if nx > limit {
-            return Err(self.error(format!(
-                "a line of {nx} points does not fit in one chunk of at most {limit} points"
-            )));
-        }
-        let lines_per_chunk = (limit / nx).min(self.max_chunk_lines()).max(1);
-        let chunks = grid.chunks(lines_per_chunk * nx);
+        let chunks = self.chunks_of(grid, chunk_points)?;
         let chunk_bytes = chunks.most_lines().max(1) * nx * BYTES_PER_POINT;
         let gpu = &self.gpu;
         let accumulate = {

@@ -180,8 +180,8 @@ fn compensate_says_whether_the_largest_error_left_is_within_u() {
         "G21 G90 G17\nG0 X10 Y200 Z150\nG1 X310.3 Y200.7 Z150 F1000\nG1 X40.9 Y200.3 Z150\nM30\n",
     )
     .unwrap();
-    let run = |u: f64, name: &str| -> String {
-        let m = machine(dir.path(), &format!("{name}.toml"), Some(u), "");
+    let run = |u: Option<f64>, name: &str| -> String {
+        let m = machine(dir.path(), &format!("{name}.toml"), u, "");
         let out = dir.path().join(format!("{name}.nc"));
         let output = volmap()
             .args(["compensate", "--machine", s(&m), "--program", s(&program)])
@@ -204,32 +204,17 @@ fn compensate_says_whether_the_largest_error_left_is_within_u() {
         );
         stdout
     };
-    let wide = run(2e-5, "wide");
+    let wide = run(Some(2e-5), "wide");
     assert!(
         wide.contains("within U =") && wide.contains("below what the measurements can know"),
         "{wide}"
     );
-    let narrow = run(1e-9, "narrow");
+    let narrow = run(Some(1e-9), "narrow");
     assert!(
         narrow.contains("beyond U =") && !narrow.contains("within U"),
         "{narrow}"
     );
     // A machine without u says nothing of it.
-    let m = machine(dir.path(), "exact.toml", None, "");
-    let out = dir.path().join("exact.nc");
-    let output = volmap()
-        .args(["compensate", "--machine", s(&m), "--program", s(&program)])
-        .args([
-            "--decimals",
-            "3",
-            "--chord-tolerance",
-            "0.002",
-            "--out",
-            s(&out),
-        ])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert_eq!(output.status.code(), Some(0), "{stdout}");
+    let stdout = run(None, "exact");
     assert!(!stdout.contains("U ="), "{stdout}");
 }

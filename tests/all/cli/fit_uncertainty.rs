@@ -4,7 +4,7 @@
 //! written file, `C` the covariance the fit reports); and the nodes' `u` of a built table from a
 //! `u_um` column of the measurements.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use toml_edit::{DocumentMut, Item};
 use volmap::model::Machine;
@@ -212,6 +212,28 @@ EXS = { value = 0.0, u = 1e-3 }
 /// the reported `u` and every pair's covariance, drops the pair the base gave EC0Y (the fit
 /// replaces what was known of it), keeps the spindle's `u`, and reads back as the same map
 /// uncertainty.
+/// `volmap fit` of `given` to `measurements` in `dir`: the fitted machine file and the JSON
+/// report it writes.
+fn fitted(dir: &Path, given: &Path, measurements: &Path) -> (PathBuf, PathBuf) {
+    let fitted = dir.join("fitted.toml");
+    let json = dir.join("fit.json");
+    succeeds(
+        &[
+            "fit",
+            "--machine",
+            s(given),
+            "--measurements",
+            s(measurements),
+            "--out",
+            s(&fitted),
+            "--json",
+            s(&json),
+        ],
+        dir,
+    );
+    (fitted, json)
+}
+
 #[test]
 fn fit_writes_u_and_covariance_that_read_back_as_the_same_map_uncertainty() {
     let dir = tempfile::tempdir().unwrap();
@@ -249,22 +271,7 @@ fn fit_writes_u_and_covariance_that_read_back_as_the_same_map_uncertainty() {
         fit += &format!("[[diagonal]]\ndiagonal = \"{diagonal}\"\ncsv = \"{name}\"\n");
     }
     let measurements = write(&dir, "fit.toml", &fit);
-    let fitted = dir.path().join("fitted.toml");
-    let json = dir.path().join("fit.json");
-    succeeds(
-        &[
-            "fit",
-            "--machine",
-            s(&given),
-            "--measurements",
-            s(&measurements),
-            "--out",
-            s(&fitted),
-            "--json",
-            s(&json),
-        ],
-        dir.path(),
-    );
+    let (fitted, json) = fitted(dir.path(), &given, &measurements);
     let (names, c) = reported(&json);
     assert_eq!(names, ["EC0Y", "EB0Z", "EA0Z"]);
     let text = std::fs::read_to_string(&fitted).unwrap();
@@ -320,22 +327,7 @@ fn a_thermal_coefficient_is_written_with_its_u_and_covariance() {
         "\"EC0Y\", \"EC0Y.per_kelvin.hall\", \"EB0Z\"",
     );
     let given = write(&dir, "given.toml", THERMAL_TOML);
-    let fitted = dir.path().join("fitted.toml");
-    let json = dir.path().join("fit.json");
-    succeeds(
-        &[
-            "fit",
-            "--machine",
-            s(&given),
-            "--measurements",
-            s(&measurements),
-            "--out",
-            s(&fitted),
-            "--json",
-            s(&json),
-        ],
-        dir.path(),
-    );
+    let (fitted, json) = fitted(dir.path(), &given, &measurements);
     let (names, c) = reported(&json);
     assert_eq!(names, ["EC0Y", "EC0Y.per_kelvin.hall", "EB0Z"]);
     let document: DocumentMut = std::fs::read_to_string(&fitted).unwrap().parse().unwrap();
