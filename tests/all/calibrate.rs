@@ -51,6 +51,54 @@ range = [-300.0, 300.0]
 range = [-250.0, 250.0]
 "#;
 
+/// Measurements that see the three squareness errors of a machine (`setup`): ballbar circles
+/// in XY, YZ and ZX (150 mm, 72 points) and the four body diagonals (21 points), each a CSV in
+/// `dir` with normal noise of `noise` mm; returns their `[[circular]]` and `[[diagonal]]` tables
+/// of a fit file.
+pub fn squareness_measurements(
+    dir: &std::path::Path,
+    setup: &Setup,
+    noise: f64,
+    rng: &mut super::common::Rng,
+) -> String {
+    let mut fit_toml = String::new();
+    for plane in ["XY", "YZ", "ZX"] {
+        let result = standards::circular(setup, &circular_spec(plane, 150.0)).unwrap();
+        let name = format!("{plane}.csv");
+        write_measured(
+            &dir.join(&name),
+            "angle_deg,deviation_um",
+            &result,
+            noise,
+            rng,
+        );
+        fit_toml += &format!(
+            "[[circular]]\nplane = \"{plane}\"\nradius_mm = 150.0\npoints = 72\ncsv = \"{name}\"\n"
+        );
+    }
+    for diagonal in ["PPP", "NPP", "PNP", "PPN"] {
+        let spec = DiagonalSpec {
+            diagonal: Some(diagonal.into()),
+            from_mm: None,
+            to_mm: None,
+            points: 21,
+            pose: String::new(),
+            csv: None,
+        };
+        let result = standards::diagonal(setup, &spec).unwrap();
+        let name = format!("{diagonal}.csv");
+        write_measured(
+            &dir.join(&name),
+            "position_mm,deviation_um",
+            &result,
+            noise,
+            rng,
+        );
+        fit_toml += &format!("[[diagonal]]\ndiagonal = \"{diagonal}\"\ncsv = \"{name}\"\n");
+    }
+    fit_toml
+}
+
 #[test]
 fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
     let dir = tempfile::tempdir().unwrap();
@@ -68,40 +116,7 @@ fn fit_recovers_squareness_errors_from_noisy_circles_and_diagonals() {
     let mut rng = super::common::Rng::new(42);
     let noise = 0.3e-3;
     let mut fit_toml = String::from("estimate = [\"EC0Y\", \"EB0Z\", \"EA0Z\"]\n");
-    for plane in ["XY", "YZ", "ZX"] {
-        let result = standards::circular(&setup, &circular_spec(plane, 150.0)).unwrap();
-        let name = format!("{plane}.csv");
-        write_measured(
-            &dir.path().join(&name),
-            "angle_deg,deviation_um",
-            &result,
-            noise,
-            &mut rng,
-        );
-        fit_toml += &format!(
-            "[[circular]]\nplane = \"{plane}\"\nradius_mm = 150.0\npoints = 72\ncsv = \"{name}\"\n"
-        );
-    }
-    for diagonal in ["PPP", "NPP", "PNP", "PPN"] {
-        let spec = DiagonalSpec {
-            diagonal: Some(diagonal.into()),
-            from_mm: None,
-            to_mm: None,
-            points: 21,
-            pose: String::new(),
-            csv: None,
-        };
-        let result = standards::diagonal(&setup, &spec).unwrap();
-        let name = format!("{diagonal}.csv");
-        write_measured(
-            &dir.path().join(&name),
-            "position_mm,deviation_um",
-            &result,
-            noise,
-            &mut rng,
-        );
-        fit_toml += &format!("[[diagonal]]\ndiagonal = \"{diagonal}\"\ncsv = \"{name}\"\n");
-    }
+    fit_toml += &squareness_measurements(dir.path(), &setup, noise, &mut rng);
     let fit_path = write(&dir, "fit.toml", &fit_toml);
     let file = volmap::calibrate::fit::FitFile::read(&fit_path).unwrap();
     let report = volmap::calibrate::fit::fit(&given, &file).unwrap();

@@ -8,11 +8,11 @@ use std::path::{Path, PathBuf};
 
 use toml_edit::{DocumentMut, Item};
 use volmap::model::Machine;
-use volmap::standards::{self, DiagonalSpec, Setup};
+use volmap::standards::Setup;
 
 use super::{json_result, refused, s, succeeds};
-use crate::calibrate::{thermal_measurements, write_measured, THERMAL_TOML};
-use crate::standards::{circular_spec, write};
+use crate::calibrate::{squareness_measurements, thermal_measurements, THERMAL_TOML};
+use crate::standards::write;
 
 /// The header and the rows of a CSV answer of `sample`.
 fn table(text: &str) -> (Vec<String>, Vec<Vec<f64>>) {
@@ -246,30 +246,7 @@ fn fit_writes_u_and_covariance_that_read_back_as_the_same_map_uncertainty() {
     let setup = Setup::new(&truth, "").unwrap();
     let mut rng = crate::common::Rng::new(7);
     let mut fit = String::from("estimate = [\"EC0Y\", \"EB0Z\", \"EA0Z\"]\n");
-    for plane in ["XY", "YZ", "ZX"] {
-        let result = standards::circular(&setup, &circular_spec(plane, 150.0)).unwrap();
-        let name = format!("{plane}.csv");
-        let path = dir.path().join(&name);
-        write_measured(&path, "angle_deg,deviation_um", &result, 0.3e-3, &mut rng);
-        fit += &format!(
-            "[[circular]]\nplane = \"{plane}\"\nradius_mm = 150.0\npoints = 72\ncsv = \"{name}\"\n"
-        );
-    }
-    for diagonal in ["PPP", "NPP", "PNP", "PPN"] {
-        let spec = DiagonalSpec {
-            diagonal: Some(diagonal.into()),
-            from_mm: None,
-            to_mm: None,
-            points: 21,
-            pose: String::new(),
-            csv: None,
-        };
-        let result = standards::diagonal(&setup, &spec).unwrap();
-        let name = format!("{diagonal}.csv");
-        let path = dir.path().join(&name);
-        write_measured(&path, "position_mm,deviation_um", &result, 0.3e-3, &mut rng);
-        fit += &format!("[[diagonal]]\ndiagonal = \"{diagonal}\"\ncsv = \"{name}\"\n");
-    }
+    fit += &squareness_measurements(dir.path(), &setup, 0.3e-3, &mut rng);
     let measurements = write(&dir, "fit.toml", &fit);
     let (fitted, json) = fitted(dir.path(), &given, &measurements);
     let (names, c) = reported(&json);
