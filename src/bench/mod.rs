@@ -13,6 +13,7 @@ mod paths;
 mod plain;
 mod table;
 mod timing;
+mod uncertainty;
 
 use std::path::Path;
 
@@ -22,6 +23,7 @@ pub use paths::{describe_tiling, WARM_UP_SECONDS};
 pub use plain::{plain_counterpart, PLAIN_SUFFIX};
 pub use table::table;
 pub use timing::Spread;
+pub use uncertainty::{with_calibration_uncertainty, BENCH_DRAWS};
 
 use crate::design::DesignError;
 use crate::engine::map::MapTimes;
@@ -97,6 +99,9 @@ pub struct MachineResult {
     /// plain counterpart too (rows named with [`PLAIN_SUFFIX`]), the machine's rate over the
     /// counterpart's.
     pub against_plain: Vec<PlainRatio>,
+    /// The GPU's first-order uncertainty of the map: its time per uncertain quantity over the
+    /// time of one kernel pass over the grid (central differences: two passes and their sums).
+    pub uncertainty_passes_per_quantity: Option<f64>,
 }
 
 /// A path's rate over that of the same machine with plain tables.
@@ -261,6 +266,18 @@ pub fn bench_machine(
         runs,
         &mut on_step,
     )?);
+    let uncertainty_rows =
+        uncertainty::bench_uncertainty(machine, grid, engine, runs, &mut on_step)?;
+    let quantities = with_calibration_uncertainty(machine).uncertainty.count();
+    let uncertainty_passes_per_quantity = gpu.as_ref().and_then(|g| {
+        uncertainty_rows
+            .iter()
+            .find(|r| r.path.starts_with("GPU map uncertainty, first order"))
+            .map(|r| {
+                Spread::of(&r.seconds).median / quantities.max(1) as f64 / g.kernel_s.max(1e-12)
+            })
+    });
+    rows.extend(uncertainty_rows);
     let against_plain = if cross_axis {
         plain::bench_plain(
             machine,
@@ -290,6 +307,7 @@ pub fn bench_machine(
         disk_mb_per_s,
         paths,
         against_plain,
+        uncertainty_passes_per_quantity,
     })
 }
 
@@ -306,7 +324,8 @@ fn result(
     let spread = Spread::of(&row.seconds);
     let rate = |s: f64| row.points as f64 / s.max(1e-12);
     let median_rate = rate(spread.median);
-    let gpu_path = row.path.starts_with("GPU");
+    // A map's uncertainty counts grid points of many passes: no kernel's ceiling to hold it to.
+    let gpu_path = row.path.starts_with("GPU") && !row.path.contains("map uncertainty");
     // The kernel's own timings say nothing of the plain counterpart's map.
     let on_gpu = row.path.contains(", GPU,") && !row.path.ends_with(PLAIN_SUFFIX);
     let stages = row.times.map(|(t, wall)| {

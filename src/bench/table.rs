@@ -46,6 +46,17 @@ pub fn table(report: &BenchReport) -> String {
                 "  Monte Carlo rows count machine-points (machines × grid points), each machine's statistics reduced where it is computed\n",
             );
         }
+        if m.paths.iter().any(|p| p.path.contains("map uncertainty")) {
+            out.push_str(
+                "  map uncertainty rows count grid points of the whole uncertainty (every quantity's or draw's maps, summed where they are computed), nothing written\n",
+            );
+        }
+        if let Some(passes) = m.uncertainty_passes_per_quantity {
+            out.push_str(&format!(
+                "  first order on the GPU: {} kernel passes' time per uncertain quantity (two maps each, central differences)\n",
+                quantity(passes)
+            ));
+        }
         if !m.against_plain.is_empty() {
             let ratios: Vec<String> = m
                 .against_plain

@@ -286,12 +286,38 @@ fn bench_prints_a_table_and_writes_json() {
         assert!(monte_carlo
             .iter()
             .any(|p| p.starts_with("CPU engine Monte Carlo")));
+        // The map's uncertainty, first order and Monte Carlo, on every engine measured: the
+        // bench gives each axis's six component errors a u.
+        let axes = m["chain"]
+            .as_str()
+            .unwrap()
+            .chars()
+            .filter(|c| "XYZABC".contains(*c))
+            .count();
+        let mut u_engines = vec!["CPU engine"];
         if report["adapter"].is_string() {
-            assert_eq!(gpu_paths, 4);
+            u_engines.push("GPU");
+        }
+        for engine in u_engines {
+            for method in [
+                format!("first order, {} quantities", 6 * axes),
+                format!("Monte Carlo, {} draws", volmap::bench::BENCH_DRAWS),
+            ] {
+                let row = path(&format!("{engine} map uncertainty, {method}"));
+                assert_eq!(row["points"].as_u64(), Some(16 * 8 * 4), "{row}");
+                assert!(row["fraction_of_ceiling"].is_null(), "{row}");
+            }
+        }
+        let passes = &m["uncertainty_passes_per_quantity"];
+        assert_eq!(passes.is_number(), report["adapter"].is_string(), "{m}");
+        if report["adapter"].is_string() {
+            assert!(passes.as_f64().unwrap() > 0.0, "{m}");
+            assert_eq!(gpu_paths, 6);
             assert!(monte_carlo.iter().any(|p| p.starts_with("GPU Monte Carlo")));
             assert!(paths
                 .iter()
                 .filter(|p| p["path"].as_str().unwrap().starts_with("GPU"))
+                .filter(|p| !p["path"].as_str().unwrap().contains("map uncertainty"))
                 .all(|p| p["fraction_of_ceiling"].is_number()));
             let ceiling = paths
                 .iter()
