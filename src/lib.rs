@@ -46,3 +46,4 @@ pub mod query;
 pub mod reference;
 pub mod report;
 pub mod standards;
+pub mod view;

@@ -72,6 +72,9 @@ enum Command {
     /// Marlin, RepRapFirmware, SINUMERIK, HEIDENHAIN, FANUC, ISG/TwinCAT, a generic 3-D grid),
     /// with the residual the control leaves applying it.
     Export(cli::export::ExportArgs),
+    /// Write one self-contained HTML page of a field (or of a machine mapped here): section
+    /// planes, the deformed grid in 3-D, the machine, and with --part its features' verdicts.
+    View(cli::view::ViewArgs),
     /// Print the shell's completion script for volmap (bash, zsh, fish, powershell, elvish).
     Completions(cli::completions::CompletionsArgs),
     /// Write a man page per command into a folder.
@@ -122,6 +125,7 @@ fn main() -> ExitCode {
         Command::Compensate(args) => cli::compensate::run(args),
         Command::Trace(args) => cli::trace::run(args),
         Command::Export(args) => cli::export::run(args),
+        Command::View(args) => cli::view::run(args),
         Command::Completions(args) => cli::completions::run(args, command()),
         Command::Man(args) => cli::man::run(args, command()),
         Command::CliReference => cli::reference::run(command()),

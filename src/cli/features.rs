@@ -81,7 +81,11 @@ pub struct FeaturesArgs {
 /// five-axis map (`map --poses`) at the part's pose (`placement.pose_deg`, axes not named at 0),
 /// found as `sample` finds a point's (within 1e-9°). The field must hold the inputs `inputs`
 /// asks for.
-fn open_field(path: &Path, part: &PartFile, inputs: &InputsArg) -> Result<LoadedField, Failure> {
+pub(super) fn open_field(
+    path: &Path,
+    part: &PartFile,
+    inputs: &InputsArg,
+) -> Result<LoadedField, Failure> {
     volmap::io::source::note_source(path);
     let file = FieldFile::open(path).flag("--field")?;
     inputs.check_field(&file)?;

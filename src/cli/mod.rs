@@ -80,3 +80,4 @@ pub mod sample;
 pub mod sweep;
 pub mod test;
 pub mod trace;
+pub mod view;

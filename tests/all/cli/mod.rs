@@ -45,6 +45,7 @@ mod standards_frames;
 mod sweep;
 mod trace;
 mod uncertainty;
+mod view;
 
 use std::path::Path;
 
