@@ -107,7 +107,9 @@ enum PlotKind {
         /// Where to cut, mm along that axis (the nearest grid plane; default: the middle).
         #[arg(long, allow_hyphen_values = true)]
         at: Option<f64>,
-        /// What to show: VE (|VE|, mm), OE (|OE|, rad) or one channel: VE.X … OE.Z.
+        /// What to show: VE (|VE|, mm), OE (|OE|, rad) or one channel: VE.X … OE.Z; of a field
+        /// mapped with --uncertainty (or --uncertainty-samples), u (|u(VE)|, the root sum of
+        /// squares of u(VE.X), u(VE.Y), u(VE.Z), mm) or one channel's: u(VE.X) … u(OE.Z).
         #[arg(long, default_value = "VE")]
         quantity: String,
         /// Output files: .svg or .png, or .vti for the slice as VTK ImageData (ParaView).
@@ -173,6 +175,13 @@ pub fn run(args: PlotArgs) -> Result<ExitCode, Failure> {
                         QueryError::SliceNormal(_) => ("--normal", None),
                         QueryError::SliceOutside { .. } => ("--at", None),
                         QueryError::Field(FieldError::NoPose { .. }) => ("--pose", None),
+                        QueryError::Field(FieldError::NoUncertainty { .. }) => (
+                            "--quantity",
+                            Some(
+                                "map the machine with --uncertainty (or --uncertainty-samples N) to write them, or ask for a quantity of the values"
+                                    .to_string(),
+                            ),
+                        ),
                         QueryError::Field(FieldError::Poses { poses, .. }) => (
                             "--field",
                             Some(format!(

@@ -32,7 +32,8 @@ pub struct SampleArgs {
     points: PathBuf,
     /// Interpolate (trilinear) in this field file; positions outside its grid are an error
     /// unless --outside says otherwise. In a five-axis map (`map --poses`) the rotary columns
-    /// pick the part of each point's pose.
+    /// pick the part of each point's pose. A field mapped with its uncertainties (`map
+    /// --uncertainty`) adds the columns u(VE.X), u(VE.Y), u(VE.Z) (mm), interpolated in them.
     #[arg(long, conflicts_with = "exact")]
     field: Option<PathBuf>,
     /// A position outside the field's grid (with --exact: outside the machine's travels):
@@ -94,9 +95,14 @@ enum Uncertainty {
     MonteCarlo { draws: usize, seed: u64 },
 }
 
-/// Where the values come from: a field (f32 values) or the model at a pose.
+/// Where the values come from: a field (f32 values, with the standard uncertainties of VE
+/// where the field holds them) or the model at a pose.
 enum Source<'a> {
-    Field(FieldSampler<'a>),
+    Field {
+        values: FieldSampler<'a>,
+        /// Boxed: a sampler is large beside the exact source.
+        uncertainty: Option<Box<FieldSampler<'a>>>,
+    },
     Exact {
         machine: Machine,
         pose: Command,
@@ -110,7 +116,7 @@ enum Source<'a> {
 impl Source<'_> {
     fn sample(&mut self, points: &[QueryPoint]) -> Result<Vec<Option<Sample>>, Failure> {
         match self {
-            Source::Field(sampler) => Ok(sampler.sample(points)?),
+            Source::Field { values, .. } => Ok(values.sample(points)?),
             Source::Exact {
                 machine,
                 pose,
@@ -125,12 +131,26 @@ impl Source<'_> {
     }
 
     /// The standard uncertainty of VE at each sampled point (NaN where the sample is NaN, at
-    /// a position outside the travels); none where it is not asked for.
+    /// a position outside the travels or the grid); none where it is not asked for or the
+    /// field holds none.
     fn uncertainty(
-        &self,
+        &mut self,
         points: &[QueryPoint],
         samples: &[Option<Sample>],
     ) -> Result<Vec<VeUncertainty>, Failure> {
+        if let Source::Field {
+            uncertainty: Some(sampler),
+            ..
+        } = self
+        {
+            // Interpolated in the part of uncertainties as the values are in theirs: the same
+            // cells, so the same positions are outside.
+            let u = sampler.sample(points)?;
+            return Ok(u
+                .iter()
+                .map(|u| u.map_or([f64::NAN; 3], |u| [u[0], u[1], u[2]]))
+                .collect());
+        }
         let Source::Exact {
             pose,
             uncertainty: Some(prepared),
@@ -241,16 +261,35 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     });
     // The first points and the field are read side by side: both are mostly parsing.
     // A five-axis map's parts are read later, one by one, as the points ask for them.
-    let (first, loaded) = rayon::join(
+    // The part of uncertainties is read through a second opening of the file, as the values
+    // are through the first.
+    let field_u = file
+        .as_ref()
+        .filter(|f| f.has_uncertainties())
+        .map(|f| FieldFile::open(f.path()))
+        .transpose()
+        .flag("--field")?;
+    let method = file
+        .as_ref()
+        .filter(|f| f.has_uncertainties())
+        .and_then(|f| f.uncertainty(0))
+        .map(String::from);
+    let (first, (loaded, loaded_u)) = rayon::join(
         || {
             let mut reader = PointReader::open(&args.points)?;
             let batch = reader.next_batch(BATCH_POINTS)?;
             Ok::<_, PointsError>((reader, batch))
         },
-        || file.map(SampledField::of).transpose(),
+        || {
+            rayon::join(
+                || file.map(SampledField::of).transpose(),
+                || field_u.map(SampledField::uncertainty_of).transpose(),
+            )
+        },
     );
     let (mut reader, mut batch) = first.flag("--points")?;
     let loaded = loaded.flag("--field")?;
+    let loaded_u = loaded_u.flag("--field")?.flatten();
     let path = args.points.display().to_string();
     let gpu;
     let outside = match args.outside {
@@ -267,8 +306,21 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
                 errln!("note: {note}");
             }
             gpu = sampler;
-            let sampler = FieldSampler::new(loaded, gpu.as_ref(), &path, outside);
-            (Source::Field(sampler), Precision::F32)
+            let values = FieldSampler::new(loaded, gpu.as_ref(), &path, outside);
+            // The uncertainties on the device the values are sampled on.
+            let uncertainty = loaded_u
+                .as_ref()
+                .map(|u| Box::new(FieldSampler::new(u, gpu.as_ref(), &path, outside)));
+            if let (Some(record), Some(_)) = (&mut record, &uncertainty) {
+                record.push_str(", with the uncertainty of VE it holds");
+            }
+            (
+                Source::Field {
+                    values,
+                    uncertainty,
+                },
+                Precision::F32,
+            )
         }
         (None, Some(machine)) if args.exact => {
             let (machine, inputs) = args
@@ -336,6 +388,9 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
     let with_uncertainty = matches!(
         source,
         Source::Exact {
+            uncertainty: Some(_),
+            ..
+        } | Source::Field {
             uncertainty: Some(_),
             ..
         }
@@ -422,12 +477,16 @@ pub fn run(args: SampleArgs) -> Result<ExitCode, Failure> {
                 Precision::F64 => "f64",
             },
             "out": args.out.as_ref().map(|p| p.display().to_string()),
-            "uncertainty": match (args.uncertainty, args.uncertainty_samples) {
-                (true, _) => serde_json::json!({ "method": "first_order" }),
-                (false, Some(draws)) => serde_json::json!({
+            "uncertainty": match (args.uncertainty, args.uncertainty_samples, &method) {
+                (true, _, _) => serde_json::json!({ "method": "first_order" }),
+                (false, Some(draws), _) => serde_json::json!({
                     "method": "monte_carlo", "draws": draws, "seed": args.seed,
                 }),
-                (false, None) => serde_json::Value::Null,
+                // The field's own words (its header's volmap.uncertainty), as `info` reports.
+                (false, None, Some(method)) => serde_json::json!({
+                    "method": method, "from": "field",
+                }),
+                (false, None, None) => serde_json::Value::Null,
             },
         });
         envelope.write(json, "--json", &result)?;

@@ -5,14 +5,15 @@
 
 mod deformed;
 mod sample;
+mod sampler;
 mod slice;
 
 pub use deformed::{deformed_grid, DeformedGrid};
 pub use sample::{
     check_exact_columns, open_sampler, sample_exact, sample_exact_within, sample_field,
-    sample_field_gpu, sample_field_gpu_within, sample_field_within, sample_fields, FieldSampler,
-    Outside, SampledField,
+    sample_field_gpu, sample_field_gpu_within, sample_field_within, Outside,
 };
+pub use sampler::{sample_fields, FieldSampler, SampledField};
 pub use slice::{field_slice, field_slice_at_pose, FieldSlice, Quantity};
 
 use crate::error::{shown, Classify, ErrorKind};

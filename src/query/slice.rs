@@ -41,42 +41,70 @@ pub enum Quantity {
     OrientationMagnitude,
     /// One channel of [`CHANNELS`] (`VE.X` … `OE.Z`).
     Channel(usize),
+    /// |u(VE)|, mm: the root sum of squares of the standard uncertainties of VE's components,
+    /// from the part of uncertainties `map --uncertainty` writes.
+    UncertaintyMagnitude,
+    /// The standard uncertainty of one channel of [`CHANNELS`] (`u(VE.X)` … `u(OE.Z)`).
+    Uncertainty(usize),
 }
 
 impl Quantity {
-    /// `VE`, `OE` or a channel name, in either case (as the axis of a slice is).
+    /// `VE`, `OE`, a channel name, `u` (or `u(VE)`) or `u(` a channel name `)`, in either case
+    /// (as the axis of a slice is).
     pub fn parse(text: &str) -> Option<Quantity> {
         let text = text.trim().to_ascii_uppercase();
+        let channel = |name: &str| CHANNELS.iter().position(|c| *c == name);
         match text.as_str() {
             "VE" => Some(Quantity::VolumetricMagnitude),
             "OE" => Some(Quantity::OrientationMagnitude),
-            other => CHANNELS
-                .iter()
-                .position(|c| *c == other)
-                .map(Quantity::Channel),
+            "U" | "U(VE)" => Some(Quantity::UncertaintyMagnitude),
+            other => match other.strip_prefix("U(").and_then(|t| t.strip_suffix(')')) {
+                Some(inner) => channel(inner.trim()).map(Quantity::Uncertainty),
+                None => channel(other).map(Quantity::Channel),
+            },
         }
     }
 
-    /// Its name as the colour bar and the title write it: `|VE|`, `|OE|`, `VE.X`.
+    /// Its name as the colour bar and the title write it: `|VE|`, `|OE|`, `VE.X`, `u(VE)`,
+    /// `u(VE.X)`.
     pub fn name(self) -> String {
         match self {
             Quantity::VolumetricMagnitude => "|VE|".into(),
             Quantity::OrientationMagnitude => "|OE|".into(),
             Quantity::Channel(c) => CHANNELS[c].into(),
+            Quantity::UncertaintyMagnitude => "u(VE)".into(),
+            Quantity::Uncertainty(c) => format!("u({})", CHANNELS[c]),
         }
+    }
+
+    /// Whether it is drawn from the part of uncertainties.
+    pub fn is_uncertainty(self) -> bool {
+        matches!(
+            self,
+            Quantity::UncertaintyMagnitude | Quantity::Uncertainty(_)
+        )
     }
 
     /// What can be asked for, in words.
     pub fn choices() -> String {
-        format!("VE, OE or one of {}", CHANNELS.join(", "))
+        format!(
+            "VE, OE or one of {}; or of a field with uncertainties u (|u(VE)|) or one of u(VE.X) … u(OE.Z)",
+            CHANNELS.join(", ")
+        )
     }
 
-    /// The channels that make the quantity, whether it is their magnitude, and the unit.
+    /// The channels that make the quantity, whether it is their magnitude (drawn from zero up
+    /// rather than about zero), and the unit.
     fn channels(self) -> (Vec<usize>, bool, &'static str) {
+        let unit = |c: usize| if c < 3 { "rad" } else { "mm" };
         match self {
-            Quantity::VolumetricMagnitude => (vec![3, 4, 5], true, "mm"),
+            Quantity::VolumetricMagnitude | Quantity::UncertaintyMagnitude => {
+                (vec![3, 4, 5], true, "mm")
+            }
             Quantity::OrientationMagnitude => (vec![0, 1, 2], true, "rad"),
-            Quantity::Channel(c) => (vec![c], false, if c < 3 { "rad" } else { "mm" }),
+            Quantity::Channel(c) => (vec![c], false, unit(c)),
+            // A standard uncertainty is never negative: a magnitude's scale.
+            Quantity::Uncertainty(c) => (vec![c], true, unit(c)),
         }
     }
 }
@@ -120,7 +148,11 @@ pub fn field_slice_at_pose(
         Some((degrees, words)) => file.part_at(degrees, words)?,
         None => file.single()?,
     };
-    let mut reader = file.reader(part)?;
+    let mut reader = if parsed.is_uncertainty() {
+        file.required_uncertainty_reader(part)?
+    } else {
+        file.reader(part)?
+    };
     let info = reader.info().clone();
     let index = plane_index(&info, d, at)?;
     let (h, v) = match d {
@@ -169,6 +201,8 @@ pub fn field_slice_at_pose(
         Quantity::VolumetricMagnitude => "VE_magnitude_mm".to_string(),
         Quantity::OrientationMagnitude => "OE_magnitude_rad".to_string(),
         Quantity::Channel(c) => format!("{}_{unit}", CHANNELS[c]),
+        Quantity::UncertaintyMagnitude => "u_VE_magnitude_mm".to_string(),
+        Quantity::Uncertainty(c) => format!("u_{}_{unit}", CHANNELS[c]),
     };
     // The part of a sweep says its pose; a single-pose field's title stays as it was.
     let machine = if file.is_multipart() {

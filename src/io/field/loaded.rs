@@ -124,6 +124,16 @@ impl LoadedField {
         LoadedField::read(file.reader(part)?, planes)
     }
 
+    /// Reads the z planes `planes` of the standard uncertainties of part `part` (the part of
+    /// uncertainties after it, the same grid): an error where the file holds none.
+    pub fn open_uncertainties(
+        file: &FieldFile,
+        part: usize,
+        planes: Range<usize>,
+    ) -> Result<LoadedField, FieldError> {
+        LoadedField::read(file.required_uncertainty_reader(part)?, planes)
+    }
+
     /// The number of z planes a slab of this field may hold within [`field_memory_bytes`]: all
     /// of them where the field fits, at least two (a cell's) else; an error where two planes do
     /// not fit.

@@ -115,6 +115,9 @@ pub enum FieldError {
         pose: String,
         poses: String,
     },
+    /// A reader of the standard uncertainties of a field that holds none.
+    #[error("{path} holds no standard uncertainties (u) of its values{at}")]
+    NoUncertainty { path: String, at: String },
     #[error("{path} holds the field computed at {held}, not at the inputs asked ({asked})")]
     Inputs {
         path: String,
@@ -150,6 +153,7 @@ impl Classify for FieldError {
             | FieldError::NotOneSweep { .. }
             | FieldError::Poses { .. }
             | FieldError::NoPose { .. }
+            | FieldError::NoUncertainty { .. }
             | FieldError::Inputs { .. }
             | FieldError::HalfRange { .. }
             | FieldError::TooLarge { .. } => ErrorKind::Input,

@@ -282,6 +282,12 @@ impl FieldFile {
             .and_then(|u| u.info.uncertainty.as_deref())
     }
 
+    /// Whether every part holds the standard uncertainties of its channels (volmap writes them
+    /// for every pose of a map or for none).
+    pub fn has_uncertainties(&self) -> bool {
+        (0..self.parts()).all(|p| self.uncertainty(p).is_some())
+    }
+
     /// A reader of the standard uncertainties of part `part`'s channels, where the file holds
     /// them (the same layout as the part's values).
     pub fn uncertainty_reader(&self, part: usize) -> Option<Result<FieldReader, FieldError>> {
@@ -289,6 +295,21 @@ impl FieldFile {
         let mut info = self.info(part);
         info.uncertainty = stored.info.uncertainty.clone();
         Some(self.reader_of(stored, info))
+    }
+
+    /// [`FieldFile::uncertainty_reader`], where a part without uncertainties is an error
+    /// naming the file (and the part's pose in a sweep).
+    pub fn required_uncertainty_reader(&self, part: usize) -> Result<FieldReader, FieldError> {
+        self.uncertainty_reader(part).unwrap_or_else(|| {
+            Err(FieldError::NoUncertainty {
+                path: self.display.clone(),
+                at: if self.sweep {
+                    format!(" at the pose {}", self.name(part))
+                } else {
+                    String::new()
+                },
+            })
+        })
     }
 
     /// A reader of the lines of part `part`.

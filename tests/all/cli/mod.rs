@@ -38,6 +38,7 @@ mod profile_datums;
 mod query;
 mod refusals;
 mod sample;
+mod sample_uncertainty;
 mod shards;
 mod shell;
 mod standards;
