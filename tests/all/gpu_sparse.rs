@@ -3,7 +3,7 @@
 //! with no location error, the ideal machine. Their buffers are the smallest a machine packs
 //! into; every binding must still meet the kernel's minimum size, and the values the reference's.
 
-use volmap::engine::map::{OE_TOLERANCE_RAD, VE_TOLERANCE_MM};
+use volmap::engine::map::{oe_tolerance_rad, ve_tolerance_mm};
 use volmap::engine::variants::Variants;
 use volmap::engine::Engine;
 use volmap::io::embedded;
@@ -83,8 +83,12 @@ fn maps_of_machines_with_few_errors_match_the_reference() {
                                     .sum::<f64>()
                                     .sqrt()
                             };
-                            oe = oe.max(d(0..3));
-                            ve = ve.max(d(3..6));
+                            // Each difference over its tolerance at the point (the one rule).
+                            let norm = |c: std::ops::Range<usize>| {
+                                c.map(|c| want[c] * want[c]).sum::<f64>().sqrt()
+                            };
+                            oe = oe.max(d(0..3) / oe_tolerance_rad(norm(0..3)));
+                            ve = ve.max(d(3..6) / ve_tolerance_mm(norm(3..6)));
                         }
                     }
                     lines += count;
@@ -94,8 +98,8 @@ fn maps_of_machines_with_few_errors_match_the_reference() {
             .unwrap_or_else(|e| panic!("{what}: {e}"));
             assert_eq!(lines, grid.lines(), "{what}");
             assert!(
-                ve <= VE_TOLERANCE_MM && oe <= OE_TOLERANCE_RAD,
-                "{what}: {ve:e} mm, {oe:e} rad"
+                ve <= 1.0 && oe <= 1.0,
+                "{what}: {ve} and {oe} of their tolerances"
             );
         }
     }
@@ -164,9 +168,11 @@ fn sampled_machines_with_few_errors_match_the_cpu_engine_on_the_gpu() {
                             "{what} sample {s} {which}: {a} vs {b}"
                         );
                     };
-                    close(g.max_ve_mm, c.max_ve_mm, 1e-6, "max |VE|");
-                    close(g.rms_ve_mm(), c.rms_ve_mm(), 1e-6, "RMS |VE|");
-                    close(g.max_oe_rad, c.max_oe_rad, 1e-9, "max |OE|");
+                    let (ve_tol, oe_tol) =
+                        (ve_tolerance_mm(c.max_ve_mm), oe_tolerance_rad(c.max_oe_rad));
+                    close(g.max_ve_mm, c.max_ve_mm, ve_tol, "max |VE|");
+                    close(g.rms_ve_mm(), c.rms_ve_mm(), ve_tol, "RMS |VE|");
+                    close(g.max_oe_rad, c.max_oe_rad, oe_tol, "max |OE|");
                     assert_eq!(g.points, c.points, "{what}");
                 }
                 assert!(on_cpu[1].max_ve_mm > 1e-3, "{what}: the deviation shows");
@@ -206,11 +212,12 @@ fn values_at_positions_of_machines_with_few_errors_match_the_reference_on_the_gp
             for (p, command) in commands.iter().enumerate() {
                 let d = twin.deviation(command);
                 let want = [d.volumetric_mm, d.orientation_rad];
+                let (ve, oe) = (want[0].norm(), want[1].norm());
                 for k in 0..6 {
                     let (tol, w) = if k < 3 {
-                        (VE_TOLERANCE_MM, want[0][k])
+                        (ve_tolerance_mm(ve), want[0][k])
                     } else {
-                        (OE_TOLERANCE_RAD, want[1][k - 3])
+                        (oe_tolerance_rad(oe), want[1][k - 3])
                     };
                     let g = on_gpu[0][p][k];
                     assert!(
@@ -231,8 +238,14 @@ fn values_at_positions_of_machines_with_few_errors_match_the_reference_on_the_gp
                 (commands.len(), commands.len())
             );
             for (p, (g, c)) in on_gpu[1].iter().zip(&on_cpu[1]).enumerate() {
+                let ve = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+                let oe = (c[3] * c[3] + c[4] * c[4] + c[5] * c[5]).sqrt();
                 for k in 0..6 {
-                    let tol = if k < 3 { 1e-6 } else { 1e-9 };
+                    let tol = if k < 3 {
+                        ve_tolerance_mm(ve)
+                    } else {
+                        oe_tolerance_rad(oe)
+                    };
                     assert!(
                         (g[k] - c[k]).abs() <= tol,
                         "{what} sampled, position {p} value {k}: {} vs {}",

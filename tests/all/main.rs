@@ -30,6 +30,7 @@ mod field_regressions;
 mod field_storage;
 mod golden;
 mod gpu;
+mod gpu_large_angles;
 mod gpu_sparse;
 mod identifiability;
 mod machine_file;

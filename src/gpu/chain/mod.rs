@@ -108,7 +108,7 @@ pub fn check_error_angles(machine: &Machine, grid: &Grid) -> Result<(), GpuError
 
 /// The sum of the magnitudes of every angular error of the machine over the grid: the spindle's,
 /// every location's, and each axis's largest sum of component angles at its grid values.
-pub(crate) fn error_angles_rad(machine: &Machine, grid: &Grid) -> f64 {
+pub fn error_angles_rad(machine: &Machine, grid: &Grid) -> f64 {
     let mut total = machine.spindle[3].abs() + machine.spindle[4].abs();
     for axis in &machine.axes {
         total += axis.location[3..].iter().map(|a| a.abs()).sum::<f64>();
