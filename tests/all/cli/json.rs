@@ -88,7 +88,7 @@ impl Reports {
 /// `tests/python/validate_json.py` on `files` against docs/schema/COMMAND.json; `None` (the test
 /// skips) where Python's jsonschema is missing, unless `VOLMAP_REQUIRE_READERS` makes that a
 /// failure.
-fn validated(command: &str, files: &[PathBuf]) -> Option<std::process::Output> {
+pub(super) fn validated(command: &str, files: &[PathBuf]) -> Option<std::process::Output> {
     if !crate::field::tool_available(
         std::process::Command::new("python3").args(["-c", "import jsonschema"]),
         "the Python jsonschema package",
