@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use volmap::io::field::FieldError;
 use volmap::io::vtk;
 use volmap::model::poses;
+use volmap::part::uncertainty::COVERAGE_FACTOR;
 use volmap::plot::{self, Color, Marker, Series};
 use volmap::query::{self, Quantity, QueryError};
 use volmap::standards::TestResult;
@@ -19,7 +20,8 @@ const CURVE_COLOURS: [Color; 3] = [Color::BLUE, Color::ORANGE, Color::GREEN];
 
 /// The test's curves, predicted solid and measured dashed, in one chart (polar for circles).
 /// Curves of an approach direction (ISO 230-2's ↑ and ↓) mark their targets with triangles
-/// pointing that way, and measured runs draw their ±2s band.
+/// pointing that way, measured runs draw their ±2s band, and a machine with `u` the band
+/// predicted ± U (k = 2) about each prediction.
 pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> {
     let mut series = Vec::new();
     for (n, name) in result.curve_names.iter().enumerate() {
@@ -36,14 +38,22 @@ pub fn write_test_plot(path: &Path, result: &TestResult) -> Result<(), Failure> 
         } else {
             Marker::None
         };
+        // The machine's u draws the band predicted ± U (k = 2) about the prediction.
+        let band: Option<Vec<f64>> = result
+            .predicted_u
+            .as_ref()
+            .map(|u| u[n].iter().map(|v| COVERAGE_FACTOR * v * scale).collect());
         series.push(Series {
-            name: format!("{name}, predicted"),
+            name: match band {
+                Some(_) => format!("{name}, predicted (thin: ± U (k = 2))"),
+                None => format!("{name}, predicted"),
+            },
             x: result.positions.clone(),
             y: result.predicted[n].iter().map(|v| v * scale).collect(),
             color: colour,
             dashed: false,
             marker,
-            band: None,
+            band,
         });
         if let Some(measured) = &result.measured {
             let band = result

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use volmap::error::excerpt;
+use volmap::part::uncertainty::COVERAGE_FACTOR;
 use volmap::standards::{self, Setup, TestResult};
 
 use super::args::{InputsArg, JsonArg, MachineArg, PoseArg};
@@ -331,17 +332,28 @@ fn print_result(result: &TestResult, all_rows: bool) {
             numbers::length(p)
         }
     };
-    let predicted_label = format!("predicted {unit}");
+    // With the machine's u, each prediction is followed by its expanded uncertainty U (k = 2).
+    let banded = result.predicted_u.is_some();
+    let predicted_label = if banded {
+        format!("predicted {unit} ± U")
+    } else {
+        format!("predicted {unit}")
+    };
     let measured_label = format!("measured {unit}");
+    let predicted_cell = |p: f64, u: Option<f64>| match u {
+        Some(u) => format!("{} ± {}", value(p), value(COVERAGE_FACTOR * u)),
+        None => value(p),
+    };
     outln!("{}", result.title);
     outln!("  inputs: {}", result.inputs);
     let width = result.position_label.chars().count().max(10);
     let cell = 12;
+    let predicted_width = if banded { 22 } else { cell };
     let mut header = format!("  {:>width$}", result.position_label);
     let mut units = format!("  {:>width$}", "");
     for name in &result.curve_names {
-        header += &format!(" | {name:>cell$}");
-        units += &format!(" | {predicted_label:>cell$}");
+        header += &format!(" | {name:>predicted_width$}");
+        units += &format!(" | {predicted_label:>predicted_width$}");
         if result.measured.is_some() {
             header += &format!(" {:>cell$} {:>cell$}", "", "");
             units += &format!(" {measured_label:>cell$} {:>cell$}", "difference");
@@ -363,7 +375,8 @@ fn print_result(result: &TestResult, all_rows: bool) {
         let mut row = format!("  {:>width$}", position_value(*position));
         for (c, curve) in result.predicted.iter().enumerate() {
             let p = curve[n];
-            row += &format!(" | {:>cell$}", value(p));
+            let u = result.predicted_u.as_ref().map(|u| u[c][n]);
+            row += &format!(" | {:>predicted_width$}", predicted_cell(p, u));
             if let Some(m) = &result.measured {
                 let v = m[c][n];
                 row += &format!(" {:>cell$} {:>cell$}", value(v), value(v - p));
@@ -379,18 +392,28 @@ fn print_result(result: &TestResult, all_rows: bool) {
         .max()
         .unwrap_or(6)
         .max(6);
-    let mut header = format!("  {:<name_width$} {predicted_label:>cell$}", "figure");
+    let mut header = format!(
+        "  {:<name_width$} {predicted_label:>predicted_width$}",
+        "figure"
+    );
     if result.measured.is_some() {
         header += &format!(" {measured_label:>cell$} {:>cell$}", "difference");
     }
     outln!("{header}  meaning");
     for f in &result.figures {
         let p = f.predicted;
-        let mut row = format!("  {:<name_width$} {:>cell$}", f.name, value(p));
+        let mut row = format!(
+            "  {:<name_width$} {:>predicted_width$}",
+            f.name,
+            predicted_cell(p, f.predicted_u)
+        );
         if let Some(m) = f.measured {
             row += &format!(" {:>cell$} {:>cell$}", value(m), value(m - p));
         }
         outln!("{row}  {}", f.meaning);
+    }
+    if banded {
+        outln!("\n  ± U: expanded uncertainty (k = {COVERAGE_FACTOR}) from the machine's u, first order");
     }
     if let Some(report) = &result.ballbar {
         print_ballbar(report);

@@ -13,8 +13,8 @@ pub struct Series {
     pub dashed: bool,
     /// A mark at every point (the targets of a positioning test).
     pub marker: Marker,
-    /// Half-widths of a band about the curve at each point (ISO 230-2's ±2s), drawn as thin
-    /// lines above and below it.
+    /// Half-widths of a band about the curve at each point (ISO 230-2's ±2s, a prediction's
+    /// ± U), drawn as thin lines above and below it (inside and outside it on a polar chart).
     pub band: Option<Vec<f64>>,
 }
 
@@ -71,6 +71,17 @@ fn check_finite(title: &str, series: &[Series]) -> Result<(), PlotError> {
         }
     }
     Ok(())
+}
+
+/// Every value of every series with its band's edges: what a chart's scale must hold.
+fn banded(series: &[Series]) -> impl Iterator<Item = f64> + '_ {
+    series.iter().flat_map(|s| {
+        let band = s.band.clone().unwrap_or_default();
+        s.y.iter()
+            .zip(band.into_iter().chain(std::iter::repeat(0.0)))
+            .flat_map(|(&y, b)| [y - b, y + b])
+            .collect::<Vec<_>>()
+    })
 }
 
 pub(super) const MARGIN_LEFT: f64 = 80.0;
@@ -174,14 +185,7 @@ pub fn line_chart(
     let (width, height) = (900.0, 540.0);
     let xr = finite_range(series.iter().flat_map(|s| s.x.iter().copied()))
         .ok_or_else(|| PlotError::Empty(title.into()))?;
-    let banded = series.iter().flat_map(|s| {
-        let band = s.band.clone().unwrap_or_default();
-        s.y.iter()
-            .zip(band.into_iter().chain(std::iter::repeat(0.0)))
-            .flat_map(|(&y, b)| [y - b, y + b])
-            .collect::<Vec<_>>()
-    });
-    let yr = padded(finite_range(banded).ok_or_else(|| PlotError::Empty(title.into()))?);
+    let yr = padded(finite_range(banded(series)).ok_or_else(|| PlotError::Empty(title.into()))?);
     let xr = drawable(xr);
     let (x0, x1) = (MARGIN_LEFT, width - MARGIN_RIGHT);
     let (y0, y1) = (height - MARGIN_BOTTOM, MARGIN_TOP);
@@ -280,8 +284,7 @@ pub fn polar_chart(
 ) -> Result<Drawing, PlotError> {
     check_finite(title, series)?;
     let (width, height) = (720.0, 760.0);
-    let (lo, hi) = finite_range(series.iter().flat_map(|s| s.y.iter().copied()))
-        .ok_or_else(|| PlotError::Empty(title.into()))?;
+    let (lo, hi) = finite_range(banded(series)).ok_or_else(|| PlotError::Empty(title.into()))?;
     // Rings every `step` mm from below the smallest deviation to above the largest (spans in
     // halves, so that none overflows; at most 64 rings).
     let half_span = (hi / 2.0 - lo / 2.0)
@@ -353,15 +356,26 @@ pub fn polar_chart(
         Anchor::Middle,
     );
     for s in series {
-        let mut points: Vec<[f64; 2]> = s.x.iter().zip(&s.y).map(|(&a, &r)| at(a, r)).collect();
         let full_turn =
             s.x.first()
                 .zip(s.x.last())
                 .is_some_and(|(a, b)| (b - a).abs() >= 300.0);
-        if full_turn && !points.is_empty() {
-            points.push(points[0]);
+        // The curve through `r(a)` at each angle, closed where it goes all the way round.
+        let around = |r: &dyn Fn(usize) -> f64| {
+            let mut points: Vec<[f64; 2]> =
+                s.x.iter().enumerate().map(|(n, &a)| at(a, r(n))).collect();
+            if full_turn && !points.is_empty() {
+                points.push(points[0]);
+            }
+            points
+        };
+        if let Some(band) = &s.band {
+            for side in [-1.0, 1.0] {
+                let edge = around(&|n| s.y[n] + side * band.get(n).copied().unwrap_or(0.0));
+                d.curve(edge, s.color, 0.8, false);
+            }
         }
-        d.curve(points, s.color, 2.0, s.dashed);
+        d.curve(around(&|n| s.y[n]), s.color, 2.0, s.dashed);
     }
     d.text(
         width / 2.0,

@@ -475,6 +475,7 @@ pub(super) fn positioning_result(
             let (u, d) = m.means();
             vec![u, d]
         }),
+        predicted_u: None,
         measured_2s: measured.map(|m| {
             let two_s = |runs: &[Vec<f64>]| runs.iter().map(|r| 2.0 * uncertainty(r)).collect();
             vec![two_s(&m.up), two_s(&m.down)]

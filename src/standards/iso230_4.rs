@@ -11,6 +11,7 @@ use serde::Deserialize;
 
 use super::ballbar::{circle_directions, diagnose, BallbarReport, Circle};
 use super::measured::{Measured, Unit};
+use super::uncertainty::with_uncertainty;
 use super::{
     check_count, default_pose, figure, parameter, range_of, Setup, StandardsError, TestResult,
 };
@@ -148,7 +149,8 @@ pub fn geometric_circle(
 }
 
 pub fn circular(setup: &Setup, spec: &CircularSpec) -> Result<TestResult, StandardsError> {
-    circular_with(setup, spec, read_circular(spec)?.as_ref())?.finite()
+    let measured = read_circular(spec)?;
+    with_uncertainty(setup, |s| circular_with(s, spec, measured.as_ref()))?.finite()
 }
 
 /// +1 counter-clockwise, −1 clockwise.
@@ -290,6 +292,7 @@ pub(crate) fn circular_with(
         curve_names: vec!["radial deviation".into()],
         predicted: vec![predicted],
         measured: measured.map(|m| vec![m.columns[1].clone()]),
+        predicted_u: None,
         measured_2s: None,
         figures: vec![
             figure(

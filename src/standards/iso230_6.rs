@@ -7,6 +7,7 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
+use super::uncertainty::with_uncertainty;
 use super::{
     check_count, clamp_to_ends, default_pose, direction_of, figure, parameter, range_of, Setup,
     StandardsError, TestResult, END_TOLERANCE_MM,
@@ -117,7 +118,8 @@ pub fn read_profile(
 }
 
 pub fn diagonal(setup: &Setup, spec: &DiagonalSpec) -> Result<TestResult, StandardsError> {
-    diagonal_with(setup, spec, read_diagonal(spec)?.as_ref())?.finite()
+    let measured = read_diagonal(spec)?;
+    with_uncertainty(setup, |s| diagonal_with(s, spec, measured.as_ref()))?.finite()
 }
 
 /// A diagonal's measured results, where the spec names a file.
@@ -240,6 +242,7 @@ pub(crate) fn diagonal_with(
         position_label: format!("position along {} (mm)", called(&label)),
         positions,
         curve_names: vec!["displacement error".into()],
+        predicted_u: None,
         measured_2s: None,
         figures: vec![
             figure(

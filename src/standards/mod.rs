@@ -46,6 +46,7 @@ pub mod iso230_6;
 pub mod measured;
 pub mod positioning;
 pub mod rtest;
+pub mod uncertainty;
 
 pub use iso230_2::{read_positioning, PositioningSpec};
 pub use iso230_4::{circular, geometric_circle, least_squares_circle, plane_axes, CircularSpec};
@@ -53,7 +54,7 @@ pub use iso230_6::{diagonal, diagonal_ends, read_profile, DiagonalSpec};
 pub use positioning::{positioning, read_positioning_of};
 pub use rtest::{rtest, RTestSpec};
 
-use std::cell::OnceCell;
+use std::sync::OnceLock;
 
 use nalgebra::Vector3;
 
@@ -65,7 +66,7 @@ use crate::model::grid::GridError;
 use crate::model::inputs::{Approach, Inputs};
 use crate::model::perturbation::ErrorTarget;
 use crate::model::poses;
-use crate::model::{AxisLetter, Command, Machine};
+use crate::model::{AxisLetter, Command, Machine, MachineSource};
 use crate::reference::{Deviation, Twin};
 
 #[derive(Debug, thiserror::Error)]
@@ -149,7 +150,10 @@ pub struct Setup {
     reversing: Vec<AxisLetter>,
     /// The machine at the inputs, one per combination of the reversing axes' directions (bit
     /// `n` set: `reversing[n]` approaches `−`), made when first asked for.
-    twins: Vec<OnceCell<Twin>>,
+    twins: Vec<OnceLock<Twin>>,
+    /// Perturbations of the machine's uncertain quantities (one per quantity, by number) added
+    /// at the inputs: a copy of the set-up the uncertainty of a test is propagated through.
+    deviations: Option<Vec<f64>>,
     pub pose: Command,
 }
 
@@ -181,12 +185,35 @@ impl Setup {
         Ok(Setup {
             pose: poses::parse_pose(pose, machine)?,
             twins: (0..1usize << reversing.len())
-                .map(|_| OnceCell::new())
+                .map(|_| OnceLock::new())
                 .collect(),
             reversing,
             machine: machine.clone(),
             inputs: inputs.clone(),
+            deviations: None,
         })
+    }
+
+    /// The same set-up on the machine with perturbations `e` of its uncertain quantities (one
+    /// per quantity of [`Machine::uncertainty`], by number), added at each twin's inputs so a
+    /// part used for one approach direction, or a `per_kelvin` coefficient, counts as there.
+    pub fn perturbed(&self, e: &[f64]) -> Setup {
+        let mut machine = self.machine.clone();
+        // Each perturbed copy would only carry the files the machine came from along.
+        machine.source = MachineSource::default();
+        Setup {
+            machine,
+            inputs: self.inputs.clone(),
+            reversing: self.reversing.clone(),
+            twins: self.twins.iter().map(|_| OnceLock::new()).collect(),
+            deviations: Some(e.to_vec()),
+            pose: self.pose,
+        }
+    }
+
+    /// Whether this is a perturbed copy ([`Setup::perturbed`]).
+    pub fn is_perturbed(&self) -> bool {
+        self.deviations.is_some()
     }
 
     /// The machine under test, as given (its values at the default inputs).
@@ -219,7 +246,11 @@ impl Setup {
             for l in AxisLetter::ALL {
                 inputs.approach[l.index()] = approach(l);
             }
-            Twin::new(self.machine.at(&inputs))
+            let machine = self.machine.at(&inputs);
+            Twin::new(match &self.deviations {
+                Some(e) => machine.with_deviations(e),
+                None => machine,
+            })
         })
     }
 
@@ -399,6 +430,9 @@ pub struct Figure {
     pub name: String,
     pub meaning: String,
     pub predicted: f64,
+    /// The standard uncertainty of `predicted` from the machine's (first order; `None` where the
+    /// machine has no `u`): written to JSON as `predicted_u_mm` (`predicted_u_arcsec`).
+    pub predicted_u: Option<f64>,
     pub measured: Option<f64>,
     pub unit: ErrorUnit,
 }
@@ -406,11 +440,14 @@ pub struct Figure {
 impl serde::Serialize for Figure {
     fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
-        let mut map = serializer.serialize_map(Some(4))?;
+        let mut map = serializer.serialize_map(None)?;
         map.serialize_entry("name", &self.name)?;
         map.serialize_entry("meaning", &self.meaning)?;
         let suffix = self.unit.suffix();
         map.serialize_entry(&format!("predicted_{suffix}"), &self.predicted)?;
+        if let Some(u) = self.predicted_u {
+            map.serialize_entry(&format!("predicted_u_{suffix}"), &u)?;
+        }
         map.serialize_entry(&format!("measured_{suffix}"), &self.measured)?;
         map.end()
     }
@@ -428,6 +465,10 @@ pub struct TestResult {
     pub curve_names: Vec<String>,
     /// `[curve][position]`, in `unit`.
     pub predicted: Vec<Vec<f64>>,
+    /// `[curve][position]`, in `unit`: the standard uncertainty of `predicted` from the
+    /// machine's (first order, [`uncertainty`]), where the machine has any `u`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub predicted_u: Option<Vec<Vec<f64>>>,
     /// `[curve][position]`, in `unit`, where measured results were given.
     pub measured: Option<Vec<Vec<f64>>>,
     /// The unit of the curves and the figures: mm, or arc-seconds for a rotary axis's
@@ -461,6 +502,7 @@ impl TestResult {
         }
         let curves = [
             ("predicted", Some(&self.predicted)),
+            ("uncertainty of the predicted", self.predicted_u.as_ref()),
             ("measured", self.measured.as_ref()),
         ];
         for (kind, curves) in curves {
@@ -471,7 +513,10 @@ impl TestResult {
             }
         }
         for f in &self.figures {
-            if !f.predicted.is_finite() || f.measured.is_some_and(|m| !m.is_finite()) {
+            if !f.predicted.is_finite()
+                || f.predicted_u.is_some_and(|u| !u.is_finite())
+                || f.measured.is_some_and(|m| !m.is_finite())
+            {
                 return Err(error(format!("the figure {}", f.name)));
             }
         }
@@ -484,6 +529,7 @@ fn figure(name: &str, meaning: &str, predicted: f64, measured: Option<f64>) -> F
         name: name.to_string(),
         meaning: meaning.to_string(),
         predicted,
+        predicted_u: None,
         measured,
         unit: ErrorUnit::Mm,
     }

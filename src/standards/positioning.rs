@@ -5,6 +5,7 @@ use super::iso230_2::{
     linear_positioning_with, parse_axis, read_positioning, PositioningData, PositioningSpec,
 };
 use super::iso230_2_rotary::{read_rotary_positioning, rotary_positioning_with};
+use super::uncertainty::with_uncertainty;
 use super::{Setup, StandardsError, TestResult};
 
 /// The measured runs a spec names, read in the units of its axis: [`read_positioning`] for a
@@ -24,7 +25,7 @@ pub fn read_positioning_of(
 
 pub fn positioning(setup: &Setup, spec: &PositioningSpec) -> Result<TestResult, StandardsError> {
     let measured = read_positioning_of(spec)?;
-    positioning_with(setup, spec, measured.as_ref())?.finite()
+    with_uncertainty(setup, |s| positioning_with(s, spec, measured.as_ref()))?.finite()
 }
 
 /// [`positioning`] with the measured runs already read (a fit runs the test many times).

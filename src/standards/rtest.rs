@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 
 use super::measured::{Measured, Unit};
+use super::uncertainty::with_uncertainty;
 use super::{
     check_count, default_pose, direction_of, figure, parameter, range_of, read_profile, Setup,
     StandardsError, TestResult,
@@ -46,7 +47,8 @@ fn default_step() -> f64 {
 }
 
 pub fn rtest(setup: &Setup, spec: &RTestSpec) -> Result<TestResult, StandardsError> {
-    rtest_with(setup, spec, read_rtest(spec)?.as_ref())?.finite()
+    let measured = read_rtest(spec)?;
+    with_uncertainty(setup, |s| rtest_with(s, spec, measured.as_ref()))?.finite()
 }
 
 /// An R-test's measured results, where the spec names a file.
@@ -186,6 +188,7 @@ pub(crate) fn rtest_with(
         curve_names: vec!["dX".into(), "dY".into(), "dZ".into()],
         predicted: curves,
         measured: measured_curves,
+        predicted_u: None,
         measured_2s: None,
         figures,
         polar: None,

@@ -44,6 +44,7 @@ mod shell;
 mod standards;
 mod standards_frames;
 mod sweep;
+mod test_uncertainty;
 mod trace;
 mod uncertainty;
 mod view;
