@@ -189,6 +189,8 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         numbers::error_um(report.largest_error_after_mm),
         numbers::error_um(options.chord_tolerance_mm)
     );
+    // The largest error left against its U, for the text and the JSON alike.
+    let mut left = LeftAgainstU::default();
     if let Some(worst) = residual
         .worst
         .as_ref()
@@ -197,6 +199,12 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         let name = args.program.display().to_string();
         let u = nc::expanded_uncertainty_at(&machine, worst, &name, &options)
             .map_err(option_failure)?;
+        left = LeftAgainstU {
+            largest_error_left_mm: Some(worst.deviation_mm),
+            largest_error_left_line: Some(worst.line),
+            u_expanded_mm: Some(u),
+            within_u: Some(worst.deviation_mm <= u),
+        };
         // ISO 14253-1's reading: an error within U cannot be told from none.
         let (within, reading) = if worst.deviation_mm <= u {
             ("within", ": below what the measurements can know")
@@ -284,9 +292,38 @@ pub fn run(args: CompensateArgs) -> Result<ExitCode, Failure> {
         );
     }
     if let (Some(path), Some(envelope)) = (&args.json.json, &envelope) {
-        envelope.write(path, "--json", &report)?;
+        envelope.write(
+            path,
+            "--json",
+            &Reported {
+                report: &report,
+                left,
+            },
+        )?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The largest error the model leaves along the written program (traced every step) against
+/// its expanded uncertainty, as the text says it; every field `null` where the machine gives no
+/// uncertainties or the program has no feed move.
+#[derive(Default, serde::Serialize)]
+struct LeftAgainstU {
+    largest_error_left_mm: Option<f64>,
+    largest_error_left_line: Option<usize>,
+    /// `U = 2·|u(VE)|` (k = 2) there, mm, as `features` names its U.
+    u_expanded_mm: Option<f64>,
+    /// Whether the error left is at most U: below what the measurements can know.
+    within_u: Option<bool>,
+}
+
+/// The JSON report: the compensation's and the error left against U.
+#[derive(serde::Serialize)]
+struct Reported<'a> {
+    #[serde(flatten)]
+    report: &'a nc::Report,
+    #[serde(flatten)]
+    left: LeftAgainstU,
 }
 
 /// Tests corrupt the output on purpose (`VOLMAP_TEST_CORRUPT_OUTPUT`: a move after the last) to

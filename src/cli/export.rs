@@ -274,6 +274,31 @@ fn print_report(r: &Report) {
     if r.uses_direction {
         outln!("  directions             the control picks each axis's table by the direction it moves; the residual is for the approach above");
     }
+    if let Some(u) = &r.uncertainty {
+        for t in &u.tables {
+            outln!(
+                "  uncertainty of {}: largest node u {}, U = {} (k = 2), correcting {}",
+                t.table,
+                numbers::error_um(t.u_mm),
+                numbers::error_um(t.u_expanded_mm),
+                t.corrects
+            );
+        }
+        // The rule (docs/export.md): the largest residual against the largest node U.
+        let (within, reading) = if u.within_u {
+            (
+                "within",
+                ": the residual is below what the measurements can know",
+            )
+        } else {
+            ("beyond", "")
+        };
+        outln!(
+            "  residual against U     largest {} {within} the largest node U = {} (k = 2){reading}",
+            numbers::error_um(r.residual.max_mm),
+            numbers::error_um(u.u_expanded_mm)
+        );
+    }
     outln!("  holds                  {}", r.holds);
     if r.not_held.is_empty() && r.structural_mm < NEGLIGIBLE_MM {
         outln!("  cannot hold            nothing of this machine's correction at the pose");

@@ -84,6 +84,12 @@ impl Field {
         &self.twin
     }
 
+    /// The inverse of the ideal Jacobian of the tip by X, Y, Z at the pose: to first order the
+    /// correction is `−J⁻¹·VE`.
+    pub fn inverse_jacobian(&self) -> Matrix3<f64> {
+        self.inverse
+    }
+
     /// The command of target X, Y, Z at the pose.
     pub fn command(&self, xyz: [f64; 3]) -> Command {
         let mut c = self.pose;

@@ -71,7 +71,22 @@ pub struct TableInfo {
     pub size: String,
     /// The most points along one axis (for the evaluation grid's density).
     pub points: usize,
+    /// The components of the correction (X, Y, Z) its values hold, for the uncertainty of its
+    /// nodes ([`uncertainty`](crate::export::uncertainty)).
+    #[serde(skip)]
+    pub corrects: [bool; 3],
 }
+
+/// A table that holds every component of the correction.
+pub const EVERY_COMPONENT: [bool; 3] = [true; 3];
+
+/// A table that holds the correction of axis `k` (0, 1, 2: X, Y, Z) alone.
+pub fn component(k: usize) -> [bool; 3] {
+    std::array::from_fn(|d| d == k)
+}
+
+/// A skew's factors: X's and Y's corrections (`xy`, `xz`, `yz`).
+pub const SKEW_COMPONENTS: [bool; 3] = [true, true, false];
 
 /// What a format is, as data: one `const SPEC: Spec` beside each format's code, read by the
 /// core (the table size's checks, the report) and the command line.
@@ -116,6 +131,10 @@ pub trait Format: Sync {
     fn comment_prefix(&self) -> Option<&'static str> {
         None
     }
+    /// Adds each `(table, line)` of `notes` as a comment to the file that holds that table
+    /// (after what the control reads), where a folder format's files take comments; a one-file
+    /// format's file has them with the report ([`Format::comment_prefix`]).
+    fn note_tables(&self, _files: &mut [WrittenFile], _notes: &[(String, String)]) {}
     /// The facts of the format written for `control` (one of [`Format::controls`]).
     fn spec_for(&self, _control: Option<&str>) -> &'static Spec {
         self.spec()
@@ -160,4 +179,10 @@ pub trait Control: Sync {
     fn command(&self, target: &Command, approach: &[Approach; 6]) -> Command;
     /// The tables, for the report.
     fn tables(&self) -> Vec<TableInfo>;
+    /// The commands (X, Y, Z, mm) of the nodes where each node holds every component of the
+    /// correction at its own command (a 3-D grid), for the uncertainty of the nodes; `None`:
+    /// a node applies over a line or a plane of commands.
+    fn nodes(&self) -> Option<Vec<[f64; 3]>> {
+        None
+    }
 }

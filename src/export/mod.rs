@@ -13,8 +13,8 @@
 //! - the core, what every format shares: [`error`] (one error type), [`fitting`] (the
 //!   correction, its additive fit, what a structure of tables can hold), [`nodes`] (tables'
 //!   nodes), [`format`](mod@format) (a format's facts as data, [`Spec`], and its code, the
-//!   [`Format`] and [`Control`] traits), [`residual`], and here the run of an export and its
-//!   [`Report`];
+//!   [`Format`] and [`Control`] traits), [`residual`], [`uncertainty`] (the nodes' u from the
+//!   machine's), and here the run of an export and its [`Report`];
 //! - [`formats`]: the controller formats, one file or folder each, each with one `const SPEC:
 //!   Spec` (its name, title, layout, limits, structure, what it holds, whether it reads the
 //!   direction) and a unit struct implementing [`Format`]; a folder (`fanuc`, `isg`, `siemens`,
@@ -39,6 +39,7 @@ pub mod formats;
 pub mod nodes;
 pub mod provenance;
 pub mod residual;
+pub mod uncertainty;
 
 use std::path::{Path, PathBuf};
 
@@ -51,6 +52,7 @@ pub use error::ExportError;
 pub use fitting::{Field, Fitting, Structure, Term};
 pub use format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, TableSize};
 pub use residual::{EvaluationGrid, Figures, NotHeld};
+pub use uncertainty::{ExportUncertainty, TableUncertainty};
 
 use formats::FORMATS;
 
@@ -180,6 +182,9 @@ pub struct Report {
     pub structural_mm: f64,
     /// The machine's errors the format cannot hold (all or part), the largest first.
     pub not_held: Vec<NotHeld>,
+    /// The uncertainty of the tables' nodes from the machine's u, and whether the residual is
+    /// within it; `None` where the machine gives no uncertainties.
+    pub uncertainty: Option<ExportUncertainty>,
 }
 
 /// An export: the files as written and the report.
@@ -405,6 +410,12 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
             holds: spec.holds,
         });
     }
+    let node_u = uncertainty::of_tables(
+        &fitting,
+        control.as_ref(),
+        &tables,
+        measured.residual.max_mm,
+    );
     let at_inputs = machine.at(inputs);
     let structure = spec.structure;
     let not_held = residual::not_held(&at_inputs, structure, request.pose, &ranges)?;
@@ -429,7 +440,17 @@ pub fn export(format: &dyn Format, request: &Request) -> Result<Export, ExportEr
         uses_direction: spec.uses_direction,
         structural_mm,
         not_held,
+        uncertainty: node_u,
     };
+    // Each table's uncertainty as a comment in its own file, where the format has one.
+    if let Some(u) = &report.uncertainty {
+        let notes: Vec<(String, String)> = u
+            .tables
+            .iter()
+            .map(|t| (t.table.clone(), uncertainty::comment_line(t)))
+            .collect();
+        format.note_tables(&mut files, &notes);
+    }
     // The report goes where the tables are kept, and the files are read back with it.
     let lines = provenance::report_lines(&report);
     let report_file = provenance::attach(format, &mut files, &fitting.header, &lines);

@@ -57,6 +57,22 @@ pub fn report_lines(r: &Report) -> Vec<String> {
             um(n.alone_mm)
         ));
     }
+    if let Some(u) = &r.uncertainty {
+        lines.extend(u.tables.iter().map(super::uncertainty::comment_line));
+        lines.push(if u.within_u {
+            format!(
+                "the residual ({}) is within the largest node U ({}): the residual is below what the measurements can know",
+                um(r.residual.max_mm),
+                um(u.u_expanded_mm)
+            )
+        } else {
+            format!(
+                "the residual ({}) is beyond the largest node U ({})",
+                um(r.residual.max_mm),
+                um(u.u_expanded_mm)
+            )
+        });
+    }
     lines
 }
 

@@ -66,6 +66,15 @@ impl Propagation {
 
     /// The first-order standard uncertainty of VE and OE at `command`.
     pub fn first_order(&self, command: &Command) -> Sample {
+        let rows: [Sample; 6] = std::array::from_fn(|r| std::array::from_fn(|c| f64::from(r == c)));
+        let u = self.first_order_of(command, &rows);
+        std::array::from_fn(|c| u[c])
+    }
+
+    /// The first-order standard uncertainty at `command` of each linear combination `rows[r] ·
+    /// [VE, OE]` ([`Sample`] order): `u² = Σ_i Σ_j (r·J_i)(r·J_j) cov(e_i, e_j)`, the covariances
+    /// between the channels counted (the correction a table holds, `−J⁻¹·VE`, is one).
+    pub fn first_order_of(&self, command: &Command, rows: &[Sample]) -> Vec<f64> {
         let uncertainty = &self.base.uncertainty;
         let sigmas = uncertainty.sigmas();
         let mut jacobian = vec![[0.0; 6]; sigmas.len()];
@@ -93,20 +102,26 @@ impl Propagation {
             }
             first += count;
         }
-        std::array::from_fn(|c| {
-            let independent: f64 = jacobian
-                .iter()
-                .zip(&sigmas)
-                .map(|(j, s)| (j[c] * s).powi(2))
-                .sum();
-            let correlated: f64 = uncertainty
-                .covariance
-                .iter()
-                .map(|&(i, j, cov)| 2.0 * jacobian[i][c] * jacobian[j][c] * cov)
-                .sum();
-            // Rounding may leave a perfectly cancelled variance a hair below zero.
-            (independent + correlated).max(0.0).sqrt()
-        })
+        rows.iter()
+            .map(|row| {
+                let along: Vec<f64> = jacobian
+                    .iter()
+                    .map(|j| row.iter().zip(j).map(|(r, j)| r * j).sum())
+                    .collect();
+                let independent: f64 = along
+                    .iter()
+                    .zip(&sigmas)
+                    .map(|(j, s)| (j * s).powi(2))
+                    .sum();
+                let correlated: f64 = uncertainty
+                    .covariance
+                    .iter()
+                    .map(|&(i, j, cov)| 2.0 * along[i] * along[j] * cov)
+                    .sum();
+                // Rounding may leave a perfectly cancelled variance a hair below zero.
+                (independent + correlated).max(0.0).sqrt()
+            })
+            .collect()
     }
 
     /// VE and OE at `command` of `work` with the deviation of `value` for `e` added, `work`

@@ -2,15 +2,19 @@
 //! of a regular grid over the travels (X fastest, then Y, then Z), in mm, with a header of
 //! comment lines saying the machine, the inputs, the pose, the grid and the sign: the values
 //! are added to the command (`command = target + (dX, dY, dZ)`). The control is taken to
-//! interpolate trilinearly between the nodes, the edge's values outside.
+//! interpolate trilinearly between the nodes, the edge's values outside. Where the machine gives
+//! uncertainties, `u(dX),u(dY),u(dZ)` follow: each correction's standard uncertainty, mm.
 //!
 //! The CSV follows volmap's one CSV grammar (one header row, comma-separated fields, `#`
 //! comment lines) and reads back with its one reader.
 
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{Fitting, Structure};
-use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::format::{
+    Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile, EVERY_COMPONENT,
+};
 use crate::export::nodes::lattice;
+use crate::export::uncertainty;
 use crate::io::csv::Csv;
 use crate::model::inputs::Approach;
 use crate::model::Command;
@@ -19,8 +23,13 @@ pub struct GridCsv;
 
 const FILE: &str = "grid.csv";
 const COLUMNS: [&str; 6] = ["X", "Y", "Z", "dX", "dY", "dZ"];
+/// The standard uncertainties of the corrections, named as `sample` names its u columns: the
+/// u of the column named inside. Written only where the machine gives uncertainties.
+const U_COLUMNS: [&str; 3] = ["u(dX)", "u(dY)", "u(dZ)"];
 /// Decimals of positions and corrections, mm: 1 nm.
 const DECIMALS: usize = 6;
+/// Decimals of the uncertainties, mm: 1 pm (a u is often a fraction of a micrometre).
+const U_DECIMALS: usize = 9;
 
 const SPEC: Spec = Spec {
     name: "grid-csv",
@@ -57,6 +66,7 @@ impl Format for GridCsv {
         let points = points.unwrap_or([SPEC.limits.default_points; 3]);
         let (axes, targets) = lattice(&fitting.ranges, points, spacing_mm, |x| x);
         let corrections = fitting.field().corrections(&targets)?;
+        let u = uncertainty::correction_u(fitting, &targets);
         let mut text = String::new();
         for line in &fitting.header {
             text += &format!("# {line}\n");
@@ -77,11 +87,18 @@ impl Format for GridCsv {
         text += "# rows: X fastest, then Y, then Z; positions and corrections in mm\n";
         text += "# sign: the correction is ADDED to the command: command = target + (dX, dY, dZ) (the correction, not the error)\n";
         text += "# between nodes: trilinear interpolation; outside the grid the nearest edge's values\n";
+        if u.is_some() {
+            text += "# u(dX), u(dY), u(dZ): the standard uncertainty of each correction, mm, from the u of the machine's error values (GUM first order at the node's command)\n";
+        }
         text += &COLUMNS.join(",");
+        if u.is_some() {
+            text += ",";
+            text += &U_COLUMNS.join(",");
+        }
         text += "\n";
-        for (t, d) in targets.iter().zip(&corrections) {
+        for (n, (t, d)) in targets.iter().zip(&corrections).enumerate() {
             text += &format!(
-                "{},{},{},{},{},{}\n",
+                "{},{},{},{},{},{}",
                 fmt(t[0]),
                 fmt(t[1]),
                 fmt(t[2]),
@@ -89,6 +106,11 @@ impl Format for GridCsv {
                 fmt(d[1]),
                 fmt(d[2])
             );
+            if let Some(u) = &u {
+                let [ux, uy, uz] = u[n];
+                text += &format!(",{ux:.U_DECIMALS$},{uy:.U_DECIMALS$},{uz:.U_DECIMALS$}");
+            }
+            text += "\n";
         }
         Ok(vec![WrittenFile {
             name: FILE.into(),
@@ -126,27 +148,48 @@ pub struct Grid {
     pub values: Vec<[f64; 3]>,
 }
 
+/// The columns of a `grid-csv` header: the corrections', with the uncertainties' or without.
+fn columns_of(names: &[String]) -> Option<usize> {
+    let plain = names.len() >= COLUMNS.len() && names[..COLUMNS.len()] == COLUMNS;
+    match names.len() {
+        6 if plain => Some(6),
+        9 if plain && names[COLUMNS.len()..] == U_COLUMNS => Some(9),
+        _ => None,
+    }
+}
+
 /// Reads a `grid-csv` file as a control would: the header row, a complete regular grid.
 pub fn read_grid(text: &str, name: &str) -> Result<Grid, ExportError> {
     let from_csv = |e: crate::io::csv::CsvError| read_error(name, e.line, e.message);
     let mut csv = Csv::new(text, name);
     let header = csv.header("naming X,Y,Z,dX,dY,dZ").map_err(from_csv)?;
-    if header.names != COLUMNS {
+    let Some(fields) = columns_of(&header.names) else {
         return Err(read_error(
             name,
             header.line,
             format!(
-                "the header names {}, not X,Y,Z,dX,dY,dZ",
+                "the header names {}, not X,Y,Z,dX,dY,dZ (then, optionally, u(dX),u(dY),u(dZ))",
                 header.names.join(",")
             ),
         ));
-    }
+    };
     let mut rows = Vec::new();
     for row in csv.rows() {
-        row.require_fields(6).map_err(from_csv)?;
+        row.require_fields(fields).map_err(from_csv)?;
         let mut v = [0.0; 6];
         for (n, c) in COLUMNS.iter().enumerate() {
             v[n] = row.number(n, c).map_err(from_csv)?;
+        }
+        // The uncertainties must read as numbers, none below zero; the control ignores them.
+        for (n, c) in U_COLUMNS.iter().enumerate().take(fields - 6) {
+            let u = row.number(6 + n, c).map_err(from_csv)?;
+            if u < 0.0 {
+                return Err(read_error(
+                    name,
+                    row.line,
+                    format!("{c} is {u}, below zero"),
+                ));
+            }
         }
         rows.push((row.line, v));
     }
@@ -195,6 +238,19 @@ pub fn read_grid(text: &str, name: &str) -> Result<Grid, ExportError> {
 }
 
 impl Grid {
+    /// The nodes' positions, X fastest, then Y, then Z.
+    pub fn nodes(&self) -> Vec<[f64; 3]> {
+        let mut out = Vec::with_capacity(self.values.len());
+        for &z in &self.axes[2] {
+            for &y in &self.axes[1] {
+                for &x in &self.axes[0] {
+                    out.push([x, y, z]);
+                }
+            }
+        }
+        out
+    }
+
     /// The cell index and fraction of `x` along axis `d`, clamped to the grid.
     fn locate(&self, d: usize, x: f64) -> (usize, f64) {
         let q = &self.axes[d];
@@ -249,6 +305,10 @@ impl Control for Grid {
         c
     }
 
+    fn nodes(&self) -> Option<Vec<[f64; 3]>> {
+        Some(self.nodes())
+    }
+
     fn tables(&self) -> Vec<TableInfo> {
         let n: Vec<usize> = self.axes.iter().map(Vec::len).collect();
         let step = |d: usize| {
@@ -272,6 +332,7 @@ impl Control for Grid {
                 step(2)
             ),
             points: n.iter().copied().max().unwrap_or(1),
+            corrects: EVERY_COMPONENT,
         }]
     }
 }

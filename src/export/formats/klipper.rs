@@ -7,7 +7,9 @@
 use super::skew::{square_lengths, Skew, TERMS};
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{Fitting, Structure};
-use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::format::{
+    self, Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile,
+};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -164,6 +166,7 @@ impl Control for Loaded {
                 s.xy, s.xz, s.yz
             ),
             points: 2,
+            corrects: format::SKEW_COMPONENTS,
         }]
     }
 }

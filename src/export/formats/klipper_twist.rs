@@ -17,7 +17,9 @@
 
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{mean, uniform, Field, Fitting, Structure};
-use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::format::{
+    self, Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile,
+};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -387,6 +389,7 @@ impl Control for Probed {
                 t.end
             ),
             points: t.values.len(),
+            corrects: format::component(2),
         };
         self.x
             .iter()

@@ -14,7 +14,9 @@
 
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{Fitting, Structure, Term, AVERAGING_POINTS, LINEAR};
-use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::format::{
+    self, Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile,
+};
 use crate::export::nodes::{candidates, free_nodes};
 use crate::model::inputs::Approach;
 use crate::model::Command;
@@ -29,6 +31,11 @@ const DECIMALS: usize = 7;
 const COEFFICIENT_DECIMALS: usize = 12;
 /// Most entries of one compensation file (LinuxCNC's `EMCMOT_COMP_SIZE`).
 const MAX_ENTRIES: usize = 256;
+
+/// The name of joint `joint`'s table in the report.
+fn joint_name(joint: usize) -> String {
+    format!("joint {joint} ({})", LINEAR[joint])
+}
 
 fn comp_file(joint: usize) -> String {
     format!("volmap_joint{joint}_{}.comp", LINEAR[joint])
@@ -84,6 +91,24 @@ impl Format for LinuxCnc {
 
     fn controls(&self) -> &'static [&'static str] {
         CONTROLS
+    }
+
+    fn note_tables(&self, files: &mut [WrittenFile], notes: &[(String, String)]) {
+        // A joint's file ends in `#` notes (LinuxCNC stops reading at the first line that is
+        // not three numbers), and HAL takes `#` comments.
+        for (table, line) in notes {
+            let file = if table == "matrixkins" {
+                HAL.to_string()
+            } else {
+                match (0..3).find(|&k| *table == joint_name(k)) {
+                    Some(k) => comp_file(k),
+                    None => continue,
+                }
+            };
+            if let Some(f) = files.iter_mut().find(|f| f.name == file) {
+                f.text += &format!("# {line}\n");
+            }
+        }
     }
 
     fn spec_for(&self, control: Option<&str>) -> &'static Spec {
@@ -511,13 +536,14 @@ impl Control for Configuration {
                 let t = t.as_ref()?;
                 let n = t.nominal.len();
                 Some(TableInfo {
-                    name: format!("joint {k} ({})", LINEAR[k]),
+                    name: joint_name(k),
                     size: format!(
                         "{n} entries from {:.3} to {:.3} mm, forward and reverse",
                         t.nominal[0],
                         t.nominal[n - 1]
                     ),
                     points: n,
+                    corrects: format::component(k),
                 })
             })
             .collect();
@@ -530,6 +556,7 @@ impl Control for Configuration {
                     c[0][1], c[0][2], c[1][0], c[1][2], c[2][0], c[2][1]
                 ),
                 points: 2,
+                corrects: format::EVERY_COMPONENT,
             });
         }
         tables

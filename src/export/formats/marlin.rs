@@ -12,7 +12,9 @@
 use super::skew::{Skew, TERMS};
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{Fitting, Structure};
-use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::format::{
+    self, Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile,
+};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -173,6 +175,7 @@ impl Control for Gated {
             name: "M852".into(),
             size: format!("I {:.6e}, J {:.6e}, K {:.6e}", s.xy, s.xz, s.yz),
             points: 2,
+            corrects: format::SKEW_COMPONENTS,
         }]
     }
 }

@@ -12,7 +12,9 @@
 use super::skew::TERMS;
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{Fitting, Structure};
-use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::format::{
+    self, Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile,
+};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -186,6 +188,7 @@ impl Control for Tangents {
                 if self.xy_on_x { "P0" } else { "P1" }
             ),
             points: 2,
+            corrects: format::SKEW_COMPONENTS,
         }]
     }
 }

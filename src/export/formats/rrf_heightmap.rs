@@ -13,7 +13,9 @@
 
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{mean, Fitting, Structure};
-use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::format::{
+    self, Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile,
+};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -357,6 +359,7 @@ impl Control for HeightMap {
                 self.spacings[1]
             ),
             points: self.nums[0].max(self.nums[1]),
+            corrects: format::component(2),
         }]
     }
 }

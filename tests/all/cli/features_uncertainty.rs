@@ -170,7 +170,7 @@ fn correlated_quantities_enter_with_their_covariance() {
 
 /// A program along y = 200 (a move along X and back): compensated at 3 decimals, the rounding
 /// leaves up to about 0.5 µm; with u(EC0Y) = 2e-5 rad, U = 2·|u(VE)| ≈ 2·200·2e-5 mm = 8 µm holds
-/// it, with u = 1e-9 rad (U ≈ 0.4 nm) it does not.
+/// it, with u = 1e-9 rad (U ≈ 0.4 nm) it does not. `--json` carries the same figures.
 #[test]
 fn compensate_says_whether_the_largest_error_left_is_within_u() {
     let dir = tempfile::tempdir().unwrap();
@@ -180,11 +180,13 @@ fn compensate_says_whether_the_largest_error_left_is_within_u() {
         "G21 G90 G17\nG0 X10 Y200 Z150\nG1 X310.3 Y200.7 Z150 F1000\nG1 X40.9 Y200.3 Z150\nM30\n",
     )
     .unwrap();
-    let run = |u: Option<f64>, name: &str| -> String {
+    let run = |u: Option<f64>, name: &str| -> (String, serde_json::Value) {
         let m = machine(dir.path(), &format!("{name}.toml"), u, "");
         let out = dir.path().join(format!("{name}.nc"));
+        let json = dir.path().join(format!("{name}.json"));
         let output = volmap()
             .args(["compensate", "--machine", s(&m), "--program", s(&program)])
+            .args(["--json", s(&json)])
             .args([
                 "--decimals",
                 "3",
@@ -202,19 +204,52 @@ fn compensate_says_whether_the_largest_error_left_is_within_u() {
             "{stdout}{}",
             String::from_utf8_lossy(&output.stderr)
         );
-        stdout
+        (stdout, super::json_result(&json))
     };
-    let wide = run(Some(2e-5), "wide");
+    let (wide, wide_json) = run(Some(2e-5), "wide");
     assert!(
         wide.contains("within U =") && wide.contains("below what the measurements can know"),
         "{wide}"
     );
-    let narrow = run(Some(1e-9), "narrow");
+    same_figures(&wide, &wide_json, true);
+    let (narrow, narrow_json) = run(Some(1e-9), "narrow");
     assert!(
         narrow.contains("beyond U =") && !narrow.contains("within U"),
         "{narrow}"
     );
-    // A machine without u says nothing of it.
-    let stdout = run(None, "exact");
+    same_figures(&narrow, &narrow_json, false);
+    // A machine without u says nothing of it, and its JSON has no U.
+    let (stdout, json) = run(None, "exact");
     assert!(!stdout.contains("U ="), "{stdout}");
+    for key in ["u_expanded_mm", "within_u", "largest_error_left_mm"] {
+        assert!(json[key].is_null(), "{key}: {json}");
+    }
+}
+
+/// The number before ` µm` after `after` in `text`, in µm.
+fn um_after(text: &str, after: &str) -> f64 {
+    let rest = &text[text
+        .find(after)
+        .unwrap_or_else(|| panic!("{after}: {text}"))
+        + after.len()..];
+    rest[..rest.find(" µm").unwrap()].trim().parse().unwrap()
+}
+
+/// `compensate --json`'s U and its reading are the text's: `largest error after X µm at line L
+/// …, within U = Y µm`.
+fn same_figures(text: &str, json: &serde_json::Value, within: bool) {
+    assert_eq!(json["within_u"], within, "{json}");
+    let u_um = json["u_expanded_mm"].as_f64().unwrap() * 1e3;
+    assert!(
+        (u_um - um_after(text, "U = ")).abs() <= 0.0005,
+        "{text}{json}"
+    );
+    let left_um = json["largest_error_left_mm"].as_f64().unwrap() * 1e3;
+    assert!(
+        (left_um - um_after(text, "largest error after")).abs() <= 0.0005,
+        "{text}{json}"
+    );
+    let line = json["largest_error_left_line"].as_u64().unwrap();
+    assert!(text.contains(&format!(" at line {line} ")), "{text}{json}");
+    assert_eq!(u_um >= left_um, within, "{json}");
 }

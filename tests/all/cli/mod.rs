@@ -11,6 +11,7 @@ mod design;
 mod evaluation_inputs;
 mod export;
 mod export_fanuc;
+mod export_uncertainty;
 mod features;
 mod features_uncertainty;
 mod field_files;

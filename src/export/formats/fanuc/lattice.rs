@@ -13,7 +13,9 @@
 
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{Fitting, Structure};
-use crate::export::format::{Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile};
+use crate::export::format::{
+    self, Control, Format, Layout, Limits, Nodes, Spec, TableInfo, WrittenFile,
+};
 use crate::export::formats::grid_csv::Grid;
 use crate::export::nodes::lattice;
 use crate::io::csv::Csv;
@@ -226,6 +228,10 @@ impl Control for Lattice {
         c
     }
 
+    fn nodes(&self) -> Option<Vec<[f64; 3]>> {
+        Some(self.0.nodes())
+    }
+
     fn tables(&self) -> Vec<TableInfo> {
         let n: Vec<usize> = self.0.axes.iter().map(Vec::len).collect();
         let step = |d: usize| {
@@ -249,6 +255,7 @@ impl Control for Lattice {
                 step(2)
             ),
             points: n.iter().copied().max().unwrap_or(1),
+            corrects: format::EVERY_COMPONENT,
         }]
     }
 }

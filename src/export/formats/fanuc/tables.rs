@@ -2,7 +2,7 @@
 //! writer and reader share: the numbers of the point pool, the files' names, how a length is
 //! written.
 
-use crate::export::format::{Control, TableInfo};
+use crate::export::format::{self, Control, TableInfo};
 use crate::model::inputs::Approach;
 use crate::model::Command;
 
@@ -185,6 +185,7 @@ impl Control for PitchControl {
                         t.magnification
                     ),
                     points: (t.last_number - t.first_number + 1) as usize,
+                    corrects: format::component(t.axis),
                 }
             })
             .collect()

@@ -102,6 +102,7 @@ impl Control for Tnc {
                         hi.map_or("-".into(), short),
                     ),
                     points: q.len(),
+                    corrects: std::array::from_fn(|k| t.columns[k].is_some()),
                 }
             })
             .collect()

@@ -2,7 +2,7 @@
 //! their writer and reader share: the unit, the memory bounds, the files' names.
 
 use crate::export::fitting::LINEAR;
-use crate::export::format::{Control, TableInfo};
+use crate::export::format::{self, Control, TableInfo};
 use crate::export::nodes::Pwl;
 use crate::model::inputs::Approach;
 use crate::model::Command;
@@ -110,6 +110,7 @@ impl Control for AxisControl {
                     if l.neg.is_some() { ", bilateral" } else { "" }
                 ),
                 points: l.setpoints.len(),
+                corrects: format::component(l.axis),
             });
             out.push(TableInfo {
                 name: format!("{letter} plane"),
@@ -123,6 +124,7 @@ impl Control for AxisControl {
                     mm(l.interval[1])
                 ),
                 points: l.correction[0].len().max(l.correction.len()),
+                corrects: format::component(l.axis),
             });
         }
         out

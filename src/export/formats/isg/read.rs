@@ -10,7 +10,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use super::parameters::{axis_numbers, isg_chain, Parameter, CONFIG, ERRORS};
 use crate::export::error::{read_error, ExportError};
 use crate::export::fitting::{Field, Fitting};
-use crate::export::format::{Control, TableInfo, WrittenFile};
+use crate::export::format::{self, Control, TableInfo, WrittenFile};
 use crate::model::inputs::Approach;
 use crate::model::table2d::Table2d;
 use crate::model::{AxisLetter, Command, ErrorFunction, Interp, Table, COMPONENT_NAMES};
@@ -401,6 +401,7 @@ impl IsgControl {
                         name: q.name.clone(),
                         size: format!("{} nodes over {}", sizes.join(" x "), spans.join(", ")),
                         points: q.nodes.iter().map(Vec::len).max().unwrap_or(1),
+                        corrects: format::EVERY_COMPONENT,
                     });
                 }
                 [c, b'0', a] | [b'N', c @ b'0', a]
@@ -449,6 +450,7 @@ impl IsgControl {
                     name: "constants".into(),
                     size: format!("{constants} position errors and tool vector components"),
                     points: 1,
+                    corrects: format::EVERY_COMPONENT,
                 },
             );
         }

@@ -3,7 +3,7 @@
 //! axis names, the points of a table and how a number is written.
 
 use crate::export::fitting::LINEAR;
-use crate::export::format::{Control, TableInfo};
+use crate::export::format::{self, Control, TableInfo};
 use crate::export::nodes::{equidistant, Pwl};
 use crate::model::inputs::Approach;
 use crate::model::Command;
@@ -162,6 +162,7 @@ impl Control for Sinumerik {
                         position(t.grid.step)
                     ),
                     points: t.grid.points,
+                    corrects: format::component(t.output),
                 }
             })
             .collect()
