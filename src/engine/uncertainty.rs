@@ -41,6 +41,9 @@ pub const UNCERTAINTY_CHUNK_POINTS: u64 = 1 << 20;
 pub const DRAWS_PER_READBACK: usize = 1024;
 /// The most batches an adaptive Monte Carlo run takes per chunk.
 pub const MAX_ADAPTIVE_BATCHES: usize = 100;
+/// The first order's terms the GPU holds mapped for every chunk at most (two machines' tables
+/// each, kilobytes); beyond, each chunk maps them again in batches.
+pub const MAX_MAPPED_TERMS: usize = 1024;
 
 /// How the uncertainty of a map is computed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -322,6 +325,16 @@ impl Engine {
             UncertaintyMethod::FirstOrder => Some(first_order_terms(machine, grid)?),
             _ => None,
         };
+        // The first order's machines are the same in every chunk: on the GPU they are packed and
+        // sent once, not once per chunk (that cost, not the passes, bounds a fast device).
+        let mapped = match (&summer, first_order.as_deref()) {
+            (Summer::Gpu(gpu, plan), Some(terms))
+                if !terms.is_empty() && terms.len() <= MAX_MAPPED_TERMS =>
+            {
+                Some(gpu.map_terms(plan, terms).map_err(EngineError::from)?)
+            }
+            _ => None,
+        };
         let draws = match method {
             UncertaintyMethod::MonteCarlo { seed, .. }
             | UncertaintyMethod::Adaptive { seed, .. } => Some(
@@ -354,7 +367,15 @@ impl Engine {
                     if terms.is_empty() {
                         (vec![0.0; values], 0)
                     } else {
-                        let (_, second) = summer.sums(n, terms).map_err(EngineError::from)?;
+                        let (_, second) = match (&summer, &mapped) {
+                            (Summer::Gpu(gpu, plan), Some(mapped)) => {
+                                let sums = gpu
+                                    .chunk_sums_mapped(plan, n, mapped)
+                                    .map_err(EngineError::from)?;
+                                (sums.first, sums.second)
+                            }
+                            _ => summer.sums(n, terms).map_err(EngineError::from)?,
+                        };
                         (
                             second.iter().map(|s| s.max(0.0).sqrt()).collect(),
                             terms.len(),

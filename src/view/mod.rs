@@ -185,11 +185,11 @@ pub fn read_part(file: &FieldFile, part: usize, max: usize) -> Result<ViewPart, 
     // Which shown row (j) and plane (k) each line of the field is, if any.
     let row_of = position_map(ny, &indices[1]);
     let plane_of = position_map(nz, &indices[2]);
-    for k in 0..nz {
-        for j in 0..ny {
+    for (k, &plane) in plane_of.iter().enumerate() {
+        for (j, &row) in row_of.iter().enumerate() {
             reader.read_line((j + ny * k) as u64, &mut line)?;
             largest.line(&line, nx, j, k);
-            if let (Some(jj), Some(kk)) = (row_of[j], plane_of[k]) {
+            if let (Some(jj), Some(kk)) = (row, plane) {
                 gather(&line, nx, &indices[0], shown, jj, kk, &mut values);
             }
         }

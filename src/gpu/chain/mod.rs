@@ -17,7 +17,9 @@ mod uncertainty;
 
 pub use mapper::GpuMapper;
 pub use pack::{pack, MachineShape, Packed, PointVariant};
-pub use uncertainty::{ChunkSums, SumTerm, SumsPlan, TERMS_PER_BATCH, UNCERTAINTY_WGSL};
+pub use uncertainty::{
+    ChunkSums, MappedTerms, SumTerm, SumsPlan, TERMS_PER_BATCH, UNCERTAINTY_WGSL,
+};
 
 use super::GpuError;
 use crate::model::channels::CHANNELS;

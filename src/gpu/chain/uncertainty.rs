@@ -178,6 +178,23 @@ impl GpuMapper {
         }
     }
 
+    /// Every term's machines on the device, bound to `plan`'s fields: mapped once, they serve
+    /// every chunk of the plan (the first order's terms are the same in every chunk).
+    pub fn map_terms(&self, plan: &SumsPlan, terms: &[SumTerm]) -> Result<MappedTerms, GpuError> {
+        let terms = terms
+            .iter()
+            .map(|t| {
+                let plus = self.mapped(&t.plus, &plan.grid, &plan.a)?;
+                let minus = match &t.minus {
+                    Some(m) => Some(self.mapped(m, &plan.grid, &plan.b)?),
+                    None => None,
+                };
+                Ok((plus, minus, t.scale))
+            })
+            .collect::<Result<Vec<_>, GpuError>>()?;
+        Ok(MappedTerms { terms })
+    }
+
     /// The sums of chunk `n` of `plan` over `terms`: every term's machines mapped on the device,
     /// their scaled difference added there, the sums read back once. `terms` must not be empty.
     pub fn chunk_sums(
@@ -187,14 +204,85 @@ impl GpuMapper {
         terms: &[SumTerm],
     ) -> Result<ChunkSums, GpuError> {
         assert!(!terms.is_empty(), "a sum of no terms");
+        let mut sums = Accumulation::new(
+            self,
+            plan,
+            n,
+            terms.len(),
+            terms.iter().any(|t| t.minus.is_none()),
+        );
+        for batch in terms.chunks(TERMS_PER_BATCH) {
+            let mapped = self.map_terms(plan, batch)?;
+            sums.add(&mapped);
+        }
+        sums.read()
+    }
+
+    /// [`GpuMapper::chunk_sums`] over terms mapped beforehand ([`GpuMapper::map_terms`]).
+    pub fn chunk_sums_mapped(
+        &self,
+        plan: &SumsPlan,
+        n: usize,
+        mapped: &MappedTerms,
+    ) -> Result<ChunkSums, GpuError> {
+        assert!(!mapped.terms.is_empty(), "a sum of no terms");
+        let nominal = mapped.terms.iter().any(|t| t.1.is_none());
+        let mut sums = Accumulation::new(self, plan, n, mapped.terms.len(), nominal);
+        sums.add(mapped);
+        sums.read()
+    }
+}
+
+/// Terms whose machines are on the device ([`GpuMapper::map_terms`]): each term's `plus` and
+/// `minus` (`None`: the nominal field) and its scale.
+pub struct MappedTerms {
+    terms: Vec<(Mapped, Option<Mapped>, f64)>,
+}
+
+impl MappedTerms {
+    pub fn len(&self) -> usize {
+        self.terms.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.terms.is_empty()
+    }
+}
+
+/// The sums of one chunk as its terms are added: the passes submitted so far, the last read
+/// back.
+struct Accumulation<'a> {
+    gpu_mapper: &'a GpuMapper,
+    plan: &'a SumsPlan,
+    first_line: u64,
+    lines: u64,
+    values: u64,
+    against_b: device::Bindings,
+    against_nominal: device::Bindings,
+    workgroups: [u32; 3],
+    total: usize,
+    written: usize,
+    last: Option<device::Submission>,
+}
+
+impl<'a> Accumulation<'a> {
+    /// The sums of chunk `n` over `total` terms, the nominal field mapped first where a term
+    /// differs from it.
+    fn new(
+        gpu_mapper: &'a GpuMapper,
+        plan: &'a SumsPlan,
+        n: usize,
+        total: usize,
+        nominal: bool,
+    ) -> Accumulation<'a> {
         let (first_line, lines) = plan.chunks.get(n);
         let values = lines * plan.nx * CHANNELS.len() as u64;
-        let gpu = &self.gpu;
-        if terms.iter().any(|t| t.minus.is_none()) {
-            let pass = self.point_pass(&plan.base, first_line, lines);
+        let gpu = &gpu_mapper.gpu;
+        if nominal {
+            let pass = gpu_mapper.point_pass(&plan.base, first_line, lines);
             gpu.submit(&[pass], None);
         }
-        let accumulate_bindings = |b: &Buffer| {
+        let bindings = |b: &Buffer| {
             gpu.bind(
                 &plan.accumulate,
                 &[
@@ -205,64 +293,78 @@ impl GpuMapper {
                 ],
             )
         };
-        let against_b = accumulate_bindings(&plan.b);
-        let against_nominal = accumulate_bindings(&plan.nominal);
         let groups = values.div_ceil(WORKGROUP_SIZE as u64).max(1);
         let width = (gpu.max_workgroups_per_dimension() as u64).min(groups);
-        let workgroups = [width as u32, groups.div_ceil(width) as u32, 1];
-        let mut last = None;
-        let mut written = 0usize;
-        for batch in terms.chunks(TERMS_PER_BATCH) {
-            let mapped = batch
-                .iter()
-                .map(|t| {
-                    let plus = self.mapped(&t.plus, &plan.grid, &plan.a)?;
-                    let minus = match &t.minus {
-                        Some(m) => Some(self.mapped(m, &plan.grid, &plan.b)?),
-                        None => None,
-                    };
-                    Ok((plus, minus))
-                })
-                .collect::<Result<Vec<_>, GpuError>>()?;
-            for (term, (plus, minus)) in batch.iter().zip(&mapped) {
-                gpu.write(
-                    &plan.accumulate_params,
-                    bytemuck::bytes_of(&UncertaintyParams {
-                        counts: [values as u32, u32::from(written == 0), 0, 0],
-                        scale: [term.scale as f32, 0.0, 0.0, 0.0],
-                    }),
-                );
-                written += 1;
-                let mut passes = vec![self.point_pass(plus, first_line, lines)];
-                if let Some(minus) = minus {
-                    passes.push(self.point_pass(minus, first_line, lines));
-                }
-                passes.push(Pass {
-                    kernel: &plan.accumulate,
-                    bindings: if minus.is_some() {
-                        &against_b
-                    } else {
-                        &against_nominal
-                    },
-                    workgroups,
-                });
-                let last_term = written == terms.len();
-                let copy = last_term.then_some(Readback {
-                    from: &plan.sums,
-                    to: &plan.staging,
-                    bytes: 2 * values * 4,
-                });
-                last = Some(gpu.submit(&passes, copy));
-            }
+        Accumulation {
+            gpu_mapper,
+            plan,
+            first_line,
+            lines,
+            values,
+            against_b: bindings(&plan.b),
+            against_nominal: bindings(&plan.nominal),
+            workgroups: [width as u32, groups.div_ceil(width) as u32, 1],
+            total,
+            written: 0,
+            last: None,
         }
-        let submission = last.expect("at least one term");
-        let n = values as usize;
-        gpu.read(submission, &plan.staging, 2 * values * 4, |data| {
-            let all: &[f32] = bytemuck::cast_slice(data);
-            ChunkSums {
-                first: all[..n].to_vec(),
-                second: all[n..2 * n].to_vec(),
+    }
+
+    /// Adds `mapped`'s terms: each term's fields mapped and their scaled difference summed.
+    fn add(&mut self, mapped: &MappedTerms) {
+        let gpu = &self.gpu_mapper.gpu;
+        for (plus, minus, scale) in &mapped.terms {
+            gpu.write(
+                &self.plan.accumulate_params,
+                bytemuck::bytes_of(&UncertaintyParams {
+                    counts: [self.values as u32, u32::from(self.written == 0), 0, 0],
+                    scale: [*scale as f32, 0.0, 0.0, 0.0],
+                }),
+            );
+            self.written += 1;
+            let mut passes = vec![self
+                .gpu_mapper
+                .point_pass(plus, self.first_line, self.lines)];
+            if let Some(minus) = minus {
+                passes.push(
+                    self.gpu_mapper
+                        .point_pass(minus, self.first_line, self.lines),
+                );
             }
-        })
+            passes.push(Pass {
+                kernel: &self.plan.accumulate,
+                bindings: if minus.is_some() {
+                    &self.against_b
+                } else {
+                    &self.against_nominal
+                },
+                workgroups: self.workgroups,
+            });
+            let copy = (self.written == self.total).then_some(Readback {
+                from: &self.plan.sums,
+                to: &self.plan.staging,
+                bytes: 2 * self.values * 4,
+            });
+            self.last = Some(gpu.submit(&passes, copy));
+        }
+    }
+
+    /// Reads the sums back, once every term was added.
+    fn read(self) -> Result<ChunkSums, GpuError> {
+        assert_eq!(self.written, self.total, "every term added");
+        let submission = self.last.expect("at least one term");
+        let n = self.values as usize;
+        self.gpu_mapper.gpu.read(
+            submission,
+            &self.plan.staging,
+            2 * self.values * 4,
+            |data| {
+                let all: &[f32] = bytemuck::cast_slice(data);
+                ChunkSums {
+                    first: all[..n].to_vec(),
+                    second: all[n..2 * n].to_vec(),
+                }
+            },
+        )
     }
 }
