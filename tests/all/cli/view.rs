@@ -123,6 +123,59 @@ fn the_page_holds_the_fields_values_at_the_nodes_it_shows() {
 }
 
 #[test]
+fn a_field_with_a_part_lists_its_features_as_features_evaluates_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let field = dir.path().join("vmc.exr");
+    volmap()
+        .args([
+            "map",
+            "--machine",
+            "vmc-li2015",
+            "--device",
+            "cpu",
+            "--grid",
+            "24x24x24",
+        ])
+        .arg("--out")
+        .arg(&field)
+        .assert()
+        .success();
+    let part = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/li2015-part.toml");
+    let page = dir.path().join("p.html");
+    volmap()
+        .args(["view", s(&field), "--part", s(&part), "--out", s(&page)])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("5 features"));
+    let json = dir.path().join("features.json");
+    // `features` exits 0 or with its verdicts' codes; its report is what the page must list.
+    volmap()
+        .args([
+            "features",
+            "--field",
+            s(&field),
+            "--part",
+            s(&part),
+            "--json",
+            s(&json),
+        ])
+        .output()
+        .unwrap();
+    let report: serde_json::Value = super::json_result(&json);
+    let want = report.as_array().unwrap();
+    let data = page_data(&page);
+    let got = data["features"].as_array().unwrap();
+    assert_eq!(got.len(), 5);
+    assert_eq!(want.len(), got.len());
+    for (g, w) in got.iter().zip(want) {
+        assert_eq!(g["name"], w["name"]);
+        assert_eq!(g["error_mm"], w["error_mm"]);
+        assert_eq!(g["verdict"], w["verdict"]);
+    }
+    assert!(!data["cutter_points_mm"].as_array().unwrap().is_empty());
+}
+
+#[test]
 fn bad_requests_are_refused_with_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("p.html");
