@@ -96,9 +96,10 @@ impl CheckedPoint {
 pub const VE_TOLERANCE_MM: f64 = 1e-6;
 pub const OE_TOLERANCE_RAD: f64 = 1e-9;
 /// The f32 units in the last place of a value the field may differ from the reference by, where
-/// more than the fixed tolerances: the rounding of the chain's products in f32 (lavapipe measured
-/// 4 at angles near 0.01 rad).
-pub const ULPS: f64 = 8.0;
+/// more than the fixed tolerances: the rounding of the chain's products in f32 (measured at
+/// angles near 0.01 rad: 4 on lavapipe in the map's kernel, 9.5 on an NVIDIA H200 in the
+/// per-point kernel).
+pub const ULPS: f64 = 16.0;
 
 /// One f32 unit in the last place at `x`: the gap from `|x|` (as an f32) to the next f32.
 pub fn ulp_f32(x: f64) -> f64 {

@@ -1,5 +1,5 @@
 //! The GPU engine against the f64 reference, at every grid point, within the one rule volmap
-//! states: max(1e-6 mm, 8 f32 units in the last place of |VE|) for VE and max(1e-9 rad, 8 units
+//! states: max(1e-6 mm, 16 f32 units in the last place of |VE|) for VE and max(1e-9 rad, 8 units
 //! of |OE|) for OE (`engine::map::ve_tolerance_mm`, `oe_tolerance_rad`).
 
 use volmap::engine::map::{oe_tolerance_rad, ve_tolerance_mm};

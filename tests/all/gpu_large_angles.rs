@@ -1,6 +1,6 @@
 //! The GPU's kernels at large error angles, against the f64 CPU engine, within the one rule of
-//! accuracy volmap states (docs/model.md, "How exact the GPU is"): |Δ| ≤ max(1e-6 mm, 8 f32 units
-//! in the last place of |VE|) and max(1e-9 rad, 8 units of |OE|). The map's own kernels (per
+//! accuracy volmap states (docs/model.md, "How exact the GPU is"): |Δ| ≤ max(1e-6 mm, 16 f32 units
+//! in the last place of |VE|) and max(1e-9 rad, 16 units of |OE|). The map's own kernels (per
 //! grid and folded) are checked at 0.007–0.009 rad by `map --check` (tests/all/cli/
 //! map_uncertainty.rs); here the per-point kernel (values at positions) and the sampled
 //! machines' kernel (Monte Carlo statistics), with machines whose location angles are

@@ -1,7 +1,7 @@
 //! `volmap map --uncertainty` as a user runs it: the part of uncertainties checked against the
 //! reference on the GPU and the CPU engine, read by `info` and by exrheader, a sweep's parts, a
 //! machine without `u` refused; and maps at large error angles checked to the accuracy rule of
-//! docs/model.md section 7 (the larger of 1 nm and 8 f32 ulps of the value).
+//! docs/model.md section 7 (the larger of 1 nm and 16 f32 ulps of the value).
 
 use std::path::{Path, PathBuf};
 
@@ -195,7 +195,7 @@ fn a_machine_without_u_is_refused_for_each_method() {
 
 /// Issue 36: angular errors of 0.007-0.009 rad (inside the 0.01 rad plausibility limit; |VE| up
 /// to several mm) on every kernel: the per-point chain (own-axis errors) and the folded one (an
-/// error of another axis's position). The check holds to the larger of 1 nm and 8 f32 ulps of
+/// error of another axis's position). The check holds to the larger of 1 nm and 16 f32 ulps of
 /// the value, which f32 fields can meet; 1 nm alone they cannot at |VE| = 7 mm (one ulp is
 /// 4.8e-7 mm).
 #[test]
