@@ -176,6 +176,65 @@ fn a_field_with_a_part_lists_its_features_as_features_evaluates_them() {
 }
 
 #[test]
+fn a_field_with_uncertainties_shows_them_at_its_nodes() {
+    let dir = tempfile::tempdir().unwrap();
+    let machine = dir.path().join("u.toml");
+    std::fs::write(
+        &machine,
+        "name = \"u\"\nchain = \"FYXFZ\"\n[tool]\noffset = [0.0, 0.0, -100.0]\n\
+         [axes.X]\nrange = [0.0, 500.0]\n[axes.Y]\nrange = [0.0, 400.0]\n\
+         EC0Y = { value = 1.8e-5, u = 2e-6 }\n[axes.Z]\nrange = [0.0, 300.0]\n",
+    )
+    .unwrap();
+    let field = dir.path().join("u.exr");
+    volmap()
+        .args([
+            "map",
+            "--machine",
+            s(&machine),
+            "--device",
+            "cpu",
+            "--grid",
+            "9x7x5",
+        ])
+        .args(["--uncertainty", "--out", s(&field)])
+        .assert()
+        .success();
+    let page = dir.path().join("u.html");
+    volmap()
+        .args(["view", s(&field), "--max-nodes", "4", "--out", s(&page)])
+        .assert()
+        .success();
+    let data = page_data(&page);
+    let part = &data["parts"][0];
+    assert!(part["uncertainty_method"]
+        .as_str()
+        .unwrap()
+        .contains("first order"));
+    let u = decode(part["uncertainty"].as_str().unwrap());
+    assert_eq!(u.len(), 4 * 4 * 4 * 6);
+    let file = FieldFile::open(&field).unwrap();
+    let mut reader = file.uncertainty_reader(0).unwrap().unwrap();
+    let shown: Vec<Vec<usize>> = (0..3).map(|d| indices(&part["node_indices"][d])).collect();
+    assert_eq!(shown[0], [0, 3, 5, 8]);
+    let mut line = vec![0.0f32; 6 * 9];
+    for (kk, &k) in shown[2].iter().enumerate() {
+        for (jj, &j) in shown[1].iter().enumerate() {
+            reader.read_line((j + 7 * k) as u64, &mut line).unwrap();
+            for (ii, &i) in shown[0].iter().enumerate() {
+                let at = 6 * (ii + 4 * (jj + 4 * kk));
+                for c in 0..6 {
+                    assert_eq!(u[at + c], line[c * 9 + i], "node {i},{j},{k}");
+                }
+                // u(VE.X) = |y|·u (derived by hand for the squareness alone).
+                let y = part["coords_mm"][1][jj].as_f64().unwrap();
+                assert!((u[at + 3] as f64 - y * 2e-6).abs() < 1e-9, "y {y}");
+            }
+        }
+    }
+}
+
+#[test]
 fn bad_requests_are_refused_with_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let page = dir.path().join("p.html");
