@@ -88,28 +88,10 @@ pub struct UncertaintyRun {
 /// The directions of the first order: each a perturbation of every quantity (one standard
 /// uncertainty along it), with the step `t` that moves it by at most the step sizes.
 fn first_order_terms(machine: &Machine, grid: &Grid) -> Result<Vec<SumTerm>, EngineError> {
-    let uncertainty = &machine.uncertainty;
-    let sigmas = uncertainty.sigmas();
-    let (members, factor) = uncertainty
-        .correlated_factor()
+    let directions = machine
+        .uncertainty
+        .directions()
         .map_err(|e| EngineError::Uncertainty(format!("{e:?}")))?;
-    let mut directions: Vec<Vec<f64>> = Vec::new();
-    for (i, &s) in sigmas.iter().enumerate() {
-        if s > 0.0 && members.binary_search(&i).is_err() {
-            let mut e = vec![0.0; sigmas.len()];
-            e[i] = s;
-            directions.push(e);
-        }
-    }
-    for column in 0..members.len() {
-        let mut e = vec![0.0; sigmas.len()];
-        for (a, row) in factor.iter().enumerate() {
-            e[members[a]] = row[column];
-        }
-        if e.iter().any(|&x| x != 0.0) {
-            directions.push(e);
-        }
-    }
     // Room under the kernels' bound on error angles for the step.
     let room = MAX_ERROR_ANGLE_RAD - crate::gpu::chain::error_angles_rad(machine, grid);
     let angle_step = ANGLE_STEP_RAD.min(0.5 * room.max(0.0));

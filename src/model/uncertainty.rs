@@ -183,6 +183,35 @@ impl Uncertainty {
         }
     }
 
+    /// The directions the machine is perturbed along: one per independent quantity with a spread
+    /// (`u_i` on it alone), one per column of the correlated groups' factor; their outer products
+    /// sum to the covariance matrix.
+    pub fn directions(&self) -> Result<Vec<Vec<f64>>, NotPositiveSemidefinite> {
+        let sigmas = self.sigmas();
+        let (members, factor) = self.correlated_factor()?;
+        let n = sigmas.len();
+        let mut directions = Vec::new();
+        for (i, &sigma) in sigmas.iter().enumerate() {
+            if sigma == 0.0 || members.binary_search(&i).is_ok() {
+                continue;
+            }
+            let mut e = vec![0.0; n];
+            e[i] = sigma;
+            directions.push(e);
+        }
+        for column in 0..members.len() {
+            let mut e = vec![0.0; n];
+            for (row, &member) in factor.iter().zip(&members) {
+                e[member] = row[column];
+            }
+            // A perfectly correlated quantity leaves a zero column: nothing to perturb.
+            if e.iter().any(|&x| x != 0.0) {
+                directions.push(e);
+            }
+        }
+        Ok(directions)
+    }
+
     /// The quantities that take part in a covariance entry, in order, and a factor `F` of
     /// their covariance matrix (`F·Fᵀ = C`, row-major, `F` lower triangular): the Cholesky
     /// factor of a positive semi-definite matrix. Every other quantity is independent of all

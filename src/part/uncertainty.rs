@@ -14,8 +14,7 @@ use serde::Serialize;
 
 use super::{cutter_positions, evaluate_at, FeatureError, PartFile};
 use crate::model::channels::Sample;
-use crate::model::uncertainty::{NotPositiveSemidefinite, Uncertainty};
-use crate::model::{Command, Machine, MachineSource};
+use crate::model::{Machine, MachineSource};
 use crate::reference::Twin;
 
 /// The coverage factor of the expanded uncertainty: about 95 % for a normal distribution.
@@ -57,37 +56,6 @@ impl Conformance {
     }
 }
 
-/// The directions the machine is perturbed along: one per independent quantity with a spread
-/// (`u_i` on it alone), one per column of the correlated groups' factor; their outer products
-/// sum to the covariance matrix.
-pub fn covariance_directions(
-    uncertainty: &Uncertainty,
-) -> Result<Vec<Vec<f64>>, NotPositiveSemidefinite> {
-    let sigmas = uncertainty.sigmas();
-    let (members, factor) = uncertainty.correlated_factor()?;
-    let n = sigmas.len();
-    let mut directions = Vec::new();
-    for (i, &sigma) in sigmas.iter().enumerate() {
-        if sigma == 0.0 || members.binary_search(&i).is_ok() {
-            continue;
-        }
-        let mut e = vec![0.0; n];
-        e[i] = sigma;
-        directions.push(e);
-    }
-    for column in 0..members.len() {
-        let mut e = vec![0.0; n];
-        for (row, &member) in factor.iter().zip(&members) {
-            e[member] = row[column];
-        }
-        // A perfectly correlated quantity leaves a zero column: nothing to perturb.
-        if e.iter().any(|&x| x != 0.0) {
-            directions.push(e);
-        }
-    }
-    Ok(directions)
-}
-
 /// The expanded uncertainty (`k = 2`, mm) of every feature's error, in the order of the part's
 /// features, from the machine's uncertain quantities; all zero where it has none. A form or zone
 /// value (flatness, cylindricity, a position's zone) gets its uncertainty from the same
@@ -102,7 +70,7 @@ pub fn expanded_uncertainties(
         return Ok(vec![0.0; count]);
     }
     let directions =
-        covariance_directions(&machine.uncertainty).map_err(|e| FeatureError::Feature {
+        machine.uncertainty.directions().map_err(|e| FeatureError::Feature {
             file: file.to_string(),
             feature: "(machine)".into(),
             message: format!(
@@ -112,15 +80,7 @@ pub fn expanded_uncertainties(
         })?;
     let tips = cutter_positions(part, file)?;
     let pose = part.pose();
-    let commands: Vec<Command> = tips
-        .positions
-        .iter()
-        .map(|t| {
-            let mut c = pose;
-            c[..3].copy_from_slice(t);
-            c
-        })
-        .collect();
+    let commands = tips.commands_at(pose);
     // Each perturbed copy would only carry the files the machine came from along.
     let mut base = machine.clone();
     base.source = MachineSource::default();

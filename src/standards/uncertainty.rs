@@ -3,7 +3,7 @@
 //!
 //! First order (GUM), as for features ([`crate::part::uncertainty`]): the test is run again on
 //! the machine perturbed by `±d` along each direction `d` of the covariance
-//! ([`covariance_directions`]: `±u_i` for an independent quantity, `±` a column of the Cholesky
+//! ([`Uncertainty::directions`](crate::model::uncertainty::Uncertainty::directions): `±u_i` for an independent quantity, `±` a column of the Cholesky
 //! factor of a correlated group), the step of the reference's [`crate::reference::Propagation`],
 //! and `u²(Y) = Σ_d ((Y(+d) − Y(−d))/2)²` for every point of every curve and every figure. The
 //! same positions and the same measured results serve every run. A figure that is an extreme or a
@@ -13,7 +13,6 @@
 use rayon::prelude::*;
 
 use super::{parameter, Setup, StandardsError, TestResult};
-use crate::part::uncertainty::covariance_directions;
 
 /// `run` on `setup`, with every predicted curve's and figure's standard uncertainty where the
 /// machine has any `u` (and `setup` is not itself a perturbed copy); without, `run`'s result as
@@ -27,7 +26,7 @@ pub(crate) fn with_uncertainty(
     if uncertainty.is_empty() || setup.is_perturbed() {
         return Ok(result);
     }
-    let directions = covariance_directions(uncertainty).map_err(|e| {
+    let directions = uncertainty.directions().map_err(|e| {
         parameter(format!(
             "the machine's covariance matrix is not positive semi-definite ({} entries at fault)",
             e.pairs.len()

@@ -3,7 +3,6 @@
 
 use volmap::model::perturbation::ErrorTarget;
 use volmap::model::uncertainty::{UncertainKind, UncertainValue, Uncertainty};
-use volmap::part::uncertainty::covariance_directions;
 use volmap::part::Conformance;
 
 #[test]
@@ -45,7 +44,7 @@ fn the_directions_sum_to_the_covariance_matrix() {
         ],
         covariance: vec![(0, 2, 3.0)],
     };
-    let directions = covariance_directions(&u).unwrap();
+    let directions = u.directions().unwrap();
     assert_eq!(directions.len(), 3);
     let want = [
         [4.0, 0.0, 3.0, 0.0],
