@@ -82,15 +82,7 @@ pub fn feature_errors(
     let nominal = part::evaluate(part, part::ErrorSource::Exact(study.machine), file)?;
     let tips = part::cutter_positions(part, file)?;
     let pose = part.pose();
-    let commands: Vec<[f64; 6]> = tips
-        .positions
-        .iter()
-        .map(|t| {
-            let mut c = pose;
-            c[..3].copy_from_slice(t);
-            c
-        })
-        .collect();
+    let commands = tips.commands_at(pose);
     let perturbations = study.perturbations();
     let variants = Variants {
         base: study.machine,

@@ -93,6 +93,18 @@ impl CutterPositions {
     fn find(&self, tip: &Vector3<f64>) -> Option<usize> {
         self.index.get(&Self::key(tip)).copied()
     }
+
+    /// Each position as a command at `pose` (its rotary axes; X Y Z the position's).
+    pub fn commands_at(&self, pose: Command) -> Vec<Command> {
+        self.positions
+            .iter()
+            .map(|t| {
+                let mut c = pose;
+                c[..3].copy_from_slice(t);
+                c
+            })
+            .collect()
+    }
 }
 
 impl Evaluator<'_> {
